@@ -1,0 +1,14 @@
+//! `toolpath compare JOB`: dispatches on what the job machines.
+
+use crate::error::Result;
+use crate::formats::{self, Shape, Strategy};
+use std::path::Path;
+
+pub fn run(job_path: &Path) -> Result<()> {
+    let job = formats::read_job(job_path)?;
+    match (&job.shape, job.strategy) {
+        (Shape::Pocket(_), _) => super::compare_pocket::run(&job),
+        (_, Strategy::Mpec) => super::compare_mpec::run(&job),
+        _ => super::compare_milling::run(&job),
+    }
+}

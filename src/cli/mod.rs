@@ -1,0 +1,155 @@
+//! The `toolpath` command line. One module per subcommand; this file only
+//! parses arguments and maps errors to exit codes (2 for bad input).
+
+mod compare;
+mod compare_milling;
+mod compare_mpec;
+mod compare_pocket;
+mod demo;
+mod inspect;
+mod node;
+mod plan;
+mod plot;
+mod progress;
+mod record;
+mod replay;
+mod sample;
+mod simulate;
+mod verify;
+
+use crate::error::Error;
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+#[derive(Parser, Debug)]
+#[command(name = "toolpath", version, about = "Plans CNC toolpaths and tool-pose trajectories on freeform surfaces")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Plan a job file and write the result as JSON.
+    Plan {
+        /// Job file (JSON).
+        job: PathBuf,
+        /// Result file ("-" for stdout).
+        #[arg(short, long, default_value = "-")]
+        output: PathBuf,
+        /// Skip the simulator check (max_scallop_mm is then null).
+        #[arg(long)]
+        no_verify: bool,
+        /// Write compute_ms as 0 so repeated runs give identical bytes.
+        #[arg(long)]
+        no_timing: bool,
+    },
+    /// Print the differential geometry of a surface at (u, v) as JSON.
+    Inspect {
+        /// Surface file (JSON).
+        surface: PathBuf,
+        /// Parameter values.
+        #[arg(long, num_args = 2, value_names = ["U", "V"], allow_negative_numbers = true, required = true)]
+        uv: Vec<f64>,
+    },
+    /// Write a built-in sample surface or pocket (or its job) as JSON.
+    Sample {
+        /// Sample name (see --list).
+        name: Option<String>,
+        /// List the samples.
+        #[arg(long)]
+        list: bool,
+        /// Write the sample's ready job (surface embedded) instead of the shape.
+        #[arg(long)]
+        job: bool,
+        /// Output file ("-" for stdout).
+        #[arg(short, long, default_value = "-")]
+        output: PathBuf,
+    },
+    /// Plan every sample job and print a table.
+    Demo {
+        /// Directory for the demo's bags and pictures.
+        #[arg(long, default_value = "out/demo")]
+        out: PathBuf,
+    },
+    /// Run the scallop simulator on a milling result and report residual height, gouge and uncovered area.
+    Verify {
+        job: PathBuf,
+        result: PathBuf,
+        /// Write the residual-height map (JSON) here.
+        #[arg(long)]
+        map: Option<PathBuf>,
+    },
+    /// Plan one surface and tool with the comparable strategies and print them side by side.
+    Compare { job: PathBuf },
+    /// Run the belt-grinding material-removal simulation on a result.
+    Simulate {
+        job: PathBuf,
+        result: PathBuf,
+        /// Write the removal-depth map (JSON) here.
+        #[arg(long)]
+        map: Option<PathBuf>,
+    },
+    /// Run the ROS 2 node.
+    Node {
+        /// Cell configuration (launch_configs/*.yaml).
+        #[arg(long)]
+        config: Option<PathBuf>,
+    },
+    /// Plan a job and record the run as a rosbag2 (MCAP) bag.
+    Record {
+        job: PathBuf,
+        /// Bag directory to create.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Re-plan the jobs of a bag; with --check compare with the recorded outputs.
+    Replay {
+        /// Bag directory or its .mcap file.
+        bag: PathBuf,
+        #[arg(long)]
+        check: bool,
+        /// Republish the inputs to a running node instead of planning locally.
+        #[arg(long)]
+        publish: bool,
+    },
+    /// Draw a result as PNG or SVG.
+    Plot {
+        result: PathBuf,
+        /// Job file, for the surface and the residual map.
+        #[arg(long)]
+        job: Option<PathBuf>,
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+}
+
+/// Runs the CLI and returns the process exit code.
+pub fn run() -> i32 {
+    let cli = Cli::parse();
+    let outcome: Result<(), Error> = match cli.command {
+        Command::Plan {
+            job,
+            output,
+            no_verify,
+            no_timing,
+        } => plan::run(&job, &output, no_verify, no_timing),
+        Command::Inspect { surface, uv } => inspect::run(&surface, uv[0], uv[1]),
+        Command::Sample { name, list, job, output } => sample::run(name.as_deref(), list, job, &output),
+        Command::Demo { out } => demo::run(&out),
+        Command::Verify { job, result, map } => verify::run(&job, &result, map.as_deref()),
+        Command::Compare { job } => compare::run(&job),
+        Command::Simulate { job, result, map } => simulate::run(&job, &result, map.as_deref()),
+        Command::Node { config } => node::run(config.as_deref()),
+        Command::Record { job, output } => record::run(&job, &output),
+        Command::Replay { bag, check, publish } => replay::run(&bag, check, publish),
+        Command::Plot { result, job, output } => plot::run(&result, job.as_deref(), &output),
+    };
+    match outcome {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {e}");
+            e.exit_code()
+        }
+    }
+}

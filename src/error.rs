@@ -1,0 +1,73 @@
+//! One error type for the whole crate. Every bad input names the field (a
+//! JSON-path-like location) and says what is wrong; the CLI maps
+//! [`Error::exit_code`] to its exit status.
+
+use std::fmt;
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Error {
+    /// Malformed input: a file, a message or a parameter. Exit code 2.
+    Invalid { field: String, message: String },
+    /// Valid input the method cannot plan (tool too large for the curvature, ...).
+    Planning { message: String },
+    /// A file could not be read or written.
+    Io { path: String, message: String },
+}
+
+pub type Result<T> = std::result::Result<T, Error>;
+
+impl Error {
+    pub fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Invalid {
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+    pub fn planning(message: impl Into<String>) -> Self {
+        Error::Planning {
+            message: message.into(),
+        }
+    }
+    pub fn io(path: impl Into<String>, err: impl fmt::Display) -> Self {
+        Error::Io {
+            path: path.into(),
+            message: err.to_string(),
+        }
+    }
+    /// Prefixes the field path, e.g. `tool` + `radius` -> `tool.radius`.
+    pub fn within(self, parent: &str) -> Self {
+        match self {
+            Error::Invalid { field, message } => Error::Invalid {
+                field: if field.is_empty() {
+                    parent.to_string()
+                } else if field.starts_with('[') {
+                    format!("{parent}{field}")
+                } else {
+                    format!("{parent}.{field}")
+                },
+                message,
+            },
+            other => other,
+        }
+    }
+    /// Process exit code for the CLI: 2 for bad input, 1 otherwise.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            Error::Invalid { .. } | Error::Io { .. } => 2,
+            Error::Planning { .. } => 1,
+        }
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::Invalid { field, message } if field.is_empty() => write!(f, "invalid input: {message}"),
+            Error::Invalid { field, message } => write!(f, "invalid input: {field}: {message}"),
+            Error::Planning { message } => write!(f, "cannot plan: {message}"),
+            Error::Io { path, message } => write!(f, "{path}: {message}"),
+        }
+    }
+}
+
+impl std::error::Error for Error {}

@@ -1,0 +1,370 @@
+//! Job files: what to machine, with which strategy, tool and parameters.
+
+use super::shape::{shape_from_value, Shape};
+use crate::error::{Error, Result};
+use crate::tools::Tool;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Planning strategies, named as in the job file format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Strategy {
+    TensorRegions,
+    IsoScallop,
+    IsoParametric,
+    Mpec,
+    PocketMat,
+    BeltIsoParametric,
+    BeltIsoPlanar,
+}
+
+impl Strategy {
+    pub const ALL: [Strategy; 7] = [
+        Strategy::TensorRegions,
+        Strategy::IsoScallop,
+        Strategy::IsoParametric,
+        Strategy::Mpec,
+        Strategy::PocketMat,
+        Strategy::BeltIsoParametric,
+        Strategy::BeltIsoPlanar,
+    ];
+    pub fn name(self) -> &'static str {
+        match self {
+            Strategy::TensorRegions => "tensor_regions",
+            Strategy::IsoScallop => "iso_scallop",
+            Strategy::IsoParametric => "iso_parametric",
+            Strategy::Mpec => "mpec",
+            Strategy::PocketMat => "pocket_mat",
+            Strategy::BeltIsoParametric => "belt_iso_parametric",
+            Strategy::BeltIsoPlanar => "belt_iso_planar",
+        }
+    }
+    pub fn parse(name: &str) -> Result<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name).ok_or_else(|| {
+            let names: Vec<_> = Self::ALL.iter().map(|s| s.name()).collect();
+            Error::invalid("strategy", format!("unknown strategy \"{name}\": expected one of {}", names.join(", ")))
+        })
+    }
+    /// The machine a strategy runs on by default.
+    pub fn default_machine(self) -> Machine {
+        match self {
+            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => Machine::Belt6,
+            _ => Machine::Mill5,
+        }
+    }
+    pub fn needs_pocket(self) -> bool {
+        self == Strategy::PocketMat
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Machine {
+    Mill5,
+    Belt6,
+}
+
+impl Machine {
+    pub fn name(self) -> &'static str {
+        match self {
+            Machine::Mill5 => "mill5",
+            Machine::Belt6 => "belt6",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FeedDirection {
+    U,
+    V,
+}
+
+/// Hamann linear material-removal model parameters (belt grinding):
+/// r = C_A K_A k_t v_b F_A / (v_w L_w). Defaults documented in docs/formats.md.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GrindingParams {
+    /// Process constant C_A.
+    pub c_a: f64,
+    /// Grit/belt wear constant K_A.
+    pub k_a: f64,
+    /// Time factor k_t.
+    pub k_t: f64,
+    /// Belt speed v_b, m/s.
+    pub belt_speed: f64,
+    /// Contact force F_A, N.
+    pub force: f64,
+    /// Workpiece (feed) speed v_w, mm/s.
+    pub feed_speed: f64,
+}
+
+impl Default for GrindingParams {
+    fn default() -> Self {
+        Self {
+            c_a: 1.0,
+            k_a: 1.0,
+            k_t: 1.0,
+            belt_speed: 20.0,
+            force: 20.0,
+            feed_speed: 20.0,
+        }
+    }
+}
+
+/// The job as written in a file. Validated into [`Job`].
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JobFile {
+    pub job_id: String,
+    pub surface: serde_json::Value,
+    pub strategy: Strategy,
+    pub tool: Tool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub machine: Option<Machine>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scallop: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lead_angle_deg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub side_tilt_deg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub feed_direction: Option<FeedDirection>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub feed_rate: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool_catalogue: Option<Vec<f64>>,
+    /// Iso-planar: a fixed section-plane normal instead of the automatic one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub section_normal: Option<[f64; 3]>,
+    /// Simulation grid spacing in mm (scallop and removal simulators).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub simulation_resolution: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grinding: Option<GrindingParams>,
+}
+
+/// A validated job.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Job {
+    pub job_id: String,
+    pub shape: Shape,
+    pub strategy: Strategy,
+    pub tool: Tool,
+    pub machine: Machine,
+    pub scallop: Option<f64>,
+    pub tolerance: Option<f64>,
+    pub lead_angle_deg: Option<f64>,
+    pub side_tilt_deg: Option<f64>,
+    pub feed_direction: Option<FeedDirection>,
+    /// mm/min.
+    pub feed_rate: f64,
+    pub tool_catalogue: Vec<f64>,
+    pub section_normal: Option<[f64; 3]>,
+    pub simulation_resolution: Option<f64>,
+    pub grinding: GrindingParams,
+}
+
+/// Default feed rate, mm/min.
+pub const DEFAULT_FEED_RATE: f64 = 1000.0;
+
+/// Standard metric end-mill diameters, mm.
+pub const DEFAULT_TOOL_CATALOGUE: [f64; 22] = [
+    1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 25.0, 30.0, 32.0, 35.0, 40.0, 45.0,
+    50.0,
+];
+
+fn finite_positive(field: &str, v: Option<f64>) -> Result<()> {
+    if let Some(x) = v {
+        if !x.is_finite() {
+            return Err(Error::invalid(field, format!("{x} is not a finite number")));
+        }
+        if x <= 0.0 {
+            return Err(Error::invalid(field, format!("must be positive, got {x}")));
+        }
+    }
+    Ok(())
+}
+
+fn finite(field: &str, v: Option<f64>) -> Result<()> {
+    match v {
+        Some(x) if !x.is_finite() => Err(Error::invalid(field, format!("{x} is not a finite number"))),
+        _ => Ok(()),
+    }
+}
+
+impl Job {
+    /// Validates a parsed job file. `base_dir` resolves `{"file": ...}` surfaces.
+    pub fn from_file(f: JobFile, base_dir: Option<&Path>) -> Result<Self> {
+        if f.job_id.trim().is_empty() {
+            return Err(Error::invalid("job_id", "must not be empty"));
+        }
+        let shape = match &f.surface {
+            serde_json::Value::Object(map) if map.contains_key("file") => {
+                let file = match map.get("file") {
+                    Some(serde_json::Value::String(s)) => s.clone(),
+                    _ => return Err(Error::invalid("surface.file", "must be a string path")),
+                };
+                let path = match base_dir {
+                    Some(d) if Path::new(&file).is_relative() => d.join(&file),
+                    _ => Path::new(&file).to_path_buf(),
+                };
+                super::read_shape(&path).map_err(|e| e.within("surface"))?
+            }
+            serde_json::Value::Object(_) => shape_from_value(f.surface.clone()).map_err(|e| e.within("surface"))?,
+            _ => return Err(Error::invalid("surface", "must be a surface or pocket object, or {\"file\": path}")),
+        };
+        Self::new(f, shape)
+    }
+
+    /// Validates the parameters of `f` against an already-built shape.
+    pub fn new(f: JobFile, shape: Shape) -> Result<Self> {
+        f.tool.validate().map_err(|e| e.within("tool"))?;
+        finite_positive("scallop", f.scallop)?;
+        finite_positive("tolerance", f.tolerance)?;
+        finite_positive("feed_rate", f.feed_rate)?;
+        finite_positive("simulation_resolution", f.simulation_resolution)?;
+        finite("lead_angle_deg", f.lead_angle_deg)?;
+        finite("side_tilt_deg", f.side_tilt_deg)?;
+        if let Some(l) = f.lead_angle_deg {
+            if !(-89.0..=89.0).contains(&l) {
+                return Err(Error::invalid("lead_angle_deg", format!("{l} is outside -89..89 degrees")));
+            }
+        }
+        if let Some(n) = f.section_normal {
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            if !len.is_finite() || len < 1e-12 {
+                return Err(Error::invalid("section_normal", "must be a finite non-zero vector"));
+            }
+        }
+        let catalogue = match f.tool_catalogue {
+            Some(c) => {
+                if c.is_empty() {
+                    return Err(Error::invalid("tool_catalogue", "is empty: list at least one tool diameter"));
+                }
+                for (i, &d) in c.iter().enumerate() {
+                    finite_positive(&format!("tool_catalogue[{i}]"), Some(d))?;
+                }
+                let mut c = c;
+                c.sort_by(f64::total_cmp);
+                c.dedup();
+                c
+            }
+            None => DEFAULT_TOOL_CATALOGUE.to_vec(),
+        };
+        if let Some(g) = &f.grinding {
+            let fields = [
+                ("c_a", g.c_a),
+                ("k_a", g.k_a),
+                ("k_t", g.k_t),
+                ("belt_speed", g.belt_speed),
+                ("force", g.force),
+                ("feed_speed", g.feed_speed),
+            ];
+            for (name, v) in fields {
+                finite_positive(&format!("grinding.{name}"), Some(v))?;
+            }
+        }
+        match (&shape, f.strategy.needs_pocket()) {
+            (Shape::Pocket(_), false) => {
+                return Err(Error::invalid(
+                    "surface",
+                    format!("strategy {} needs a NURBS surface, got a pocket", f.strategy.name()),
+                ))
+            }
+            (Shape::Surface(_), true) => {
+                return Err(Error::invalid("surface", "strategy pocket_mat needs a pocket, got a NURBS surface"))
+            }
+            _ => {}
+        }
+        let tool_ok = match f.strategy {
+            Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric => {
+                matches!(f.tool, Tool::FlatEnd { .. } | Tool::Ball { .. } | Tool::Torus { .. })
+            }
+            Strategy::Mpec => matches!(f.tool, Tool::Torus { .. }),
+            Strategy::PocketMat => matches!(f.tool, Tool::FlatEnd { .. }),
+            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => matches!(f.tool, Tool::Belt { .. }),
+        };
+        if !tool_ok {
+            return Err(Error::invalid(
+                "tool.kind",
+                format!("strategy {} cannot use a {} tool", f.strategy.name(), f.tool.kind()),
+            ));
+        }
+        let machine = f.machine.unwrap_or(f.strategy.default_machine());
+        if (machine == Machine::Belt6) != matches!(f.tool, Tool::Belt { .. }) {
+            return Err(Error::invalid(
+                "machine",
+                format!("machine {} cannot carry a {} tool", machine.name(), f.tool.kind()),
+            ));
+        }
+        Ok(Self {
+            job_id: f.job_id,
+            shape,
+            strategy: f.strategy,
+            tool: f.tool,
+            machine,
+            scallop: f.scallop,
+            tolerance: f.tolerance,
+            lead_angle_deg: f.lead_angle_deg,
+            side_tilt_deg: f.side_tilt_deg,
+            feed_direction: f.feed_direction,
+            feed_rate: f.feed_rate.unwrap_or(DEFAULT_FEED_RATE),
+            tool_catalogue: catalogue,
+            section_normal: f.section_normal,
+            simulation_resolution: f.simulation_resolution,
+            grinding: f.grinding.unwrap_or_default(),
+        })
+    }
+
+    /// Back to the file form, with the shape embedded.
+    pub fn to_file(&self) -> JobFile {
+        JobFile {
+            job_id: self.job_id.clone(),
+            surface: self.shape.to_json(),
+            strategy: self.strategy,
+            tool: self.tool,
+            machine: Some(self.machine),
+            scallop: self.scallop,
+            tolerance: self.tolerance,
+            lead_angle_deg: self.lead_angle_deg,
+            side_tilt_deg: self.side_tilt_deg,
+            feed_direction: self.feed_direction,
+            feed_rate: Some(self.feed_rate),
+            tool_catalogue: (self.tool_catalogue != DEFAULT_TOOL_CATALOGUE).then(|| self.tool_catalogue.clone()),
+            section_normal: self.section_normal,
+            simulation_resolution: self.simulation_resolution,
+            grinding: (self.grinding != GrindingParams::default()).then_some(self.grinding),
+        }
+    }
+
+    pub fn surface(&self) -> Result<&crate::geometry::NurbsSurface> {
+        self.shape
+            .as_surface()
+            .ok_or_else(|| Error::invalid("surface", format!("strategy {} needs a NURBS surface", self.strategy.name())))
+    }
+    pub fn pocket(&self) -> Result<&crate::geometry::Pocket> {
+        self.shape
+            .as_pocket()
+            .ok_or_else(|| Error::invalid("surface", format!("strategy {} needs a pocket", self.strategy.name())))
+    }
+    /// Required scallop height, with an error naming the strategy when absent.
+    pub fn scallop(&self) -> Result<f64> {
+        self.scallop
+            .ok_or_else(|| Error::invalid("scallop", format!("required by strategy {}", self.strategy.name())))
+    }
+    pub fn tolerance(&self) -> Result<f64> {
+        self.tolerance
+            .ok_or_else(|| Error::invalid("tolerance", format!("required by strategy {}", self.strategy.name())))
+    }
+    /// Lead angle in radians (default 0 when absent).
+    pub fn lead_angle(&self) -> f64 {
+        self.lead_angle_deg.unwrap_or(0.0).to_radians()
+    }
+    pub fn side_tilt(&self) -> f64 {
+        self.side_tilt_deg.unwrap_or(0.0).to_radians()
+    }
+}

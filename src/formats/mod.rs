@@ -1,0 +1,92 @@
+//! File formats (docs/formats.md): surfaces, pockets, jobs and results, with
+//! errors that name the offending field.
+
+pub mod job;
+pub mod result;
+pub mod shape;
+
+pub use job::{FeedDirection, GrindingParams, Job, JobFile, Machine, Strategy};
+pub use result::{PathPoint, Pass, PlanResult, Stats};
+pub use shape::{PocketFile, Shape, SurfaceFile};
+
+use crate::error::{Error, Result};
+use serde::de::DeserializeOwned;
+use std::path::Path;
+
+/// Deserialises with the path of the failing field in the error.
+pub fn from_value<T: DeserializeOwned>(value: serde_json::Value) -> Result<T> {
+    serde_path_to_error::deserialize(value).map_err(|e| {
+        let path = e.path().to_string();
+        let path = if path == "." { String::new() } else { path };
+        Error::invalid(path, e.into_inner().to_string())
+    })
+}
+
+/// Parses JSON text; syntax errors give line and column.
+pub fn parse_json(text: &str, what: &str) -> Result<serde_json::Value> {
+    serde_json::from_str(text).map_err(|e| Error::invalid("", format!("{what} is not valid JSON: {e}")))
+}
+
+fn read_text(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|e| Error::io(path.display().to_string(), e))
+}
+
+fn in_file(path: &Path, e: Error) -> Error {
+    match e {
+        Error::Invalid { field, message } => Error::Invalid {
+            field: if field.is_empty() {
+                path.display().to_string()
+            } else {
+                format!("{}: {field}", path.display())
+            },
+            message,
+        },
+        other => other,
+    }
+}
+
+/// Reads a surface or pocket file.
+pub fn read_shape(path: &Path) -> Result<Shape> {
+    let text = read_text(path)?;
+    parse_json(&text, "the surface file")
+        .and_then(shape::shape_from_value)
+        .map_err(|e| in_file(path, e))
+}
+
+/// Parses a job from JSON text (`base_dir` resolves `{"file": ...}` surfaces).
+pub fn parse_job(text: &str, base_dir: Option<&Path>) -> Result<Job> {
+    let value = parse_json(text, "the job")?;
+    let file: JobFile = from_value(value)?;
+    Job::from_file(file, base_dir)
+}
+
+/// Reads and validates a job file.
+pub fn read_job(path: &Path) -> Result<Job> {
+    let text = read_text(path)?;
+    parse_job(&text, path.parent()).map_err(|e| in_file(path, e))
+}
+
+/// Reads a result file.
+pub fn read_result(path: &Path) -> Result<PlanResult> {
+    let text = read_text(path)?;
+    parse_json(&text, "the result file")
+        .and_then(from_value)
+        .map_err(|e| in_file(path, e))
+}
+
+/// Pretty JSON with a trailing newline; deterministic for equal values.
+pub fn to_json_pretty<T: serde::Serialize>(value: &T) -> String {
+    let mut s = serde_json::to_string_pretty(value).expect("plain data serialises");
+    s.push('\n');
+    s
+}
+
+/// Writes JSON to a file, or to stdout for "-".
+pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
+    let text = to_json_pretty(value);
+    if path == Path::new("-") {
+        print!("{text}");
+        return Ok(());
+    }
+    std::fs::write(path, text).map_err(|e| Error::io(path.display().to_string(), e))
+}

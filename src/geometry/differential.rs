@@ -1,0 +1,172 @@
+//! Differential geometry of a surface point: first and second fundamental
+//! forms, principal curvatures and directions, umbilics.
+//!
+//! Convention (methods.md): n = normalize(S_u x S_v) points to the tool side and
+//! the normal curvature kappa(t) = S_tt . n is positive where the surface is
+//! concave towards the tool.
+
+use super::nurbs::{NurbsSurface, SurfaceDerivs};
+use nalgebra::{Matrix2, Point3, Vector2, Vector3};
+
+/// Everything the planners need about the surface at one (u, v).
+#[derive(Clone, Copy, Debug)]
+pub struct LocalGeometry {
+    pub uv: Vector2<f64>,
+    pub derivs: SurfaceDerivs,
+    /// Unit normal, normalize(S_u x S_v).
+    pub n: Vector3<f64>,
+    /// First fundamental form [[E, F], [F, G]].
+    pub first: Matrix2<f64>,
+    /// Second fundamental form [[L, M], [M, N]] with respect to `n`.
+    pub second: Matrix2<f64>,
+    /// Principal curvatures, `k_min <= k_max`.
+    pub k_min: f64,
+    pub k_max: f64,
+    /// Principal directions as unit 3-D tangents (undefined at umbilics: any tangent).
+    pub dir_min: Vector3<f64>,
+    pub dir_max: Vector3<f64>,
+    /// The same directions in parameter space (not normalised in uv; they map to unit tangents).
+    pub dir_min_uv: Vector2<f64>,
+    pub dir_max_uv: Vector2<f64>,
+}
+
+impl LocalGeometry {
+    /// Returns `None` where the parametrisation is singular (S_u x S_v = 0).
+    pub fn at(surface: &NurbsSurface, u: f64, v: f64) -> Option<Self> {
+        let (u, v) = surface.clamp_uv(u, v);
+        Self::from_derivs(Vector2::new(u, v), surface.derivs(u, v))
+    }
+
+    pub fn from_derivs(uv: Vector2<f64>, d: SurfaceDerivs) -> Option<Self> {
+        let cross = d.su.cross(&d.sv);
+        let len = cross.norm();
+        let scale = d.su.norm() * d.sv.norm();
+        if !(len > 1e-12 * scale) || !len.is_finite() {
+            return None;
+        }
+        let n = cross / len;
+        let e = d.su.dot(&d.su);
+        let f = d.su.dot(&d.sv);
+        let g = d.sv.dot(&d.sv);
+        let l = d.suu.dot(&n);
+        let m = d.suv.dot(&n);
+        let nn = d.svv.dot(&n);
+        let first = Matrix2::new(e, f, f, g);
+        let second = Matrix2::new(l, m, m, nn);
+        // Symmetric reduction with G = C C^T (Cholesky): S = C^-1 D C^-T has the
+        // principal curvatures as eigenvalues; t = C^-T y maps eigenvectors back.
+        let c11 = e.sqrt();
+        let c21 = f / c11;
+        let c22 = (g - c21 * c21).max(0.0).sqrt();
+        if !(c22 > 0.0) {
+            return None;
+        }
+        // C^-1 = [[1/c11, 0], [-c21/(c11 c22), 1/c22]]
+        let ci = Matrix2::new(1.0 / c11, 0.0, -c21 / (c11 * c22), 1.0 / c22);
+        let s = ci * second * ci.transpose();
+        let (k_min, k_max, y_min, y_max) = sym_eigen2(s);
+        let cit = ci.transpose();
+        let dir_min_uv = cit * y_min;
+        let dir_max_uv = cit * y_max;
+        let dir_min = (d.su * dir_min_uv.x + d.sv * dir_min_uv.y).normalize();
+        let dir_max = (d.su * dir_max_uv.x + d.sv * dir_max_uv.y).normalize();
+        Some(Self {
+            uv,
+            derivs: d,
+            n,
+            first,
+            second,
+            k_min,
+            k_max,
+            dir_min,
+            dir_max,
+            dir_min_uv,
+            dir_max_uv,
+        })
+    }
+
+    pub fn point(&self) -> Point3<f64> {
+        self.derivs.p
+    }
+    pub fn mean_curvature(&self) -> f64 {
+        0.5 * (self.k_min + self.k_max)
+    }
+    pub fn gaussian_curvature(&self) -> f64 {
+        self.k_min * self.k_max
+    }
+    /// Normal curvature in the direction of the parameter-space vector `t`.
+    pub fn normal_curvature_uv(&self, t: Vector2<f64>) -> f64 {
+        (t.transpose() * self.second * t)[0] / (t.transpose() * self.first * t)[0]
+    }
+    /// Normal curvature in the direction of a 3-D tangent (projected onto the tangent plane).
+    pub fn normal_curvature(&self, t: Vector3<f64>) -> f64 {
+        self.normal_curvature_uv(self.tangent_to_uv(t))
+    }
+    /// Maps a 3-D vector to the parameter-space direction of its tangent-plane projection.
+    pub fn tangent_to_uv(&self, t: Vector3<f64>) -> Vector2<f64> {
+        let rhs = Vector2::new(t.dot(&self.derivs.su), t.dot(&self.derivs.sv));
+        self.first.try_inverse().map(|gi| gi * rhs).unwrap_or(rhs)
+    }
+    /// Maps a parameter-space direction to its 3-D tangent vector.
+    pub fn uv_to_tangent(&self, t: Vector2<f64>) -> Vector3<f64> {
+        self.derivs.su * t.x + self.derivs.sv * t.y
+    }
+    /// Umbilic test: |k_max - k_min| below `tol` (absolute, 1/mm).
+    pub fn is_umbilic(&self, tol: f64) -> bool {
+        (self.k_max - self.k_min).abs() <= tol
+    }
+    /// Area element sqrt(EG - F^2).
+    pub fn area_element(&self) -> f64 {
+        self.first.determinant().max(0.0).sqrt()
+    }
+}
+
+/// Eigen-decomposition of a symmetric 2x2 matrix: (lambda_min, lambda_max,
+/// unit eigenvector for min, unit eigenvector for max).
+pub fn sym_eigen2(s: Matrix2<f64>) -> (f64, f64, Vector2<f64>, Vector2<f64>) {
+    let a = s[(0, 0)];
+    let b = 0.5 * (s[(0, 1)] + s[(1, 0)]);
+    let c = s[(1, 1)];
+    let mean = 0.5 * (a + c);
+    let half_diff = 0.5 * (a - c);
+    let r = half_diff.hypot(b);
+    let (lmin, lmax) = (mean - r, mean + r);
+    // Angle of the max eigenvector: 2 phi = atan2(2b, a - c); stable at r = 0 (gives phi = 0).
+    let phi = 0.5 * b.atan2(half_diff);
+    let vmax = Vector2::new(phi.cos(), phi.sin());
+    let vmin = Vector2::new(-phi.sin(), phi.cos());
+    (lmin, lmax, vmin, vmax)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Quarter of a cylinder of radius r about the x axis, as an exact rational surface.
+    fn quarter_cylinder(r: f64) -> NurbsSurface {
+        let w = std::f64::consts::FRAC_1_SQRT_2;
+        let arc = [([0.0, -r, 0.0], 1.0), ([0.0, -r, -r], w), ([0.0, 0.0, -r], 1.0)];
+        let cps: Vec<Vec<[f64; 3]>> = (0..2)
+            .map(|i| arc.iter().map(|(p, _)| [50.0 * i as f64, p[1], p[2]]).collect())
+            .collect();
+        let ws: Vec<Vec<f64>> = (0..2).map(|_| arc.iter().map(|(_, w)| *w).collect()).collect();
+        NurbsSurface::new(1, 2, vec![0., 0., 1., 1.], vec![0., 0., 0., 1., 1., 1.], &cps, Some(&ws)).unwrap()
+    }
+
+    #[test]
+    fn cylinder_curvatures_are_exact() {
+        let r = 100.0;
+        let s = quarter_cylinder(r);
+        for &(u, v) in &[(0.1, 0.2), (0.5, 0.5), (0.9, 0.77), (0.0, 1.0)] {
+            let g = LocalGeometry::at(&s, u, v).unwrap();
+            let p = g.point();
+            assert!(((p.y * p.y + p.z * p.z).sqrt() - r).abs() < 1e-9);
+            let ks = [g.k_min.abs(), g.k_max.abs()];
+            assert!(ks.iter().any(|k| (k - 1.0 / r).abs() < 1e-12), "{ks:?}");
+            assert!(ks.iter().any(|k| k.abs() < 1e-12), "{ks:?}");
+            // The zero-curvature direction is the axis.
+            let dir = if g.k_min.abs() < 1e-12 { g.dir_min } else { g.dir_max };
+            assert!((dir.x.abs() - 1.0).abs() < 1e-9);
+        }
+    }
+}

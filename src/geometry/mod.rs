@@ -1,0 +1,11 @@
+//! Base geometry: NURBS surfaces, their differential geometry, and the
+//! curve operations the planners share. Depends on nothing else in the crate
+//! but `error`.
+
+pub mod differential;
+pub mod nurbs;
+pub mod pocket;
+
+pub use differential::LocalGeometry;
+pub use nurbs::{NurbsSurface, SurfaceDerivs};
+pub use pocket::Pocket;

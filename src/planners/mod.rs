@@ -1,0 +1,43 @@
+//! Planners: one module per method, named after it. Planners know nothing of
+//! ROS, recording or transport; they take a validated [`Job`] and return a
+//! [`PlanResult`]. Shared pieces (direction fields, offsetting passes) live
+//! once, in their own modules here.
+
+pub mod belt_iso_parametric;
+pub mod belt_iso_planar;
+pub mod iso_parametric;
+pub mod iso_scallop;
+pub mod mpec;
+pub mod pocket_mat;
+pub mod tensor_regions;
+
+use crate::error::Result;
+use crate::formats::{Job, PlanResult};
+
+/// Progress reporting from a planner to its caller (CLI bar, node status).
+pub trait Progress: Sync {
+    /// `fraction` in 0..=1.
+    fn set(&self, fraction: f32);
+}
+
+/// Discards progress.
+pub struct NoProgress;
+
+impl Progress for NoProgress {
+    fn set(&self, _fraction: f32) {}
+}
+
+/// Plans a job with its strategy. Fills passes and the strategy's own fields;
+/// the common statistics are filled by [`crate::pipeline`].
+pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+    use crate::formats::Strategy::*;
+    match job.strategy {
+        TensorRegions => tensor_regions::plan(job, progress),
+        IsoScallop => iso_scallop::plan(job, progress),
+        IsoParametric => iso_parametric::plan(job, progress),
+        Mpec => mpec::plan(job, progress),
+        PocketMat => pocket_mat::plan(job, progress),
+        BeltIsoParametric => belt_iso_parametric::plan(job, progress),
+        BeltIsoPlanar => belt_iso_planar::plan(job, progress),
+    }
+}

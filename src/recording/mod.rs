@@ -1,0 +1,1 @@
+//! MCAP (rosbag2) recording and replay: not implemented yet.

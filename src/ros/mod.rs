@@ -1,0 +1,1 @@
+//! The ROS 2 node (ros2-client): a thin adapter over `pipeline`. Not implemented yet.

@@ -1,0 +1,1 @@
+//! Belt-grinding material-removal simulation (Hamann model): not implemented yet.

@@ -1,0 +1,1 @@
+//! Residual-material (scallop) simulation of a milling result: not implemented yet.
