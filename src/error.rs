@@ -62,7 +62,9 @@ impl Error {
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Error::Invalid { field, message } if field.is_empty() => write!(f, "invalid input: {message}"),
+            Error::Invalid { field, message } if field.is_empty() => {
+                write!(f, "invalid input: {message}")
+            }
             Error::Invalid { field, message } => write!(f, "invalid input: {field}: {message}"),
             Error::Planning { message } => write!(f, "cannot plan: {message}"),
             Error::Io { path, message } => write!(f, "{path}: {message}"),

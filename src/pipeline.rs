@@ -25,7 +25,11 @@ pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<Pl
     result.machine = Some(job.machine.name().to_string());
     let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
     fill_path_stats(&mut result, job.feed_rate);
-    result.stats.compute_ms = if options.no_timing { 0.0 } else { (elapsed_ms * 1000.0).round() / 1000.0 };
+    result.stats.compute_ms = if options.no_timing {
+        0.0
+    } else {
+        (elapsed_ms * 1000.0).round() / 1000.0
+    };
     let _ = options.skip_verify;
     progress.set(1.0);
     Ok(result)

@@ -2,5 +2,7 @@ use crate::error::{Error, Result};
 use crate::formats::Job;
 
 pub fn run(_job: &Job) -> Result<()> {
-    Err(Error::planning("`toolpath compare` (compare_pocket) is not available in this build yet"))
+    Err(Error::planning(
+        "`toolpath compare` (compare_pocket) is not available in this build yet",
+    ))
 }

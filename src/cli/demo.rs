@@ -19,7 +19,9 @@ pub fn run(_out: &std::path::Path) -> Result<()> {
                 r.stats.passes,
                 r.stats.path_length_mm,
                 r.stats.machining_time_min.unwrap_or(0.0),
-                r.stats.max_scallop_mm.map_or("-".to_string(), |x| format!("{x:.4}")),
+                r.stats
+                    .max_scallop_mm
+                    .map_or("-".to_string(), |x| format!("{x:.4}")),
                 r.stats.compute_ms
             ),
             Err(e) => println!("{:<16} {:<20} {e}", s.name, job.strategy.name()),

@@ -10,11 +10,19 @@ pub const UMBILIC_TOL: f64 = 1e-7;
 pub fn run(path: &Path, u: f64, v: f64) -> Result<()> {
     let surface = match formats::read_shape(path)? {
         Shape::Surface(s) => s,
-        Shape::Pocket(_) => return Err(Error::invalid("kind", "inspect needs a NURBS surface, got a pocket")),
+        Shape::Pocket(_) => {
+            return Err(Error::invalid(
+                "kind",
+                "inspect needs a NURBS surface, got a pocket",
+            ))
+        }
     };
     for (name, x) in [("u", u), ("v", v)] {
         if !x.is_finite() {
-            return Err(Error::invalid(format!("--uv {name}"), "is not a finite number"));
+            return Err(Error::invalid(
+                format!("--uv {name}"),
+                "is not a finite number",
+            ));
         }
     }
     let ((u0, u1), (v0, v1)) = surface.domain();
@@ -24,8 +32,11 @@ pub fn run(path: &Path, u: f64, v: f64) -> Result<()> {
             format!("({u}, {v}) is outside the parameter domain [{u0}, {u1}] x [{v0}, {v1}]"),
         ));
     }
-    let g = LocalGeometry::at(&surface, u, v)
-        .ok_or_else(|| Error::planning(format!("the surface is singular at ({u}, {v}): S_u x S_v = 0")))?;
+    let g = LocalGeometry::at(&surface, u, v).ok_or_else(|| {
+        Error::planning(format!(
+            "the surface is singular at ({u}, {v}): S_u x S_v = 0"
+        ))
+    })?;
     let v3 = |x: nalgebra::Vector3<f64>| [x.x, x.y, x.z];
     let out = json!({
         "uv": [u, v],

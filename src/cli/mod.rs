@@ -22,7 +22,11 @@ use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
-#[command(name = "toolpath", version, about = "Plans CNC toolpaths and tool-pose trajectories on freeform surfaces")]
+#[command(
+    name = "toolpath",
+    version,
+    about = "Plans CNC toolpaths and tool-pose trajectories on freeform surfaces"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -135,15 +139,28 @@ pub fn run() -> i32 {
             no_timing,
         } => plan::run(&job, &output, no_verify, no_timing),
         Command::Inspect { surface, uv } => inspect::run(&surface, uv[0], uv[1]),
-        Command::Sample { name, list, job, output } => sample::run(name.as_deref(), list, job, &output),
+        Command::Sample {
+            name,
+            list,
+            job,
+            output,
+        } => sample::run(name.as_deref(), list, job, &output),
         Command::Demo { out } => demo::run(&out),
         Command::Verify { job, result, map } => verify::run(&job, &result, map.as_deref()),
         Command::Compare { job } => compare::run(&job),
         Command::Simulate { job, result, map } => simulate::run(&job, &result, map.as_deref()),
         Command::Node { config } => node::run(config.as_deref()),
         Command::Record { job, output } => record::run(&job, &output),
-        Command::Replay { bag, check, publish } => replay::run(&bag, check, publish),
-        Command::Plot { result, job, output } => plot::run(&result, job.as_deref(), &output),
+        Command::Replay {
+            bag,
+            check,
+            publish,
+        } => replay::run(&bag, check, publish),
+        Command::Plot {
+            result,
+            job,
+            output,
+        } => plot::run(&result, job.as_deref(), &output),
     };
     match outcome {
         Ok(()) => 0,

@@ -24,6 +24,7 @@ impl Bar {
 
 impl Progress for Bar {
     fn set(&self, fraction: f32) {
-        self.0.set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
+        self.0
+            .set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
     }
 }

@@ -10,7 +10,8 @@ pub fn run(name: Option<&str>, list: bool, job: bool, output: &Path) -> Result<(
         }
         return Ok(());
     }
-    let name = name.ok_or_else(|| Error::invalid("NAME", "give a sample name, or --list to see them"))?;
+    let name =
+        name.ok_or_else(|| Error::invalid("NAME", "give a sample name, or --list to see them"))?;
     if job {
         formats::write_json(output, &samples::job(name)?.to_file())
     } else {

@@ -2,5 +2,7 @@ use crate::error::{Error, Result};
 use std::path::Path;
 
 pub fn run(_job: &Path, _result: &Path, _map: Option<&Path>) -> Result<()> {
-    Err(Error::planning("`toolpath verify` is not available in this build yet"))
+    Err(Error::planning(
+        "`toolpath verify` is not available in this build yet",
+    ))
 }

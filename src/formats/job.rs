@@ -41,10 +41,19 @@ impl Strategy {
         }
     }
     pub fn parse(name: &str) -> Result<Self> {
-        Self::ALL.into_iter().find(|s| s.name() == name).ok_or_else(|| {
-            let names: Vec<_> = Self::ALL.iter().map(|s| s.name()).collect();
-            Error::invalid("strategy", format!("unknown strategy \"{name}\": expected one of {}", names.join(", ")))
-        })
+        Self::ALL
+            .into_iter()
+            .find(|s| s.name() == name)
+            .ok_or_else(|| {
+                let names: Vec<_> = Self::ALL.iter().map(|s| s.name()).collect();
+                Error::invalid(
+                    "strategy",
+                    format!(
+                        "unknown strategy \"{name}\": expected one of {}",
+                        names.join(", ")
+                    ),
+                )
+            })
     }
     /// The machine a strategy runs on by default.
     pub fn default_machine(self) -> Machine {
@@ -173,8 +182,8 @@ pub const DEFAULT_FEED_RATE: f64 = 1000.0;
 
 /// Standard metric end-mill diameters, mm.
 pub const DEFAULT_TOOL_CATALOGUE: [f64; 22] = [
-    1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 25.0, 30.0, 32.0, 35.0, 40.0, 45.0,
-    50.0,
+    1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 25.0, 30.0,
+    32.0, 35.0, 40.0, 45.0, 50.0,
 ];
 
 fn finite_positive(field: &str, v: Option<f64>) -> Result<()> {
@@ -191,7 +200,9 @@ fn finite_positive(field: &str, v: Option<f64>) -> Result<()> {
 
 fn finite(field: &str, v: Option<f64>) -> Result<()> {
     match v {
-        Some(x) if !x.is_finite() => Err(Error::invalid(field, format!("{x} is not a finite number"))),
+        Some(x) if !x.is_finite() => {
+            Err(Error::invalid(field, format!("{x} is not a finite number")))
+        }
         _ => Ok(()),
     }
 }
@@ -214,8 +225,15 @@ impl Job {
                 };
                 super::read_shape(&path).map_err(|e| e.within("surface"))?
             }
-            serde_json::Value::Object(_) => shape_from_value(f.surface.clone()).map_err(|e| e.within("surface"))?,
-            _ => return Err(Error::invalid("surface", "must be a surface or pocket object, or {\"file\": path}")),
+            serde_json::Value::Object(_) => {
+                shape_from_value(f.surface.clone()).map_err(|e| e.within("surface"))?
+            }
+            _ => {
+                return Err(Error::invalid(
+                    "surface",
+                    "must be a surface or pocket object, or {\"file\": path}",
+                ))
+            }
         };
         Self::new(f, shape)
     }
@@ -231,19 +249,28 @@ impl Job {
         finite("side_tilt_deg", f.side_tilt_deg)?;
         if let Some(l) = f.lead_angle_deg {
             if !(-89.0..=89.0).contains(&l) {
-                return Err(Error::invalid("lead_angle_deg", format!("{l} is outside -89..89 degrees")));
+                return Err(Error::invalid(
+                    "lead_angle_deg",
+                    format!("{l} is outside -89..89 degrees"),
+                ));
             }
         }
         if let Some(n) = f.section_normal {
             let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
             if !len.is_finite() || len < 1e-12 {
-                return Err(Error::invalid("section_normal", "must be a finite non-zero vector"));
+                return Err(Error::invalid(
+                    "section_normal",
+                    "must be a finite non-zero vector",
+                ));
             }
         }
         let catalogue = match f.tool_catalogue {
             Some(c) => {
                 if c.is_empty() {
-                    return Err(Error::invalid("tool_catalogue", "is empty: list at least one tool diameter"));
+                    return Err(Error::invalid(
+                        "tool_catalogue",
+                        "is empty: list at least one tool diameter",
+                    ));
                 }
                 for (i, &d) in c.iter().enumerate() {
                     finite_positive(&format!("tool_catalogue[{i}]"), Some(d))?;
@@ -272,33 +299,52 @@ impl Job {
             (Shape::Pocket(_), false) => {
                 return Err(Error::invalid(
                     "surface",
-                    format!("strategy {} needs a NURBS surface, got a pocket", f.strategy.name()),
+                    format!(
+                        "strategy {} needs a NURBS surface, got a pocket",
+                        f.strategy.name()
+                    ),
                 ))
             }
             (Shape::Surface(_), true) => {
-                return Err(Error::invalid("surface", "strategy pocket_mat needs a pocket, got a NURBS surface"))
+                return Err(Error::invalid(
+                    "surface",
+                    "strategy pocket_mat needs a pocket, got a NURBS surface",
+                ))
             }
             _ => {}
         }
         let tool_ok = match f.strategy {
             Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric => {
-                matches!(f.tool, Tool::FlatEnd { .. } | Tool::Ball { .. } | Tool::Torus { .. })
+                matches!(
+                    f.tool,
+                    Tool::FlatEnd { .. } | Tool::Ball { .. } | Tool::Torus { .. }
+                )
             }
             Strategy::Mpec => matches!(f.tool, Tool::Torus { .. }),
             Strategy::PocketMat => matches!(f.tool, Tool::FlatEnd { .. }),
-            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => matches!(f.tool, Tool::Belt { .. }),
+            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => {
+                matches!(f.tool, Tool::Belt { .. })
+            }
         };
         if !tool_ok {
             return Err(Error::invalid(
                 "tool.kind",
-                format!("strategy {} cannot use a {} tool", f.strategy.name(), f.tool.kind()),
+                format!(
+                    "strategy {} cannot use a {} tool",
+                    f.strategy.name(),
+                    f.tool.kind()
+                ),
             ));
         }
         let machine = f.machine.unwrap_or(f.strategy.default_machine());
         if (machine == Machine::Belt6) != matches!(f.tool, Tool::Belt { .. }) {
             return Err(Error::invalid(
                 "machine",
-                format!("machine {} cannot carry a {} tool", machine.name(), f.tool.kind()),
+                format!(
+                    "machine {} cannot carry a {} tool",
+                    machine.name(),
+                    f.tool.kind()
+                ),
             ));
         }
         Ok(Self {
@@ -334,7 +380,8 @@ impl Job {
             side_tilt_deg: self.side_tilt_deg,
             feed_direction: self.feed_direction,
             feed_rate: Some(self.feed_rate),
-            tool_catalogue: (self.tool_catalogue != DEFAULT_TOOL_CATALOGUE).then(|| self.tool_catalogue.clone()),
+            tool_catalogue: (self.tool_catalogue != DEFAULT_TOOL_CATALOGUE)
+                .then(|| self.tool_catalogue.clone()),
             section_normal: self.section_normal,
             simulation_resolution: self.simulation_resolution,
             grinding: (self.grinding != GrindingParams::default()).then_some(self.grinding),
@@ -342,23 +389,37 @@ impl Job {
     }
 
     pub fn surface(&self) -> Result<&crate::geometry::NurbsSurface> {
-        self.shape
-            .as_surface()
-            .ok_or_else(|| Error::invalid("surface", format!("strategy {} needs a NURBS surface", self.strategy.name())))
+        self.shape.as_surface().ok_or_else(|| {
+            Error::invalid(
+                "surface",
+                format!("strategy {} needs a NURBS surface", self.strategy.name()),
+            )
+        })
     }
     pub fn pocket(&self) -> Result<&crate::geometry::Pocket> {
-        self.shape
-            .as_pocket()
-            .ok_or_else(|| Error::invalid("surface", format!("strategy {} needs a pocket", self.strategy.name())))
+        self.shape.as_pocket().ok_or_else(|| {
+            Error::invalid(
+                "surface",
+                format!("strategy {} needs a pocket", self.strategy.name()),
+            )
+        })
     }
     /// Required scallop height, with an error naming the strategy when absent.
     pub fn scallop(&self) -> Result<f64> {
-        self.scallop
-            .ok_or_else(|| Error::invalid("scallop", format!("required by strategy {}", self.strategy.name())))
+        self.scallop.ok_or_else(|| {
+            Error::invalid(
+                "scallop",
+                format!("required by strategy {}", self.strategy.name()),
+            )
+        })
     }
     pub fn tolerance(&self) -> Result<f64> {
-        self.tolerance
-            .ok_or_else(|| Error::invalid("tolerance", format!("required by strategy {}", self.strategy.name())))
+        self.tolerance.ok_or_else(|| {
+            Error::invalid(
+                "tolerance",
+                format!("required by strategy {}", self.strategy.name()),
+            )
+        })
     }
     /// Lead angle in radians (default 0 when absent).
     pub fn lead_angle(&self) -> f64 {

@@ -6,7 +6,7 @@ pub mod result;
 pub mod shape;
 
 pub use job::{FeedDirection, GrindingParams, Job, JobFile, Machine, Strategy};
-pub use result::{PathPoint, Pass, PlanResult, Stats};
+pub use result::{Pass, PathPoint, PlanResult, Stats};
 pub use shape::{PocketFile, Shape, SurfaceFile};
 
 use crate::error::{Error, Result};
@@ -24,7 +24,8 @@ pub fn from_value<T: DeserializeOwned>(value: serde_json::Value) -> Result<T> {
 
 /// Parses JSON text; syntax errors give line and column.
 pub fn parse_json(text: &str, what: &str) -> Result<serde_json::Value> {
-    serde_json::from_str(text).map_err(|e| Error::invalid("", format!("{what} is not valid JSON: {e}")))
+    serde_json::from_str(text)
+        .map_err(|e| Error::invalid("", format!("{what} is not valid JSON: {e}")))
 }
 
 fn read_text(path: &Path) -> Result<String> {

@@ -150,7 +150,10 @@ impl PlanResult {
 
     /// Total length of the cl polylines, mm.
     pub fn cl_path_length(&self) -> f64 {
-        self.passes.iter().map(|p| polyline_length(p.points.iter().map(|q| q.cl))).sum()
+        self.passes
+            .iter()
+            .map(|p| polyline_length(p.points.iter().map(|q| q.cl)))
+            .sum()
     }
 
     /// Total number of points.
@@ -162,10 +165,13 @@ impl PlanResult {
 /// Length of a 3-D polyline.
 pub fn polyline_length(points: impl IntoIterator<Item = [f64; 3]>) -> f64 {
     let mut it = points.into_iter();
-    let Some(mut prev) = it.next() else { return 0.0 };
+    let Some(mut prev) = it.next() else {
+        return 0.0;
+    };
     let mut len = 0.0;
     for p in it {
-        len += ((p[0] - prev[0]).powi(2) + (p[1] - prev[1]).powi(2) + (p[2] - prev[2]).powi(2)).sqrt();
+        len +=
+            ((p[0] - prev[0]).powi(2) + (p[1] - prev[1]).powi(2) + (p[2] - prev[2]).powi(2)).sqrt();
         prev = p;
     }
     len
@@ -173,5 +179,8 @@ pub fn polyline_length(points: impl IntoIterator<Item = [f64; 3]>) -> f64 {
 
 /// Length of a 2-D polyline.
 pub fn polyline_length_2d(points: &[[f64; 2]]) -> f64 {
-    points.windows(2).map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])).sum()
+    points
+        .windows(2)
+        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+        .sum()
 }

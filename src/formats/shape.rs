@@ -55,8 +55,12 @@ impl Shape {
     /// The file form, for writing samples and embedding in jobs.
     pub fn to_json(&self) -> serde_json::Value {
         match self {
-            Shape::Surface(s) => serde_json::to_value(SurfaceFile::from_surface(s, None)).expect("serialisable"),
-            Shape::Pocket(p) => serde_json::to_value(PocketFile::from_pocket(p, None)).expect("serialisable"),
+            Shape::Surface(s) => {
+                serde_json::to_value(SurfaceFile::from_surface(s, None)).expect("serialisable")
+            }
+            Shape::Pocket(p) => {
+                serde_json::to_value(PocketFile::from_pocket(p, None)).expect("serialisable")
+            }
         }
     }
 }
@@ -105,8 +109,18 @@ impl PocketFile {
 pub fn shape_from_value(value: serde_json::Value) -> Result<Shape> {
     let kind = match value.get("kind") {
         Some(serde_json::Value::String(k)) => k.clone(),
-        Some(_) => return Err(Error::invalid("kind", "must be a string: \"nurbs\" or \"pocket\"")),
-        None => return Err(Error::invalid("kind", "missing field: a surface needs \"kind\": \"nurbs\" (or \"pocket\")")),
+        Some(_) => {
+            return Err(Error::invalid(
+                "kind",
+                "must be a string: \"nurbs\" or \"pocket\"",
+            ))
+        }
+        None => {
+            return Err(Error::invalid(
+                "kind",
+                "missing field: a surface needs \"kind\": \"nurbs\" (or \"pocket\")",
+            ))
+        }
     };
     match kind.as_str() {
         "nurbs" => {
@@ -117,6 +131,9 @@ pub fn shape_from_value(value: serde_json::Value) -> Result<Shape> {
             let f: PocketFile = super::from_value(value)?;
             Ok(Shape::Pocket(f.to_pocket()?))
         }
-        other => Err(Error::invalid("kind", format!("unknown kind \"{other}\": expected \"nurbs\" or \"pocket\""))),
+        other => Err(Error::invalid(
+            "kind",
+            format!("unknown kind \"{other}\": expected \"nurbs\" or \"pocket\""),
+        )),
     }
 }

@@ -145,12 +145,30 @@ mod tests {
     /// Quarter of a cylinder of radius r about the x axis, as an exact rational surface.
     fn quarter_cylinder(r: f64) -> NurbsSurface {
         let w = std::f64::consts::FRAC_1_SQRT_2;
-        let arc = [([0.0, -r, 0.0], 1.0), ([0.0, -r, -r], w), ([0.0, 0.0, -r], 1.0)];
+        let arc = [
+            ([0.0, -r, 0.0], 1.0),
+            ([0.0, -r, -r], w),
+            ([0.0, 0.0, -r], 1.0),
+        ];
         let cps: Vec<Vec<[f64; 3]>> = (0..2)
-            .map(|i| arc.iter().map(|(p, _)| [50.0 * i as f64, p[1], p[2]]).collect())
+            .map(|i| {
+                arc.iter()
+                    .map(|(p, _)| [50.0 * i as f64, p[1], p[2]])
+                    .collect()
+            })
             .collect();
-        let ws: Vec<Vec<f64>> = (0..2).map(|_| arc.iter().map(|(_, w)| *w).collect()).collect();
-        NurbsSurface::new(1, 2, vec![0., 0., 1., 1.], vec![0., 0., 0., 1., 1., 1.], &cps, Some(&ws)).unwrap()
+        let ws: Vec<Vec<f64>> = (0..2)
+            .map(|_| arc.iter().map(|(_, w)| *w).collect())
+            .collect();
+        NurbsSurface::new(
+            1,
+            2,
+            vec![0., 0., 1., 1.],
+            vec![0., 0., 0., 1., 1., 1.],
+            &cps,
+            Some(&ws),
+        )
+        .unwrap()
     }
 
     #[test]
@@ -165,7 +183,11 @@ mod tests {
             assert!(ks.iter().any(|k| (k - 1.0 / r).abs() < 1e-12), "{ks:?}");
             assert!(ks.iter().any(|k| k.abs() < 1e-12), "{ks:?}");
             // The zero-curvature direction is the axis.
-            let dir = if g.k_min.abs() < 1e-12 { g.dir_min } else { g.dir_max };
+            let dir = if g.k_min.abs() < 1e-12 {
+                g.dir_min
+            } else {
+                g.dir_max
+            };
             assert!((dir.x.abs() - 1.0).abs() < 1e-9);
         }
     }

@@ -74,7 +74,10 @@ fn check_knots(name: &str, degree: usize, count: usize, knots: &[f64]) -> Result
     }
     for (k, &t) in knots.iter().enumerate() {
         if !t.is_finite() {
-            return Err(Error::invalid(format!("{field}[{k}]"), "is not a finite number"));
+            return Err(Error::invalid(
+                format!("{field}[{k}]"),
+                "is not a finite number",
+            ));
         }
     }
     for k in 1..knots.len() {
@@ -102,13 +105,19 @@ fn check_knots(name: &str, degree: usize, count: usize, knots: &[f64]) -> Result
         if run > degree + 1 || (interior && run > degree) {
             return Err(Error::invalid(
                 format!("{field}[{k}]"),
-                format!("knot {} has multiplicity {run}, more than degree {degree} allows", knots[k]),
+                format!(
+                    "knot {} has multiplicity {run}, more than degree {degree} allows",
+                    knots[k]
+                ),
             ));
         }
         k += run;
     }
     if knots[count] <= knots[degree] {
-        return Err(Error::invalid(field, "parameter domain is empty (all active knots equal)"));
+        return Err(Error::invalid(
+            field,
+            "parameter domain is empty (all active knots equal)",
+        ));
     }
     Ok(())
 }
@@ -132,7 +141,10 @@ impl NurbsSurface {
             if row.len() != count_v {
                 return Err(Error::invalid(
                     format!("control_points[{i}]"),
-                    format!("has {} points, row 0 has {count_v}: the grid must be rectangular", row.len()),
+                    format!(
+                        "has {} points, row 0 has {count_v}: the grid must be rectangular",
+                        row.len()
+                    ),
                 ));
             }
             for (j, p) in row.iter().enumerate() {
@@ -159,7 +171,10 @@ impl NurbsSurface {
                 if row.len() != count_v {
                     return Err(Error::invalid(
                         format!("weights[{i}]"),
-                        format!("has {} values, control_points[{i}] has {count_v}", row.len()),
+                        format!(
+                            "has {} values, control_points[{i}] has {count_v}",
+                            row.len()
+                        ),
                     ));
                 }
             }
@@ -227,7 +242,11 @@ impl NurbsSurface {
     /// Control points as a grid `[i][j]`.
     pub fn control_grid(&self) -> Vec<Vec<[f64; 3]>> {
         (0..self.count_u)
-            .map(|i| (0..self.count_v).map(|j| self.control_point(i, j)).collect())
+            .map(|i| {
+                (0..self.count_v)
+                    .map(|j| self.control_point(i, j))
+                    .collect()
+            })
             .collect()
     }
     /// Weights as a grid, `None` for a non-rational surface.
@@ -439,7 +458,11 @@ fn basis_ders(span: usize, t: f64, p: usize, nd: usize, knots: &[f64]) -> [[f64;
                 d = a[s2][0] * ndu[rk as usize][pk];
             }
             let j1 = if rk >= -1 { 1 } else { (-rk) as usize };
-            let j2 = if (r as isize) - 1 <= pk as isize { k - 1 } else { p - r };
+            let j2 = if (r as isize) - 1 <= pk as isize {
+                k - 1
+            } else {
+                p - r
+            };
             for j in j1..=j2 {
                 let idx = (rk + j as isize) as usize;
                 a[s2][j] = (a[s1][j] - a[s1][j - 1]) / ndu[pk + 1][idx];

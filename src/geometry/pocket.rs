@@ -47,7 +47,10 @@ fn orient(a: Point2, b: Point2, c: Point2) -> f64 {
 }
 
 fn on_segment(a: Point2, b: Point2, p: Point2) -> bool {
-    p[0] >= a[0].min(b[0]) && p[0] <= a[0].max(b[0]) && p[1] >= a[1].min(b[1]) && p[1] <= a[1].max(b[1])
+    p[0] >= a[0].min(b[0])
+        && p[0] <= a[0].max(b[0])
+        && p[1] >= a[1].min(b[1])
+        && p[1] <= a[1].max(b[1])
 }
 
 /// Do closed segments ab and cd intersect (touching counts)?
@@ -56,7 +59,9 @@ pub fn segments_intersect(a: Point2, b: Point2, c: Point2, d: Point2) -> bool {
     let d2 = orient(c, d, b);
     let d3 = orient(a, b, c);
     let d4 = orient(a, b, d);
-    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0)) && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0)) {
+    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+    {
         return true;
     }
     (d1 == 0.0 && on_segment(c, d, a))
@@ -113,9 +118,14 @@ fn first_crossing(loops: &[&[Point2]]) -> Option<(Seg, Seg)> {
                     let adjacent = (si.1 + 1) % n == sj.1 || (sj.1 + 1) % n == si.1;
                     if adjacent {
                         // Adjacent segments only share their common vertex, unless they fold back.
-                        let (a, b, c) = if (si.1 + 1) % n == sj.1 { (si.2, si.3, sj.3) } else { (sj.2, sj.3, si.3) };
+                        let (a, b, c) = if (si.1 + 1) % n == sj.1 {
+                            (si.2, si.3, sj.3)
+                        } else {
+                            (sj.2, sj.3, si.3)
+                        };
                         let folds = orient(a, b, c) == 0.0
-                            && ((c[0] - b[0]) * (a[0] - b[0]) + (c[1] - b[1]) * (a[1] - b[1])) > 0.0;
+                            && ((c[0] - b[0]) * (a[0] - b[0]) + (c[1] - b[1]) * (a[1] - b[1]))
+                                > 0.0;
                         if folds {
                             let pair = (i.min(j), i.max(j));
                             best = Some(best.map_or(pair, |b| b.min(pair)));
@@ -144,7 +154,10 @@ fn loop_name(l: usize) -> String {
 fn clean_loop(field: &str, pts: &[Point2]) -> Result<Vec<Point2>> {
     for (i, p) in pts.iter().enumerate() {
         if !p[0].is_finite() || !p[1].is_finite() {
-            return Err(Error::invalid(format!("{field}[{i}]"), "has a coordinate that is not a finite number"));
+            return Err(Error::invalid(
+                format!("{field}[{i}]"),
+                "has a coordinate that is not a finite number",
+            ));
         }
     }
     let mut out: Vec<Point2> = Vec::with_capacity(pts.len());
@@ -157,7 +170,13 @@ fn clean_loop(field: &str, pts: &[Point2]) -> Result<Vec<Point2>> {
         out.pop();
     }
     if out.len() < 3 {
-        return Err(Error::invalid(field, format!("a closed loop needs at least 3 distinct points, got {}", out.len())));
+        return Err(Error::invalid(
+            field,
+            format!(
+                "a closed loop needs at least 3 distinct points, got {}",
+                out.len()
+            ),
+        ));
     }
     if signed_area(&out).abs() < 1e-12 {
         return Err(Error::invalid(field, "loop has zero area"));
@@ -191,18 +210,30 @@ impl Pocket {
             } else {
                 format!(
                     "crosses {}: its segment {} ({:?} to {:?}) meets segment {} ({:?} to {:?})",
-                    loop_name(a.0), b.1, b.2, b.3, a.1, a.2, a.3
+                    loop_name(a.0),
+                    b.1,
+                    b.2,
+                    b.3,
+                    a.1,
+                    a.2,
+                    a.3
                 )
             };
             return Err(Error::invalid(loop_name(b.0.max(a.0)).to_string(), msg));
         }
         for (k, h) in hs.iter().enumerate() {
             if !contains(&outer, h[0]) {
-                return Err(Error::invalid(format!("holes[{k}]"), "lies outside the outer loop"));
+                return Err(Error::invalid(
+                    format!("holes[{k}]"),
+                    "lies outside the outer loop",
+                ));
             }
             for (m, other) in hs.iter().enumerate() {
                 if m != k && contains(other, h[0]) {
-                    return Err(Error::invalid(format!("holes[{k}]"), format!("lies inside holes[{m}]")));
+                    return Err(Error::invalid(
+                        format!("holes[{k}]"),
+                        format!("lies inside holes[{m}]"),
+                    ));
                 }
             }
         }

@@ -1,9 +1,11 @@
 //! Strategy `iso_scallop`: not implemented yet.
 
+use super::Progress;
 use crate::error::{Error, Result};
 use crate::formats::{Job, PlanResult};
-use super::Progress;
 
 pub fn plan(_job: &Job, _progress: &dyn Progress) -> Result<PlanResult> {
-    Err(Error::planning("strategy iso_scallop is not available in this build yet"))
+    Err(Error::planning(
+        "strategy iso_scallop is not available in this build yet",
+    ))
 }

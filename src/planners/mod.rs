@@ -8,6 +8,7 @@ pub mod belt_iso_planar;
 pub mod iso_parametric;
 pub mod iso_scallop;
 pub mod mpec;
+pub mod mpec_error_curve;
 pub mod pocket_mat;
 pub mod tensor_regions;
 

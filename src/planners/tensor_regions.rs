@@ -1,9 +1,11 @@
 //! Strategy `tensor_regions`: not implemented yet.
 
+use super::Progress;
 use crate::error::{Error, Result};
 use crate::formats::{Job, PlanResult};
-use super::Progress;
 
 pub fn plan(_job: &Job, _progress: &dyn Progress) -> Result<PlanResult> {
-    Err(Error::planning("strategy tensor_regions is not available in this build yet"))
+    Err(Error::planning(
+        "strategy tensor_regions is not available in this build yet",
+    ))
 }

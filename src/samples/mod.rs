@@ -21,14 +21,24 @@ pub fn list() -> &'static [SampleInfo] {
 
 fn unknown(name: &str) -> Error {
     let names: Vec<_> = SAMPLES.iter().map(|s| s.name).collect();
-    Error::invalid("sample", format!("unknown sample \"{name}\": expected one of {}", names.join(", ")))
+    Error::invalid(
+        "sample",
+        format!(
+            "unknown sample \"{name}\": expected one of {}",
+            names.join(", ")
+        ),
+    )
 }
 
 /// Bilinear patch through four corners, degree-elevated to bicubic.
 pub fn plane() -> NurbsSurface {
     let knots = vec![0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0];
     let cps: Vec<Vec<[f64; 3]>> = (0..4)
-        .map(|i| (0..4).map(|j| [100.0 * i as f64 / 3.0, 100.0 * j as f64 / 3.0, 0.0]).collect())
+        .map(|i| {
+            (0..4)
+                .map(|j| [100.0 * i as f64 / 3.0, 100.0 * j as f64 / 3.0, 0.0])
+                .collect()
+        })
         .collect();
     NurbsSurface::new(3, 3, knots.clone(), knots, &cps, None).expect("valid sample")
 }
@@ -49,7 +59,10 @@ pub fn job(name: &str) -> Result<Job> {
             job_id: format!("{name}_job"),
             surface: serde_json::Value::Null,
             strategy: Strategy::IsoParametric,
-            tool: Tool::FlatEnd { radius: 2.5, length: None },
+            tool: Tool::FlatEnd {
+                radius: 2.5,
+                length: None,
+            },
             machine: None,
             scallop: Some(0.05),
             tolerance: None,

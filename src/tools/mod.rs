@@ -31,10 +31,16 @@ pub enum Tool {
 
 fn positive(field: &str, value: f64) -> Result<()> {
     if !value.is_finite() {
-        return Err(Error::invalid(field, format!("{value} is not a finite number")));
+        return Err(Error::invalid(
+            field,
+            format!("{value} is not a finite number"),
+        ));
     }
     if value <= 0.0 {
-        return Err(Error::invalid(field, format!("must be positive, got {value}")));
+        return Err(Error::invalid(
+            field,
+            format!("must be positive, got {value}"),
+        ));
     }
     Ok(())
 }
@@ -90,7 +96,9 @@ impl Tool {
     /// Cutter radius (D/2), or the contact-wheel radius for the belt.
     pub fn radius(&self) -> f64 {
         match *self {
-            Tool::FlatEnd { radius, .. } | Tool::Ball { radius, .. } | Tool::Torus { radius, .. } => radius,
+            Tool::FlatEnd { radius, .. }
+            | Tool::Ball { radius, .. }
+            | Tool::Torus { radius, .. } => radius,
             Tool::Belt { wheel_radius, .. } => wheel_radius,
         }
     }

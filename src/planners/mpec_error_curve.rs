@@ -1,0 +1,499 @@
+//! The MPEC error curve of a torus cutter and the lead-angle bisection
+//! (methods.md B, which corrects the paper).
+//!
+//! Everything here works in the tool's second reference frame at a drive point
+//! P1: x along the feed e1, y across it along e2 = e3 x e1, z along the surface
+//! normal e3 (tool side). The part surface is given to the core as a height
+//! field z = h(x, y) over the tangent plane ([`LocalHeight`]); the planner
+//! supplies the real NURBS surface, the tests a quadric.
+//!
+//! The torus (tube-centre circle radius R0 = R - r, corner radius r) is the
+//! union of spheres of radius r centred on c(psi). With the rotation phi = 0
+//! and lead angle theta the centres are
+//!   c(psi) = (-R0 cos(theta) (1 - cos psi), R0 sin psi, r + m + R0 sin(theta) (1 - cos psi)),
+//! m being the height left at the middle of the strip (+delta for MPEC). As the
+//! tool moves along the feed, sphere psi cuts the cross-section offset y with
+//! its lowest point, which lies at the sphere's own feed coordinate cx(psi);
+//! the error there is that point's height minus the part at (cx(psi), y).
+
+/// The part surface as a height field over the tangent plane at the drive point.
+pub trait LocalHeight {
+    /// Height h(x, y) along e3 and its slope dh/dy.
+    fn height(&self, x: f64, y: f64) -> (f64, f64);
+}
+
+/// Second-order model z = 1/2 (kxx x^2 + 2 kxy x y + kyy y^2): the exact part
+/// for the reference quadric, and the planner's fast first guess.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Quadric {
+    pub kxx: f64,
+    pub kxy: f64,
+    pub kyy: f64,
+}
+
+impl LocalHeight for Quadric {
+    fn height(&self, x: f64, y: f64) -> (f64, f64) {
+        (
+            0.5 * (self.kxx * x * x + 2.0 * self.kxy * x * y + self.kyy * y * y),
+            self.kxy * x + self.kyy * y,
+        )
+    }
+}
+
+/// Torus cutter geometry: tube-centre radius `r0` = R - r and corner radius `r`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TorusCutter {
+    pub r0: f64,
+    pub r: f64,
+}
+
+impl TorusCutter {
+    pub fn new(radius: f64, corner_radius: f64) -> Self {
+        Self {
+            r0: radius - corner_radius,
+            r: corner_radius,
+        }
+    }
+}
+
+/// One tool position in the local frame: lead angle `theta` and the middle height `m`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Position {
+    pub theta: f64,
+    pub middle: f64,
+}
+
+/// Sphere centre c(psi) in the local frame.
+#[inline]
+pub fn sphere_centre(tool: TorusCutter, pos: Position, psi: f64) -> [f64; 3] {
+    let (s, c) = psi.sin_cos();
+    let (st, ct) = pos.theta.sin_cos();
+    [
+        -tool.r0 * ct * (1.0 - c),
+        tool.r0 * s,
+        tool.r + pos.middle + tool.r0 * st * (1.0 - c),
+    ]
+}
+
+/// Tool tip (centre of the bottom face) and axis in the local frame.
+pub fn tip_and_axis(tool: TorusCutter, pos: Position) -> ([f64; 3], [f64; 3]) {
+    let (st, ct) = pos.theta.sin_cos();
+    // Tube-centre circle centre = C2 - R0 o', o' = (cos, 0, -sin); tip = centre - r axis.
+    let centre = [-tool.r0 * ct, 0.0, tool.r + pos.middle + tool.r0 * st];
+    let axis = [st, 0.0, ct];
+    (
+        [
+            centre[0] - tool.r * axis[0],
+            0.0,
+            centre[2] - tool.r * axis[2],
+        ],
+        axis,
+    )
+}
+
+/// Error of sphere `psi` at cross offset `y` (None where the sphere does not reach y).
+#[inline]
+fn sphere_error(
+    tool: TorusCutter,
+    pos: Position,
+    h: &dyn LocalHeight,
+    psi: f64,
+    y: f64,
+) -> Option<f64> {
+    let c = sphere_centre(tool, pos, psi);
+    let t = y - c[1];
+    let q = tool.r * tool.r - t * t;
+    if q < 0.0 {
+        return None;
+    }
+    Some(c[2] - q.sqrt() - h.height(c[0], y).0)
+}
+
+/// Smallest error of sphere `psi` over all cross offsets: the sphere's lowest
+/// point relative to the part at its feed coordinate. The minimiser solves
+/// (y - cy) / sqrt(r^2 - (y - cy)^2) = dh/dy, a fast fixed point because the
+/// slope changes slowly over r.
+fn sphere_clearance(tool: TorusCutter, pos: Position, h: &dyn LocalHeight, psi: f64) -> f64 {
+    let c = sphere_centre(tool, pos, psi);
+    let mut y = c[1];
+    let mut val = f64::INFINITY;
+    for _ in 0..4 {
+        let (z, slope) = h.height(c[0], y);
+        let t = y - c[1];
+        val = c[2] - (tool.r * tool.r - t * t).max(0.0).sqrt() - z;
+        let next = c[1] + tool.r * slope / (1.0 + slope * slope).sqrt();
+        if (next - y).abs() < 1e-9 {
+            break;
+        }
+        y = next;
+    }
+    let t = y - c[1];
+    val.min(c[2] - (tool.r * tool.r - t * t).max(0.0).sqrt() - h.height(c[0], y).0)
+}
+
+/// Golden-section minimisation of `f` on [a, b].
+fn golden_min(mut a: f64, mut b: f64, iterations: usize, f: impl Fn(f64) -> f64) -> (f64, f64) {
+    const G: f64 = 0.618_033_988_749_894_8;
+    let mut x1 = b - G * (b - a);
+    let mut x2 = a + G * (b - a);
+    let (mut f1, mut f2) = (f(x1), f(x2));
+    for _ in 0..iterations {
+        if f1 <= f2 {
+            b = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = b - G * (b - a);
+            f1 = f(x1);
+        } else {
+            a = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = a + G * (b - a);
+            f2 = f(x2);
+        }
+    }
+    if f1 <= f2 {
+        (x1, f1)
+    } else {
+        (x2, f2)
+    }
+}
+
+/// Number of samples around the tube-centre circle before refinement (5 degrees).
+const PSI_SAMPLES: usize = 72;
+
+/// Lowest point of the whole error curve: min over psi of the sphere clearance.
+/// Returns (error, psi at the minimum).
+pub fn min_error(tool: TorusCutter, pos: Position, h: &dyn LocalHeight) -> (f64, f64) {
+    let step = std::f64::consts::TAU / PSI_SAMPLES as f64;
+    let mut best = (f64::INFINITY, 0.0);
+    for i in 0..PSI_SAMPLES {
+        let psi = -std::f64::consts::PI + step * i as f64;
+        let v = sphere_clearance(tool, pos, h, psi);
+        if v < best.0 {
+            best = (v, psi);
+        }
+    }
+    let (psi, v) = golden_min(best.1 - step, best.1 + step, 30, |p| {
+        sphere_clearance(tool, pos, h, p)
+    });
+    if v < best.0 {
+        (v, psi)
+    } else {
+        best
+    }
+}
+
+/// The error curve E(y): min over the spheres that reach y (front and back
+/// halves of the tube circle) of the sphere's lowest point minus the part.
+/// `f64::INFINITY` beyond the tool (|y| >= R0 + r).
+pub fn error_at(tool: TorusCutter, pos: Position, h: &dyn LocalHeight, y: f64) -> f64 {
+    let lo = ((y - tool.r) / tool.r0).clamp(-1.0, 1.0).asin();
+    let hi = ((y + tool.r) / tool.r0).clamp(-1.0, 1.0).asin();
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
+        return f64::INFINITY;
+    }
+    let f = |psi: f64| sphere_error(tool, pos, h, psi, y).unwrap_or(f64::INFINITY);
+    let mut best = f64::INFINITY;
+    // Front branch psi in [lo, hi], back branch pi - psi (same cy, further back).
+    for back in [false, true] {
+        let map = |s: f64| if back { std::f64::consts::PI - s } else { s };
+        const N: usize = 16;
+        let step = (hi - lo) / N as f64;
+        let mut arg = (f64::INFINITY, lo);
+        for i in 0..=N {
+            let s = lo + step * i as f64;
+            let v = f(map(s));
+            if v < arg.0 {
+                arg = (v, s);
+            }
+        }
+        let a = (arg.1 - step).max(lo);
+        let b = (arg.1 + step).min(hi);
+        let (_, v) = golden_min(a, b, 24, |s| f(map(s)));
+        best = best.min(v).min(arg.0);
+    }
+    best
+}
+
+/// Cross offsets of the outermost crossings of `level` by the error curve,
+/// (y_left, y_right) with y_left <= 0 <= y_right when the middle is below `level`.
+/// `None` when the curve never gets below `level`.
+pub fn outer_crossings(
+    tool: TorusCutter,
+    pos: Position,
+    h: &dyn LocalHeight,
+    level: f64,
+) -> Option<(f64, f64)> {
+    let reach = tool.r0 + tool.r;
+    let side = |sign: f64| -> Option<f64> {
+        // Scan inwards from the tool's outer edge for the first point at or
+        // below `level`, then bisect between it and the previous (outer) sample.
+        const STEPS: usize = 128;
+        let step = reach / STEPS as f64;
+        let mut outer = reach;
+        for i in 1..=STEPS {
+            let t = reach - step * i as f64;
+            if error_at(tool, pos, h, sign * t) <= level {
+                let (mut a, mut b) = (t, outer);
+                for _ in 0..40 {
+                    let mid = 0.5 * (a + b);
+                    if error_at(tool, pos, h, sign * mid) <= level {
+                        a = mid;
+                    } else {
+                        b = mid;
+                    }
+                }
+                return Some(sign * a);
+            }
+            outer = t;
+        }
+        None
+    };
+    Some((side(-1.0)?, side(1.0)?))
+}
+
+/// How a drive point was positioned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    /// A "W" forms; middle at +delta, dips touching -delta (or the widest W at lead 0).
+    Ok,
+    /// Cross-section convex towards the tool: no "W"; conventional position used.
+    NotApplicable,
+}
+
+/// Positioning result at one drive point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Solution {
+    pub status: Status,
+    pub pos: Position,
+    /// Outermost +delta crossings of the error curve (local y), left < right.
+    pub y_left: f64,
+    pub y_right: f64,
+    /// Lowest point of the error curve at the chosen lead.
+    pub min_error: f64,
+}
+
+impl Solution {
+    pub fn strip_width(&self) -> f64 {
+        self.y_right - self.y_left
+    }
+}
+
+/// Why a drive point cannot be positioned.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SolveError {
+    /// Even at `theta_max` the error curve dips below -delta.
+    TooCurved { theta_max: f64, min_error: f64 },
+    /// No +delta crossing: the tool never comes within the band (should not happen on valid input).
+    NoStrip,
+}
+
+/// Settings of the lead-angle search.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeadSearch {
+    /// Smallest lead angle (radians), usually 0 or the job's lead angle.
+    pub theta_min: f64,
+    /// Largest lead angle tried before giving up (radians).
+    pub theta_max: f64,
+    /// Stop when the bracket is narrower than this (radians).
+    pub theta_tol: f64,
+    /// Previous point's lead, to start from a narrow bracket.
+    pub hint: Option<f64>,
+}
+
+impl Default for LeadSearch {
+    fn default() -> Self {
+        Self {
+            theta_min: 0.0,
+            theta_max: 60f64.to_radians(),
+            theta_tol: 1e-7,
+            hint: None,
+        }
+    }
+}
+
+/// Smallest lead angle in [theta_min, theta_max] with min_error >= floor, by
+/// bisection (the error curve's dips rise monotonically with the lead).
+fn bisect_lead(
+    tool: TorusCutter,
+    h: &dyn LocalHeight,
+    middle: f64,
+    floor: f64,
+    s: &LeadSearch,
+) -> Result<f64, SolveError> {
+    let ok = |theta: f64| min_error(tool, Position { theta, middle }, h).0 >= floor;
+    if ok(s.theta_min) {
+        return Ok(s.theta_min);
+    }
+    let (mut lo, mut hi) = (s.theta_min, s.theta_max);
+    if let Some(hint) = s.hint {
+        // A narrow bracket around the neighbour's lead, widened until valid.
+        let mut w = 2e-3;
+        loop {
+            let a = (hint - w).max(s.theta_min);
+            let b = (hint + w).min(s.theta_max);
+            if (a == s.theta_min || !ok(a)) && ok(b) {
+                lo = a;
+                hi = b;
+                break;
+            }
+            if a == s.theta_min && b == s.theta_max {
+                break;
+            }
+            w *= 4.0;
+        }
+    }
+    if !ok(hi) {
+        return Err(SolveError::TooCurved {
+            theta_max: s.theta_max,
+            min_error: min_error(
+                tool,
+                Position {
+                    theta: s.theta_max,
+                    middle,
+                },
+                h,
+            )
+            .0,
+        });
+    }
+    while hi - lo > s.theta_tol {
+        let mid = 0.5 * (lo + hi);
+        if ok(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    Ok(hi)
+}
+
+/// Positions the tool at one drive point.
+///
+/// `kappa_across` is the part's normal curvature across the feed at P1
+/// (kappa(e2) > 0: concave towards the tool). A "W" forms only then: the
+/// tool's own cross-section curvature at lead theta, about sin(theta) / R0,
+/// goes to 0 with theta, so some lead makes the part curve up faster than the
+/// tool. MPEC: middle at +delta, lead raised by bisection until the dips touch
+/// -delta. Otherwise (convex or flat across) the conventional position: the
+/// tool touches P1 (middle 0), the lead is the smallest one >= theta_min that
+/// keeps the error >= -delta (rear gouging), and the strip is where the
+/// scallop stays below +delta.
+pub fn solve(
+    tool: TorusCutter,
+    h: &dyn LocalHeight,
+    kappa_across: f64,
+    delta: f64,
+    search: &LeadSearch,
+) -> Result<Solution, SolveError> {
+    let (status, middle) = if kappa_across > 1e-9 {
+        (Status::Ok, delta)
+    } else {
+        (Status::NotApplicable, 0.0)
+    };
+    let theta = bisect_lead(tool, h, middle, -delta, search)?;
+    let pos = Position { theta, middle };
+    let (y_left, y_right) = outer_crossings(tool, pos, h, delta).ok_or(SolveError::NoStrip)?;
+    Ok(Solution {
+        status,
+        pos,
+        y_left,
+        y_right,
+        min_error: min_error(tool, pos, h).0,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const D63R6: (f64, f64) = (31.5, 6.0);
+
+    fn tool() -> TorusCutter {
+        TorusCutter::new(D63R6.0, D63R6.1)
+    }
+
+    /// methods.md B reference: kf = 0, kc = 1/1198, delta = 0.01.
+    #[test]
+    fn quadric_reference_lead_and_width() {
+        let h = Quadric {
+            kxx: 0.0,
+            kxy: 0.0,
+            kyy: 1.0 / 1198.0,
+        };
+        let s = solve(tool(), &h, h.kyy, 0.01, &LeadSearch::default()).unwrap();
+        assert_eq!(s.status, Status::Ok);
+        let lead_deg = s.pos.theta.to_degrees();
+        assert!((lead_deg - 0.8938).abs() < 0.01, "lead {lead_deg}");
+        let w = s.strip_width();
+        assert!((w - 45.62).abs() < 0.01 * 45.62, "width {w}");
+        // The dips touch -delta and the middle sits at +delta.
+        assert!((s.min_error + 0.01).abs() < 1e-5, "{}", s.min_error);
+        let mid = error_at(tool(), s.pos, &h, 0.0);
+        assert!((mid - 0.01).abs() < 1e-6, "{mid}");
+    }
+
+    /// Directly sampled error curve (dense psi grid, no minimiser): the W
+    /// shape and the +delta crossings agree with the solver's.
+    #[test]
+    fn error_curve_matches_dense_sampling() {
+        let h = Quadric {
+            kxx: -1.0 / 800.0,
+            kxy: 0.0,
+            kyy: 1.0 / 900.0,
+        };
+        let s = solve(tool(), &h, h.kyy, 0.01, &LeadSearch::default()).unwrap();
+        let t = tool();
+        let dense = |y: f64| {
+            (0..20000)
+                .filter_map(|i| {
+                    let psi = -std::f64::consts::PI + std::f64::consts::TAU * i as f64 / 20000.0;
+                    let c = sphere_centre(t, s.pos, psi);
+                    let q = t.r * t.r - (y - c[1]).powi(2);
+                    (q >= 0.0).then(|| c[2] - q.sqrt() - h.height(c[0], y).0)
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        let mut lowest = f64::INFINITY;
+        for i in 0..=400 {
+            let y = -31.0 + 62.0 * i as f64 / 400.0;
+            let e = dense(y);
+            lowest = lowest.min(e);
+            assert!((e - error_at(t, s.pos, &h, y)).abs() < 2e-5, "y {y}");
+            if y > s.y_left + 0.05 && y < s.y_right - 0.05 {
+                assert!((-0.01 - 1e-5..=0.01 + 1e-6).contains(&e), "y {y}: {e}");
+            }
+        }
+        assert!((lowest + 0.01).abs() < 2e-4, "{lowest}");
+        assert!(dense(s.y_right + 0.1) > 0.01 && dense(s.y_left - 0.1) > 0.01);
+    }
+
+    #[test]
+    fn convex_across_is_not_applicable() {
+        let h = Quadric {
+            kxx: 0.0,
+            kxy: 0.0,
+            kyy: -1.0 / 1198.0,
+        };
+        let s = solve(tool(), &h, h.kyy, 0.01, &LeadSearch::default()).unwrap();
+        assert_eq!(s.status, Status::NotApplicable);
+        // Conventional position: touches at the middle, scallop <= delta inside the strip.
+        assert!(error_at(tool(), s.pos, &h, 0.0).abs() < 1e-9);
+        assert!(s.min_error >= -1e-9);
+        assert!(s.strip_width() > 0.0 && s.strip_width() < 2.0 * 31.5);
+    }
+
+    #[test]
+    fn too_curved_is_an_error() {
+        let h = Quadric {
+            kxx: 0.0,
+            kxy: 0.0,
+            kyy: 1.0 / 5.0,
+        };
+        assert!(matches!(
+            solve(tool(), &h, h.kyy, 0.01, &LeadSearch::default()),
+            Err(SolveError::TooCurved { .. })
+        ));
+    }
+}
