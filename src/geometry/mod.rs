@@ -3,6 +3,7 @@
 //! but `error`.
 
 pub mod differential;
+pub mod interpolation;
 pub mod nurbs;
 pub mod pocket;
 

@@ -390,6 +390,17 @@ impl NurbsSurface {
     }
 }
 
+/// Non-zero B-spline basis functions of degree `degree` at `t` (clamped into
+/// the domain): returns the span `s` and `N_{s-degree+j}(t)` for `j = 0..=degree`.
+/// `knots` must be a valid knot vector for some control-point count (as checked
+/// by [`NurbsSurface::new`]); `degree <= MAX_DEGREE`.
+pub fn basis_functions(degree: usize, knots: &[f64], t: f64) -> (usize, [f64; MAXP1]) {
+    let count = knots.len() - degree - 1;
+    let t = t.clamp(knots[degree], knots[count]);
+    let span = find_span(degree, count, knots, t);
+    (span, basis_ders(span, t, degree, 0, knots)[0])
+}
+
 /// A2.1: the knot span index `s` with `knots[s] <= t < knots[s+1]`
 /// (the last non-empty span at the domain's upper end).
 fn find_span(degree: usize, count: usize, knots: &[f64], t: f64) -> usize {

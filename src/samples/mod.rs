@@ -1,7 +1,13 @@
-//! Built-in sample surfaces and pockets, each with a ready job for its planner.
+//! Built-in sample surfaces and pockets, each with a ready job for its planner
+//! (`toolpath sample NAME [--job]`). They are the embedded default the demo
+//! plans, and the reference cases of docs/methods (see the tests in
+//! tests/samples.rs for the checked properties).
+
+pub mod pockets;
+pub mod surfaces;
 
 use crate::error::{Error, Result};
-use crate::formats::{Job, JobFile, Shape, Strategy};
+use crate::formats::{FeedDirection, Job, JobFile, Shape, Strategy};
 use crate::geometry::NurbsSurface;
 use crate::tools::Tool;
 
@@ -10,10 +16,52 @@ pub struct SampleInfo {
     pub description: &'static str,
 }
 
-pub const SAMPLES: &[SampleInfo] = &[SampleInfo {
-    name: "plane",
-    description: "flat 100 x 100 mm square, z = 0",
-}];
+pub const SAMPLES: &[SampleInfo] = &[
+    SampleInfo {
+        name: "plane",
+        description: "flat 100 x 100 mm square, z = 0 (tensor_regions, flat end R2.5)",
+    },
+    SampleInfo {
+        name: "concave_cylinder",
+        description: "trough of a radius-100 cylinder about x, 100 x 100 mm, exact rational (tensor_regions)",
+    },
+    SampleInfo {
+        name: "monkey_saddle",
+        description: "z = 1e-5 (x^3 - 3 x y^2) on [-50,50]^2, exact bicubic; trisector umbilic at 0 (tensor_regions)",
+    },
+    SampleInfo {
+        name: "wing_mould",
+        description: "blended-wing-like mould 200 x 150 mm with one trisector umbilic inside (tensor_regions)",
+    },
+    SampleInfo {
+        name: "die_saddle",
+        description: "shallow hyperbolic paraboloid die 600 x 400 mm, radii 1198 / 19000 mm (mpec, torus D63R6)",
+    },
+    SampleInfo {
+        name: "sine_wave",
+        description: "z = 5 sin(2 pi x/100) on [0,100]^2, cubic in x, straight in y (belt_iso_planar)",
+    },
+    SampleInfo {
+        name: "egg_crate",
+        description: "z = 2 sin(2 pi x/50) sin(2 pi y/50) on [0,100]^2 (belt_iso_planar)",
+    },
+    SampleInfo {
+        name: "turbine_blade",
+        description: "developable (conical) ruled blade, chord 100 -> 70 mm over 120 mm span (belt_iso_planar)",
+    },
+    SampleInfo {
+        name: "rect_pocket",
+        description: "rectangular pocket 100 x 60 mm (pocket_mat, flat end R5)",
+    },
+    SampleInfo {
+        name: "pocket_with_hole",
+        description: "pocket 120 x 80 mm with a round hole of radius 15 (pocket_mat)",
+    },
+    SampleInfo {
+        name: "leaf_pocket",
+        description: "leaf outline 180 mm long, two narrow necks, tip radius 1.5, two holes (pocket_mat)",
+    },
+];
 
 pub fn list() -> &'static [SampleInfo] {
     SAMPLES
@@ -30,24 +78,49 @@ fn unknown(name: &str) -> Error {
     )
 }
 
-/// Bilinear patch through four corners, degree-elevated to bicubic.
-pub fn plane() -> NurbsSurface {
-    let knots = vec![0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0];
-    let cps: Vec<Vec<[f64; 3]>> = (0..4)
-        .map(|i| {
-            (0..4)
-                .map(|j| [100.0 * i as f64 / 3.0, 100.0 * j as f64 / 3.0, 0.0])
-                .collect()
-        })
-        .collect();
-    NurbsSurface::new(3, 3, knots.clone(), knots, &cps, None).expect("valid sample")
+/// The sample surface `name`, or an error for pockets and unknown names.
+pub fn surface(name: &str) -> Result<NurbsSurface> {
+    use surfaces::*;
+    Ok(match name {
+        "plane" => plane(),
+        "concave_cylinder" => concave_cylinder(),
+        "monkey_saddle" => monkey_saddle(),
+        "wing_mould" => wing_mould(),
+        "die_saddle" => die_saddle(),
+        "sine_wave" => sine_wave(),
+        "egg_crate" => egg_crate(),
+        "turbine_blade" => turbine_blade(),
+        _ => return Err(unknown(name)),
+    })
 }
 
-/// The sample's shape.
+/// The sample's shape (surface or pocket).
 pub fn shape(name: &str) -> Result<Shape> {
-    match name {
-        "plane" => Ok(Shape::Surface(plane())),
-        _ => Err(unknown(name)),
+    Ok(match name {
+        "rect_pocket" => Shape::Pocket(pockets::rect_pocket()),
+        "pocket_with_hole" => Shape::Pocket(pockets::pocket_with_hole()),
+        "leaf_pocket" => Shape::Pocket(pockets::leaf_pocket()),
+        _ => Shape::Surface(surface(name)?),
+    })
+}
+
+fn base_job(name: &str, strategy: Strategy, tool: Tool) -> JobFile {
+    JobFile {
+        job_id: format!("{name}_job"),
+        surface: serde_json::Value::Null,
+        strategy,
+        tool,
+        machine: None,
+        scallop: None,
+        tolerance: None,
+        lead_angle_deg: None,
+        side_tilt_deg: None,
+        feed_direction: None,
+        feed_rate: Some(2000.0),
+        tool_catalogue: None,
+        section_normal: None,
+        simulation_resolution: None,
+        grinding: None,
     }
 }
 
@@ -55,26 +128,50 @@ pub fn shape(name: &str) -> Result<Shape> {
 pub fn job(name: &str) -> Result<Job> {
     let shape = shape(name)?;
     let file = match name {
-        "plane" => JobFile {
-            job_id: format!("{name}_job"),
-            surface: serde_json::Value::Null,
-            strategy: Strategy::IsoParametric,
-            tool: Tool::FlatEnd {
-                radius: 2.5,
+        "plane" | "concave_cylinder" | "monkey_saddle" | "wing_mould" => JobFile {
+            scallop: Some(0.05),
+            lead_angle_deg: Some(5.0),
+            ..base_job(
+                name,
+                Strategy::TensorRegions,
+                Tool::FlatEnd {
+                    radius: 2.5,
+                    length: None,
+                },
+            )
+        },
+        "die_saddle" => JobFile {
+            tolerance: Some(0.01),
+            feed_direction: Some(FeedDirection::U),
+            ..base_job(
+                name,
+                Strategy::Mpec,
+                Tool::Torus {
+                    radius: 31.5,
+                    corner_radius: 6.0,
+                    length: None,
+                },
+            )
+        },
+        "sine_wave" | "egg_crate" | "turbine_blade" => JobFile {
+            scallop: Some(0.01),
+            ..base_job(
+                name,
+                Strategy::BeltIsoPlanar,
+                Tool::Belt {
+                    width: 10.0,
+                    wheel_radius: 50.0,
+                },
+            )
+        },
+        "rect_pocket" | "pocket_with_hole" | "leaf_pocket" => base_job(
+            name,
+            Strategy::PocketMat,
+            Tool::FlatEnd {
+                radius: 5.0,
                 length: None,
             },
-            machine: None,
-            scallop: Some(0.05),
-            tolerance: None,
-            lead_angle_deg: Some(5.0),
-            side_tilt_deg: None,
-            feed_direction: Some(crate::formats::FeedDirection::U),
-            feed_rate: Some(1000.0),
-            tool_catalogue: None,
-            section_normal: None,
-            simulation_resolution: None,
-            grinding: None,
-        },
+        ),
         _ => return Err(unknown(name)),
     };
     Job::new(file, shape)

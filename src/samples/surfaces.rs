@@ -1,0 +1,202 @@
+//! Built-in sample surfaces. All have the parameter domain [0, 1]^2 and the
+//! tool side (n = S_u x S_v) towards +z.
+
+use crate::geometry::interpolation::interpolate_height_field;
+use crate::geometry::NurbsSurface;
+
+const BEZIER3: [f64; 8] = [0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0];
+
+fn built(s: crate::error::Result<NurbsSurface>) -> NurbsSurface {
+    // The samples are fixed data; the sample tests build every one of them.
+    s.expect("built-in sample is valid")
+}
+
+/// Flat 100 x 100 mm square at z = 0, bicubic.
+pub fn plane() -> NurbsSurface {
+    let cps: Vec<Vec<[f64; 3]>> = (0..4)
+        .map(|i| {
+            (0..4)
+                .map(|j| [100.0 * i as f64 / 3.0, 100.0 * j as f64 / 3.0, 0.0])
+                .collect()
+        })
+        .collect();
+    built(NurbsSurface::new(
+        3,
+        3,
+        BEZIER3.to_vec(),
+        BEZIER3.to_vec(),
+        &cps,
+        None,
+    ))
+}
+
+/// Radius of the concave cylinder sample.
+pub const CYLINDER_RADIUS: f64 = 100.0;
+
+/// Trough of a cylinder of radius 100 about an axis parallel to x at
+/// (y, z) = (0, 100): x in [0, 100], a 60-degree arc (y in [-50, 50]), lowest
+/// line at z = 0. Exact rational (quadratic arc with weight cos 30 deg),
+/// concave towards the tool: kappa = +1/100 across the axis, 0 along it.
+pub fn concave_cylinder() -> NurbsSurface {
+    let r = CYLINDER_RADIUS;
+    let half = 30f64.to_radians();
+    let (s, c) = half.sin_cos();
+    // Arc from angle -30 to +30 deg measured from straight down.
+    let arc = [
+        ([-r * s, r - r * c], 1.0),
+        ([0.0, r - r / c], c),
+        ([r * s, r - r * c], 1.0),
+    ];
+    let cps: Vec<Vec<[f64; 3]>> = (0..2)
+        .map(|i| {
+            arc.iter()
+                .map(|(p, _)| [100.0 * i as f64, p[0], p[1]])
+                .collect()
+        })
+        .collect();
+    let ws: Vec<Vec<f64>> = (0..2)
+        .map(|_| arc.iter().map(|(_, w)| *w).collect())
+        .collect();
+    built(NurbsSurface::new(
+        1,
+        2,
+        vec![0.0, 0.0, 1.0, 1.0],
+        vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0],
+        &cps,
+        Some(&ws),
+    ))
+}
+
+/// z = 1e-5 (x^3 - 3 x y^2) on [-50, 50]^2, as an exact bicubic Bezier patch.
+pub fn monkey_saddle_height(x: f64, y: f64) -> f64 {
+    1e-5 * (x * x * x - 3.0 * x * y * y)
+}
+
+pub fn monkey_saddle() -> NurbsSurface {
+    built(interpolate_height_field(
+        monkey_saddle_height,
+        (-50.0, 50.0),
+        (-50.0, 50.0),
+        (3, 1),
+        (3, 1),
+    ))
+}
+
+/// Where the wing mould's umbilic is (x, y), mm.
+pub const WING_UMBILIC: [f64; 2] = [82.0, 86.0];
+
+/// Blended-wing-like female mould, 200 x 150 mm: an isotropic bowl (radius
+/// 250 mm at its bottom) around the off-centre point [`WING_UMBILIC`], a
+/// monkey-saddle cubic term that makes that point a trisector umbilic, and
+/// gentle spanwise/chordwise cubic shaping (camber and dihedral) that keeps it
+/// the only umbilic on the part (checked by brute force in the sample tests).
+pub fn wing_mould_height(x: f64, y: f64) -> f64 {
+    let (a, b, c1, c3) = (1.0 / 250.0, 5e-6, 1.5e-6, 2e-6);
+    let (dx, dy) = (x - WING_UMBILIC[0], y - WING_UMBILIC[1]);
+    0.5 * a * (dx * dx + dy * dy)
+        + b * (dx * dx * dx - 3.0 * dx * dy * dy)
+        + c1 * dx * dx * dy
+        + c3 * dy * dy * dy
+}
+
+pub fn wing_mould() -> NurbsSurface {
+    // A cubic polynomial, so the bicubic spline is exact; 4 x 3 spans give the
+    // mould a realistic control net.
+    built(interpolate_height_field(
+        wing_mould_height,
+        (0.0, 200.0),
+        (0.0, 150.0),
+        (3, 4),
+        (3, 3),
+    ))
+}
+
+/// Curvatures of the die saddle: across the feed (y) concave, radius 1198 mm;
+/// along the feed (x) gently convex, radius 19000 mm.
+pub const DIE_KC: f64 = 1.0 / 1198.0;
+pub const DIE_KF: f64 = -1.0 / 19000.0;
+
+pub fn die_saddle_height(x: f64, y: f64) -> f64 {
+    0.5 * DIE_KF * x * x + 0.5 * DIE_KC * y * y
+}
+
+/// Shallow hyperbolic paraboloid die, 600 x 400 mm, centred on the origin:
+/// z = 1/2 kf x^2 + 1/2 kc y^2 (feed along x = u). Exact bicubic.
+pub fn die_saddle() -> NurbsSurface {
+    built(interpolate_height_field(
+        die_saddle_height,
+        (-300.0, 300.0),
+        (-200.0, 200.0),
+        (3, 3),
+        (3, 2),
+    ))
+}
+
+pub fn sine_wave_height(x: f64, _y: f64) -> f64 {
+    5.0 * (2.0 * std::f64::consts::PI * x / 100.0).sin()
+}
+
+/// z = 5 sin(2 pi x / 100) on [0, 100]^2: cubic B-spline in x (64 spans,
+/// error below 1e-4 mm), straight (degree 1) in y.
+pub fn sine_wave() -> NurbsSurface {
+    built(interpolate_height_field(
+        sine_wave_height,
+        (0.0, 100.0),
+        (0.0, 100.0),
+        (3, 64),
+        (1, 1),
+    ))
+}
+
+pub fn egg_crate_height(x: f64, y: f64) -> f64 {
+    let k = 2.0 * std::f64::consts::PI / 50.0;
+    2.0 * (k * x).sin() * (k * y).sin()
+}
+
+/// z = 2 sin(2 pi x / 50) sin(2 pi y / 50) on [0, 100]^2 (two periods each
+/// way, smallest curvature radius about 32 mm), bicubic with 48 x 48 spans.
+pub fn egg_crate() -> NurbsSurface {
+    built(interpolate_height_field(
+        egg_crate_height,
+        (0.0, 100.0),
+        (0.0, 100.0),
+        (3, 48),
+        (3, 48),
+    ))
+}
+
+/// Apex of the turbine blade's cone.
+pub const BLADE_APEX: [f64; 3] = [50.0, 400.0, 0.0];
+/// Tip section = apex + BLADE_TAPER (root section - apex).
+pub const BLADE_TAPER: f64 = 0.7;
+
+/// Developable blade: a conical ruled surface between a cambered root section
+/// (cubic, chord 100 mm at y = 0) and the tip section (chord 70 mm at
+/// y = 120), the tip being the root scaled towards an apex. Rulings run along
+/// v; the tangent plane is constant along each ruling, so K = 0. About
+/// 10 400 mm^2, convex towards the tool.
+pub fn turbine_blade() -> NurbsSurface {
+    let root = [
+        [0.0, 0.0, 0.0],
+        [30.0, 0.0, 12.0],
+        [70.0, 0.0, 10.0],
+        [100.0, 0.0, 0.0],
+    ];
+    let a = BLADE_APEX;
+    let tip = |p: [f64; 3]| {
+        [
+            a[0] + BLADE_TAPER * (p[0] - a[0]),
+            a[1] + BLADE_TAPER * (p[1] - a[1]),
+            a[2] + BLADE_TAPER * (p[2] - a[2]),
+        ]
+    };
+    let cps: Vec<Vec<[f64; 3]>> = root.iter().map(|&p| vec![p, tip(p)]).collect();
+    built(NurbsSurface::new(
+        3,
+        1,
+        BEZIER3.to_vec(),
+        vec![0.0, 0.0, 1.0, 1.0],
+        &cps,
+        None,
+    ))
+}
