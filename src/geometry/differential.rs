@@ -41,7 +41,7 @@ impl LocalGeometry {
         let cross = d.su.cross(&d.sv);
         let len = cross.norm();
         let scale = d.su.norm() * d.sv.norm();
-        if !(len > 1e-12 * scale) || !len.is_finite() {
+        if !len.is_finite() || len <= 1e-12 * scale || scale.is_nan() {
             return None;
         }
         let n = cross / len;
@@ -58,7 +58,7 @@ impl LocalGeometry {
         let c11 = e.sqrt();
         let c21 = f / c11;
         let c22 = (g - c21 * c21).max(0.0).sqrt();
-        if !(c22 > 0.0) {
+        if c22.is_nan() || c22 <= 0.0 {
             return None;
         }
         // C^-1 = [[1/c11, 0], [-c21/(c11 c22), 1/c22]]

@@ -65,7 +65,7 @@ pub fn interpolate_height_field(
             ));
         }
     }
-    if !(x1 > x0 && y1 > y0) || ![x0, x1, y0, y1].iter().all(|x| x.is_finite()) {
+    if !(x1 > x0 && y1 > y0 && [x0, x1, y0, y1].iter().all(|x| x.is_finite())) {
         return Err(Error::invalid("range", "needs finite x0 < x1 and y0 < y1"));
     }
     let ku = clamped_uniform_knots(degree_u, spans_u);

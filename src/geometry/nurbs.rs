@@ -282,6 +282,8 @@ impl NurbsSurface {
         self.derivs_order(u, v, 2)
     }
 
+    // Index loops mirror The NURBS Book's algorithms; iterators would obscure them.
+    #[allow(clippy::needless_range_loop)]
     fn derivs_order(&self, u: f64, v: f64, order: usize) -> SurfaceDerivs {
         let (u, v) = self.clamp_uv(u, v);
         let (pu, pv) = (self.degree_u, self.degree_v);
