@@ -4,6 +4,7 @@
 
 pub mod differential;
 pub mod interpolation;
+pub mod medial_axis;
 pub mod nurbs;
 pub mod pocket;
 

@@ -1,0 +1,462 @@
+//! Medial axis of a polygonal pocket (outer loop plus holes) as 3-D branches
+//! (x, y, r), split at branch points and end points.
+//!
+//! The segment Voronoi diagram comes from `boostvoronoi` (robust integer
+//! predicates); this module turns it into the interior medial axis:
+//! - edges outside the pocket (beyond the outer loop, inside holes) are dropped,
+//! - secondary edges (the perpendiculars from a reflex vertex to its own
+//!   segments) are dropped, they are not part of the medial axis,
+//! - edges whose object angle (the angle at the medial point between its two
+//!   foot points) stays below [`MIN_OBJECT_ANGLE`] are dropped: they are the
+//!   artefacts of polygonising a smooth curve (every vertex of a discretised
+//!   ellipse is a tiny convex corner whose bisector runs towards the evolute).
+//!   True corners (interior angle alpha) have object angle pi - alpha and stay.
+//!
+//! Parabolic edges (reflex vertex against a segment) are sampled exactly on
+//! the parabola; r is the exact distance to the edge's site.
+
+use crate::error::{Error, Result};
+use crate::geometry::pocket::{Point2, Pocket};
+use boostvoronoi::prelude::{Builder, Diagram, Line, SourceCategory};
+
+/// Medial-axis edges whose object angle never reaches this are discretisation
+/// artefacts of smooth boundaries (radians; 10 degrees). A polygon corner with
+/// an interior angle above 170 degrees is treated as smooth.
+pub const MIN_OBJECT_ANGLE: f64 = 10.0 * std::f64::consts::PI / 180.0;
+
+/// Largest spacing of the samples along curved medial-axis edges, mm.
+const SAMPLE_STEP_MM: f64 = 0.25;
+
+/// Integer resolution of the Voronoi input: 1e-4 mm.
+const UNITS_PER_MM: f64 = 1e4;
+
+/// One medial-axis branch: a chain of (x, y, r) between two nodes (branch
+/// points or end points), or a closed loop (`start == end`, no branch point).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Branch {
+    pub points: Vec<[f64; 3]>,
+    /// Node indices of the first and last point.
+    pub start: usize,
+    pub end: usize,
+}
+
+/// A branch point (degree >= 3) or an end point (degree 1) of the medial axis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Node {
+    pub x: f64,
+    pub y: f64,
+    pub r: f64,
+    pub degree: usize,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct MedialAxis {
+    pub branches: Vec<Branch>,
+    pub nodes: Vec<Node>,
+    /// Diameter of the largest inscribed circle, mm.
+    pub dmax: f64,
+    /// Centre of that circle.
+    pub dmax_center: Point2,
+    /// Smallest radius at a medial-axis end point: 0 at sharp convex corners of
+    /// the pocket (concave for the tool), the curvature radius at the tip of a
+    /// smooth lobe.
+    pub min_corner_radius: f64,
+}
+
+impl MedialAxis {
+    pub fn branch_points(&self) -> impl Iterator<Item = &Node> {
+        self.nodes.iter().filter(|n| n.degree >= 3)
+    }
+    pub fn end_points(&self) -> impl Iterator<Item = &Node> {
+        self.nodes.iter().filter(|n| n.degree == 1)
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Site {
+    Point(Point2),
+    Segment(Point2, Point2),
+}
+
+fn sub(a: Point2, b: Point2) -> Point2 {
+    [a[0] - b[0], a[1] - b[1]]
+}
+fn dot(a: Point2, b: Point2) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+fn cross(a: Point2, b: Point2) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+fn norm(a: Point2) -> f64 {
+    a[0].hypot(a[1])
+}
+
+impl Site {
+    /// Nearest point of the site to `p`.
+    fn foot(&self, p: Point2) -> Point2 {
+        match *self {
+            Site::Point(q) => q,
+            Site::Segment(a, b) => {
+                let d = sub(b, a);
+                let l2 = dot(d, d);
+                let t = if l2 > 0.0 { (dot(sub(p, a), d) / l2).clamp(0.0, 1.0) } else { 0.0 };
+                [a[0] + t * d[0], a[1] + t * d[1]]
+            }
+        }
+    }
+    fn distance(&self, p: Point2) -> f64 {
+        norm(sub(p, self.foot(p)))
+    }
+}
+
+/// Boundary segments of all loops, in the scaled integer frame.
+struct Boundary {
+    /// Per segment: (a, b, vertex before a, vertex after b) in scaled coordinates.
+    segs: Vec<(Point2, Point2, Point2, Point2)>,
+    ints: Vec<[i32; 4]>,
+    center: Point2,
+    scale: f64,
+}
+
+impl Boundary {
+    fn new(pocket: &Pocket) -> Result<Self> {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in pocket.outer.iter() {
+            for t in 0..2 {
+                lo[t] = lo[t].min(p[t]);
+                hi[t] = hi[t].max(p[t]);
+            }
+        }
+        let center = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+        let half = 0.5 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
+        // Keep |coordinates| below 2^29 so boostvoronoi's i32 predicates stay exact.
+        let scale = UNITS_PER_MM.min((1u64 << 29) as f64 / half.max(1e-9));
+        let mut segs = Vec::new();
+        let mut ints = Vec::new();
+        let loops = std::iter::once(&pocket.outer).chain(pocket.holes.iter());
+        for (l, poly) in loops.enumerate() {
+            let mut q: Vec<[i32; 2]> = Vec::with_capacity(poly.len());
+            for p in poly {
+                let x = ((p[0] - center[0]) * scale).round() as i32;
+                let y = ((p[1] - center[1]) * scale).round() as i32;
+                if q.last() != Some(&[x, y]) {
+                    q.push([x, y]);
+                }
+            }
+            while q.len() > 1 && q.first() == q.last() {
+                q.pop();
+            }
+            if q.len() < 3 {
+                let field = if l == 0 { "outer".to_string() } else { format!("holes[{}]", l - 1) };
+                return Err(Error::invalid(field, "loop collapses below 1e-4 mm resolution"));
+            }
+            let n = q.len();
+            let f = |v: [i32; 2]| [v[0] as f64, v[1] as f64];
+            for i in 0..n {
+                let (a, b, prev, next) = (q[i], q[(i + 1) % n], q[(i + n - 1) % n], q[(i + 2) % n]);
+                segs.push((f(a), f(b), f(prev), f(next)));
+                ints.push([a[0], a[1], b[0], b[1]]);
+            }
+        }
+        Ok(Self { segs, ints, center, scale })
+    }
+
+    fn to_mm(&self, p: Point2) -> Point2 {
+        [p[0] / self.scale + self.center[0], p[1] / self.scale + self.center[1]]
+    }
+
+    fn site(&self, index: usize, cat: SourceCategory) -> Option<Site> {
+        let &(a, b, _, _) = self.segs.get(index)?;
+        Some(match cat {
+            SourceCategory::Segment => Site::Segment(a, b),
+            SourceCategory::SegmentEnd => Site::Point(b),
+            _ => Site::Point(a),
+        })
+    }
+
+    /// Is a point of the cell of `site` inside the pocket? For a segment the
+    /// pocket is on its left (outer CCW, holes CW); a vertex cell lies inside
+    /// exactly when the vertex is reflex.
+    fn inside(&self, index: usize, cat: SourceCategory, p: Point2) -> bool {
+        let Some(&(a, b, prev, next)) = self.segs.get(index) else { return false };
+        match cat {
+            SourceCategory::Segment => cross(sub(b, a), sub(p, a)) > 0.0,
+            SourceCategory::SegmentEnd => cross(sub(b, a), sub(next, b)) < 0.0,
+            _ => cross(sub(a, prev), sub(b, a)) < 0.0,
+        }
+    }
+}
+
+/// A kept Voronoi edge, sampled.
+struct KeptEdge {
+    v0: usize,
+    v1: usize,
+    points: Vec<[f64; 3]>,
+}
+
+/// Samples the edge between two Voronoi vertices separated by sites s1 and s2.
+fn sample_edge(p0: Point2, p1: Point2, curved: bool, s1: Site, s2: Site, step: f64) -> Vec<Point2> {
+    if curved {
+        let (pt, a, b) = match (s1, s2) {
+            (Site::Point(p), Site::Segment(a, b)) | (Site::Segment(a, b), Site::Point(p)) => (p, a, b),
+            _ => return vec![p0, p1],
+        };
+        let len = norm(sub(b, a));
+        if len <= 0.0 {
+            return vec![p0, p1];
+        }
+        let d = [(b[0] - a[0]) / len, (b[1] - a[1]) / len];
+        let mut n = [-d[1], d[0]];
+        let mut hp = dot(sub(pt, a), n);
+        if hp < 0.0 {
+            n = [-n[0], -n[1]];
+            hp = -hp;
+        }
+        if hp < 1e-9 {
+            return vec![p0, p1];
+        }
+        let up = dot(sub(pt, a), d);
+        let (u0, u1) = (dot(sub(p0, a), d), dot(sub(p1, a), d));
+        let count = ((u1 - u0).abs() / step).ceil().clamp(1.0, 256.0) as usize;
+        let mut out = Vec::with_capacity(count + 1);
+        out.push(p0);
+        for k in 1..count {
+            let u = u0 + (u1 - u0) * k as f64 / count as f64;
+            let h = ((u - up).powi(2) + hp * hp) / (2.0 * hp);
+            out.push([a[0] + u * d[0] + h * n[0], a[1] + u * d[1] + h * n[1]]);
+        }
+        out.push(p1);
+        out
+    } else {
+        let count = (norm(sub(p1, p0)) / step).ceil().clamp(1.0, 256.0) as usize;
+        // Linear edges between two segments have linear r: two points suffice.
+        let count = if matches!((s1, s2), (Site::Segment(..), Site::Segment(..))) { 1 } else { count };
+        (0..=count)
+            .map(|k| {
+                let t = k as f64 / count as f64;
+                [p0[0] + t * (p1[0] - p0[0]), p0[1] + t * (p1[1] - p0[1])]
+            })
+            .collect()
+    }
+}
+
+/// Object angle at p: angle between the directions to the two foot points.
+fn object_angle(p: Point2, s1: Site, s2: Site) -> f64 {
+    let (f1, f2) = (sub(s1.foot(p), p), sub(s2.foot(p), p));
+    let (n1, n2) = (norm(f1), norm(f2));
+    if n1 <= 1e-9 * (1.0 + n2) || n2 <= 1e-9 * (1.0 + n1) {
+        return 0.0;
+    }
+    (dot(f1, f2) / (n1 * n2)).clamp(-1.0, 1.0).acos()
+}
+
+fn voronoi_error(e: impl std::fmt::Display) -> Error {
+    Error::planning(format!("medial axis: the Voronoi diagram failed ({e}); is the outline self-intersecting?"))
+}
+
+/// Computes the interior medial axis of `pocket`.
+pub fn medial_axis(pocket: &Pocket) -> Result<MedialAxis> {
+    let bd = Boundary::new(pocket)?;
+    let lines: Vec<Line<i32>> = bd.ints.iter().map(|&s| Line::from(s)).collect();
+    let diagram: Diagram = Builder::<i32>::default()
+        .with_segments(lines.iter())
+        .and_then(|b| b.build())
+        .map_err(voronoi_error)?;
+    let step = SAMPLE_STEP_MM * bd.scale;
+    let cells = diagram.cells();
+    let vertices = diagram.vertices();
+    let edges = diagram.edges();
+    let site_of = |cell: usize| -> Option<(usize, SourceCategory, Site)> {
+        let c = cells.get(cell)?;
+        let (idx, cat) = c.source_index_2();
+        Some((idx.usize(), cat, bd.site(idx.usize(), cat)?))
+    };
+    let vpos = |v: usize| -> Option<Point2> { vertices.get(v).map(|v| [v.x(), v.y()]) };
+
+    let mut kept: Vec<KeptEdge> = Vec::new();
+    // Largest inscribed circle over every interior Voronoi vertex (pruning-independent).
+    let mut best: (f64, Point2) = (0.0, [0.0, 0.0]);
+    for (i, e) in edges.iter().enumerate() {
+        let Ok(twin) = e.twin() else { continue };
+        if twin.usize() < i {
+            continue;
+        }
+        let (Some(v0), Some(tw)) = (e.vertex0(), edges.get(twin.usize())) else { continue };
+        let Some(v1) = tw.vertex0() else { continue };
+        let (Ok(c1), Ok(c2)) = (e.cell(), tw.cell()) else { continue };
+        let (Some((i1, k1, s1)), Some((i2, k2, s2))) = (site_of(c1.usize()), site_of(c2.usize())) else {
+            continue;
+        };
+        let (Some(p0), Some(p1)) = (vpos(v0.usize()), vpos(v1.usize())) else { continue };
+        let pts = sample_edge(p0, p1, e.is_curved(), s1, s2, step);
+        let mid = pts[pts.len() / 2];
+        let probe = if pts.len() > 2 { mid } else { [0.5 * (p0[0] + p1[0]), 0.5 * (p0[1] + p1[1])] };
+        let inside = match (s1, s2) {
+            (Site::Segment(..), _) => bd.inside(i1, k1, probe),
+            (_, Site::Segment(..)) => bd.inside(i2, k2, probe),
+            _ => bd.inside(i1, k1, probe),
+        };
+        if !inside {
+            continue;
+        }
+        for p in [p0, p1] {
+            let r = s1.distance(p);
+            if r > best.0 {
+                best = (r, p);
+            }
+        }
+        if e.is_secondary() {
+            continue;
+        }
+        let angle = pts.iter().chain([&probe]).map(|&p| object_angle(p, s1, s2)).fold(0.0, f64::max);
+        if angle < MIN_OBJECT_ANGLE {
+            continue;
+        }
+        let points = pts
+            .iter()
+            .map(|&p| {
+                let q = bd.to_mm(p);
+                [q[0], q[1], s1.distance(p) / bd.scale]
+            })
+            .collect();
+        kept.push(KeptEdge {
+            v0: v0.usize(),
+            v1: v1.usize(),
+            points,
+        });
+    }
+    let centre = bd.to_mm(best.1);
+    let rmax = best.0 / bd.scale;
+    let (branches, nodes) = chain_branches(&kept, vertices.len());
+    let min_corner_radius = nodes
+        .iter()
+        .filter(|n| n.degree == 1)
+        .map(|n| n.r)
+        .min_by(f64::total_cmp)
+        .unwrap_or(rmax);
+    Ok(MedialAxis {
+        branches,
+        nodes,
+        dmax: 2.0 * rmax,
+        dmax_center: centre,
+        min_corner_radius,
+    })
+}
+
+/// Joins kept edges through degree-2 vertices into branches.
+fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<Node>) {
+    let mut incident: Vec<Vec<usize>> = vec![Vec::new(); vertex_count];
+    for (k, e) in kept.iter().enumerate() {
+        if let Some(v) = incident.get_mut(e.v0) {
+            v.push(k);
+        }
+        if let Some(v) = incident.get_mut(e.v1) {
+            v.push(k);
+        }
+    }
+    let mut node_of: Vec<Option<usize>> = vec![None; vertex_count];
+    let mut nodes: Vec<Node> = Vec::new();
+    let mut used = vec![false; kept.len()];
+    let mut branches = Vec::new();
+    let mut node_id = |v: usize, p: [f64; 3], nodes: &mut Vec<Node>, deg: usize| -> usize {
+        *node_of[v].get_or_insert_with(|| {
+            nodes.push(Node {
+                x: p[0],
+                y: p[1],
+                r: p[2],
+                degree: deg,
+            });
+            nodes.len() - 1
+        })
+    };
+    // Walk from vertex `v` along edge `k`, through degree-2 vertices.
+    let walk = |start_v: usize, first: usize, used: &mut Vec<bool>| -> (Vec<[f64; 3]>, usize) {
+        let mut pts: Vec<[f64; 3]> = Vec::new();
+        let (mut v, mut k) = (start_v, first);
+        loop {
+            used[k] = true;
+            let e = &kept[k];
+            let forward = e.v0 == v;
+            let seq: Vec<[f64; 3]> = if forward { e.points.clone() } else { e.points.iter().rev().copied().collect() };
+            let skip = usize::from(!pts.is_empty());
+            pts.extend(seq.into_iter().skip(skip));
+            v = if forward { e.v1 } else { e.v0 };
+            if incident[v].len() != 2 || v == start_v {
+                return (pts, v);
+            }
+            match incident[v].iter().copied().find(|&j| !used[j]) {
+                Some(j) => k = j,
+                None => return (pts, v),
+            }
+        }
+    };
+    for v in 0..vertex_count {
+        if incident[v].is_empty() || incident[v].len() == 2 {
+            continue;
+        }
+        for idx in 0..incident[v].len() {
+            let k = incident[v][idx];
+            if used[k] {
+                continue;
+            }
+            let (pts, w) = walk(v, k, &mut used);
+            let (Some(&first), Some(&last)) = (pts.first(), pts.last()) else { continue };
+            let a = node_id(v, first, &mut nodes, incident[v].len());
+            let b = node_id(w, last, &mut nodes, incident[w].len());
+            branches.push(Branch {
+                points: pts,
+                start: a,
+                end: b,
+            });
+        }
+    }
+    // Closed loops with no branch point (e.g. around a hole in an annulus).
+    for k in 0..kept.len() {
+        if used[k] {
+            continue;
+        }
+        let v = kept[k].v0;
+        let (pts, _) = walk(v, k, &mut used);
+        let Some(&first) = pts.first() else { continue };
+        let a = node_id(v, first, &mut nodes, 2);
+        branches.push(Branch {
+            points: pts,
+            start: a,
+            end: a,
+        });
+    }
+    (branches, nodes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn square_has_one_branch_point_and_four_corner_branches() {
+        let p = Pocket::new(&[[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]], &[]).unwrap();
+        let ma = medial_axis(&p).unwrap();
+        assert!((ma.dmax - 10.0).abs() < 1e-6);
+        assert_eq!(ma.end_points().count(), 4);
+        assert!(ma.min_corner_radius < 1e-9);
+    }
+
+    #[test]
+    fn reflex_vertex_gives_parabolic_branch() {
+        // L-shape: the reflex corner at (10, 10) faces the far walls.
+        let outer = [[0.0, 0.0], [30.0, 0.0], [30.0, 10.0], [10.0, 10.0], [10.0, 30.0], [0.0, 30.0]];
+        let p = Pocket::new(&outer, &[]).unwrap();
+        let ma = medial_axis(&p).unwrap();
+        // Every medial point is equidistant from the boundary at its radius: check against brute force.
+        let segs: Vec<(Point2, Point2)> = (0..6).map(|i| (outer[i], outer[(i + 1) % 6])).collect();
+        for b in &ma.branches {
+            for q in &b.points {
+                let d = segs
+                    .iter()
+                    .map(|&(a, c)| Site::Segment(a, c).distance([q[0], q[1]]))
+                    .fold(f64::INFINITY, f64::min);
+                assert!((d - q[2]).abs() < 1e-3, "r {} vs distance {}", q[2], d);
+            }
+        }
+    }
+}
