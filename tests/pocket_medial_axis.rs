@@ -24,7 +24,8 @@ fn boundary_distance(loops: &[&[[f64; 2]]], p: [f64; 2]) -> f64 {
         for i in 0..poly.len() {
             let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
             let d = [b[0] - a[0], b[1] - a[1]];
-            let t = (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / (d[0] * d[0] + d[1] * d[1])).clamp(0.0, 1.0);
+            let t = (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / (d[0] * d[0] + d[1] * d[1]))
+                .clamp(0.0, 1.0);
             best = best.min((p[0] - a[0] - t * d[0]).hypot(p[1] - a[1] - t * d[1]));
         }
     }
@@ -72,7 +73,14 @@ fn ellipse_50_by_30() {
                 xmax = xmax.max(q[0]);
             }
         }
-        assert!(xmax <= 32.05 && xmax > 31.5 && xmin >= -32.05 && xmin < -31.5, "n {n}: {xmin} {xmax}");
-        assert!((ma.min_corner_radius - 18.0).abs() < 0.1, "n {n}: {}", ma.min_corner_radius);
+        assert!(
+            (31.5..=32.05).contains(&xmax) && (-32.05..-31.5).contains(&xmin),
+            "n {n}: {xmin} {xmax}"
+        );
+        assert!(
+            (ma.min_corner_radius - 18.0).abs() < 0.1,
+            "n {n}: {}",
+            ma.min_corner_radius
+        );
     }
 }

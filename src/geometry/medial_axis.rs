@@ -16,7 +16,7 @@
 //! the parabola; r is the exact distance to the edge's site.
 
 use crate::error::{Error, Result};
-use crate::geometry::pocket::{Point2, Pocket};
+use crate::geometry::pocket::{Pocket, Point2};
 use boostvoronoi::prelude::{Builder, Diagram, Line, SourceCategory};
 
 /// Medial-axis edges whose object angle never reaches this are discretisation
@@ -99,7 +99,11 @@ impl Site {
             Site::Segment(a, b) => {
                 let d = sub(b, a);
                 let l2 = dot(d, d);
-                let t = if l2 > 0.0 { (dot(sub(p, a), d) / l2).clamp(0.0, 1.0) } else { 0.0 };
+                let t = if l2 > 0.0 {
+                    (dot(sub(p, a), d) / l2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
                 [a[0] + t * d[0], a[1] + t * d[1]]
             }
         }
@@ -147,8 +151,15 @@ impl Boundary {
                 q.pop();
             }
             if q.len() < 3 {
-                let field = if l == 0 { "outer".to_string() } else { format!("holes[{}]", l - 1) };
-                return Err(Error::invalid(field, "loop collapses below 1e-4 mm resolution"));
+                let field = if l == 0 {
+                    "outer".to_string()
+                } else {
+                    format!("holes[{}]", l - 1)
+                };
+                return Err(Error::invalid(
+                    field,
+                    "loop collapses below 1e-4 mm resolution",
+                ));
             }
             let n = q.len();
             let f = |v: [i32; 2]| [v[0] as f64, v[1] as f64];
@@ -158,11 +169,19 @@ impl Boundary {
                 ints.push([a[0], a[1], b[0], b[1]]);
             }
         }
-        Ok(Self { segs, ints, center, scale })
+        Ok(Self {
+            segs,
+            ints,
+            center,
+            scale,
+        })
     }
 
     fn to_mm(&self, p: Point2) -> Point2 {
-        [p[0] / self.scale + self.center[0], p[1] / self.scale + self.center[1]]
+        [
+            p[0] / self.scale + self.center[0],
+            p[1] / self.scale + self.center[1],
+        ]
     }
 
     fn site(&self, index: usize, cat: SourceCategory) -> Option<Site> {
@@ -178,7 +197,9 @@ impl Boundary {
     /// pocket is on its left (outer CCW, holes CW); a vertex cell lies inside
     /// exactly when the vertex is reflex.
     fn inside(&self, index: usize, cat: SourceCategory, p: Point2) -> bool {
-        let Some(&(a, b, prev, next)) = self.segs.get(index) else { return false };
+        let Some(&(a, b, prev, next)) = self.segs.get(index) else {
+            return false;
+        };
         match cat {
             SourceCategory::Segment => cross(sub(b, a), sub(p, a)) > 0.0,
             SourceCategory::SegmentEnd => cross(sub(b, a), sub(next, b)) < 0.0,
@@ -198,7 +219,9 @@ struct KeptEdge {
 fn sample_edge(p0: Point2, p1: Point2, curved: bool, s1: Site, s2: Site, step: f64) -> Vec<Point2> {
     if curved {
         let (pt, a, b) = match (s1, s2) {
-            (Site::Point(p), Site::Segment(a, b)) | (Site::Segment(a, b), Site::Point(p)) => (p, a, b),
+            (Site::Point(p), Site::Segment(a, b)) | (Site::Segment(a, b), Site::Point(p)) => {
+                (p, a, b)
+            }
             _ => return vec![p0, p1],
         };
         let len = norm(sub(b, a));
@@ -230,7 +253,11 @@ fn sample_edge(p0: Point2, p1: Point2, curved: bool, s1: Site, s2: Site, step: f
     } else {
         let count = (norm(sub(p1, p0)) / step).ceil().clamp(1.0, 256.0) as usize;
         // Linear edges between two segments have linear r: two points suffice.
-        let count = if matches!((s1, s2), (Site::Segment(..), Site::Segment(..))) { 1 } else { count };
+        let count = if matches!((s1, s2), (Site::Segment(..), Site::Segment(..))) {
+            1
+        } else {
+            count
+        };
         (0..=count)
             .map(|k| {
                 let t = k as f64 / count as f64;
@@ -251,7 +278,9 @@ fn object_angle(p: Point2, s1: Site, s2: Site) -> f64 {
 }
 
 fn voronoi_error(e: impl std::fmt::Display) -> Error {
-    Error::planning(format!("medial axis: the Voronoi diagram failed ({e}); is the outline self-intersecting?"))
+    Error::planning(format!(
+        "medial axis: the Voronoi diagram failed ({e}); is the outline self-intersecting?"
+    ))
 }
 
 /// Computes the interior medial axis of `pocket`.
@@ -281,16 +310,27 @@ pub fn medial_axis(pocket: &Pocket) -> Result<MedialAxis> {
         if twin.usize() < i {
             continue;
         }
-        let (Some(v0), Some(tw)) = (e.vertex0(), edges.get(twin.usize())) else { continue };
-        let Some(v1) = tw.vertex0() else { continue };
-        let (Ok(c1), Ok(c2)) = (e.cell(), tw.cell()) else { continue };
-        let (Some((i1, k1, s1)), Some((i2, k2, s2))) = (site_of(c1.usize()), site_of(c2.usize())) else {
+        let (Some(v0), Some(tw)) = (e.vertex0(), edges.get(twin.usize())) else {
             continue;
         };
-        let (Some(p0), Some(p1)) = (vpos(v0.usize()), vpos(v1.usize())) else { continue };
+        let Some(v1) = tw.vertex0() else { continue };
+        let (Ok(c1), Ok(c2)) = (e.cell(), tw.cell()) else {
+            continue;
+        };
+        let (Some((i1, k1, s1)), Some((i2, k2, s2))) = (site_of(c1.usize()), site_of(c2.usize()))
+        else {
+            continue;
+        };
+        let (Some(p0), Some(p1)) = (vpos(v0.usize()), vpos(v1.usize())) else {
+            continue;
+        };
         let pts = sample_edge(p0, p1, e.is_curved(), s1, s2, step);
         let mid = pts[pts.len() / 2];
-        let probe = if pts.len() > 2 { mid } else { [0.5 * (p0[0] + p1[0]), 0.5 * (p0[1] + p1[1])] };
+        let probe = if pts.len() > 2 {
+            mid
+        } else {
+            [0.5 * (p0[0] + p1[0]), 0.5 * (p0[1] + p1[1])]
+        };
         let inside = match (s1, s2) {
             (Site::Segment(..), _) => bd.inside(i1, k1, probe),
             (_, Site::Segment(..)) => bd.inside(i2, k2, probe),
@@ -308,7 +348,11 @@ pub fn medial_axis(pocket: &Pocket) -> Result<MedialAxis> {
         if e.is_secondary() {
             continue;
         }
-        let angle = pts.iter().chain([&probe]).map(|&p| object_angle(p, s1, s2)).fold(0.0, f64::max);
+        let angle = pts
+            .iter()
+            .chain([&probe])
+            .map(|&p| object_angle(p, s1, s2))
+            .fold(0.0, f64::max);
         if angle < MIN_OBJECT_ANGLE {
             continue;
         }
@@ -377,7 +421,11 @@ fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<N
             used[k] = true;
             let e = &kept[k];
             let forward = e.v0 == v;
-            let seq: Vec<[f64; 3]> = if forward { e.points.clone() } else { e.points.iter().rev().copied().collect() };
+            let seq: Vec<[f64; 3]> = if forward {
+                e.points.clone()
+            } else {
+                e.points.iter().rev().copied().collect()
+            };
             let skip = usize::from(!pts.is_empty());
             pts.extend(seq.into_iter().skip(skip));
             v = if forward { e.v1 } else { e.v0 };
@@ -400,7 +448,9 @@ fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<N
                 continue;
             }
             let (pts, w) = walk(v, k, &mut used);
-            let (Some(&first), Some(&last)) = (pts.first(), pts.last()) else { continue };
+            let (Some(&first), Some(&last)) = (pts.first(), pts.last()) else {
+                continue;
+            };
             let a = node_id(v, first, &mut nodes, incident[v].len());
             let b = node_id(w, last, &mut nodes, incident[w].len());
             branches.push(Branch {
@@ -444,7 +494,14 @@ mod tests {
     #[test]
     fn reflex_vertex_gives_parabolic_branch() {
         // L-shape: the reflex corner at (10, 10) faces the far walls.
-        let outer = [[0.0, 0.0], [30.0, 0.0], [30.0, 10.0], [10.0, 10.0], [10.0, 30.0], [0.0, 30.0]];
+        let outer = [
+            [0.0, 0.0],
+            [30.0, 0.0],
+            [30.0, 10.0],
+            [10.0, 10.0],
+            [10.0, 30.0],
+            [0.0, 30.0],
+        ];
         let p = Pocket::new(&outer, &[]).unwrap();
         let ma = medial_axis(&p).unwrap();
         // Every medial point is equidistant from the boundary at its radius: check against brute force.
