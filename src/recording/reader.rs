@@ -1,0 +1,319 @@
+//! The bag reader: a bag directory (metadata.yaml, or the .mcap files in it)
+//! or a bare .mcap; a truncated file gives the messages of its completed
+//! chunks and says where it stopped.
+
+use super::metadata::BagMetadata;
+use super::{from_cdr, normalize_definition, TopicSpec};
+use crate::error::{Error, Result};
+use serde::de::DeserializeOwned;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A topic as recorded.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecordedTopic {
+    pub topic: String,
+    pub type_name: String,
+    pub schema_encoding: String,
+    pub definition: String,
+    pub message_encoding: String,
+    pub offered_qos_profiles: String,
+    pub message_count: u64,
+}
+
+/// One recorded message (CDR payload with its encapsulation header).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecordedMessage {
+    pub topic: String,
+    pub log_time: u64,
+    pub sequence: u32,
+    pub data: Vec<u8>,
+}
+
+/// A bag read into memory, messages in file order.
+#[derive(Clone, Debug)]
+pub struct Bag {
+    /// The .mcap file(s) read.
+    pub files: Vec<PathBuf>,
+    pub metadata: Option<BagMetadata>,
+    pub topics: BTreeMap<String, RecordedTopic>,
+    pub messages: Vec<RecordedMessage>,
+    /// Why reading stopped early (truncated or damaged file), if it did.
+    pub truncated: Option<String>,
+}
+
+const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+
+/// Opens a bag directory or a .mcap file.
+pub fn read_bag(path: &Path) -> Result<Bag> {
+    let shown = path.display().to_string();
+    if !path.exists() {
+        return Err(Error::io(
+            &shown,
+            "no such bag (expected a bag directory or a .mcap file)",
+        ));
+    }
+    let (files, metadata) = if path.is_dir() {
+        let meta_path = path.join("metadata.yaml");
+        if meta_path.exists() {
+            let m = BagMetadata::read(&meta_path)?;
+            let files: Vec<PathBuf> = m.relative_file_paths.iter().map(|f| path.join(f)).collect();
+            if files.is_empty() {
+                return Err(Error::invalid(
+                    format!(
+                        "{}: rosbag2_bagfile_information.relative_file_paths",
+                        meta_path.display()
+                    ),
+                    "lists no storage file",
+                ));
+            }
+            (files, Some(m))
+        } else {
+            // A bag whose writer was killed has no metadata.yaml yet: read its files.
+            let mut files: Vec<PathBuf> = std::fs::read_dir(path)
+                .map_err(|e| Error::io(&shown, e))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+                .collect();
+            files.sort();
+            if files.is_empty() {
+                return Err(Error::invalid(
+                    shown,
+                    "not a bag: the directory has neither metadata.yaml nor a .mcap file",
+                ));
+            }
+            (files, None)
+        }
+    } else {
+        (vec![path.to_path_buf()], None)
+    };
+    let mut bag = Bag {
+        files: files.clone(),
+        metadata,
+        topics: BTreeMap::new(),
+        messages: Vec::new(),
+        truncated: None,
+    };
+    for file in &files {
+        read_mcap(file, &mut bag)?;
+        if bag.truncated.is_some() {
+            break;
+        }
+    }
+    Ok(bag)
+}
+
+fn read_mcap(path: &Path, bag: &mut Bag) -> Result<()> {
+    let shown = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| Error::io(&shown, e))?;
+    if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
+        return Err(Error::invalid(
+            shown,
+            "not an MCAP file (no MCAP magic at the start)",
+        ));
+    }
+    let complete = bytes.len() >= 2 * MAGIC.len() && bytes.ends_with(MAGIC);
+    let reader = mcap::read::ChunkFlattener::new_with_options(
+        &bytes,
+        mcap::read::Options::IgnoreEndMagic.into(),
+    )
+    .map_err(|e| Error::invalid(&shown, format!("cannot read MCAP: {e}")))?;
+    // Schemas and channels by id (the summary section repeats them).
+    let mut schemas: BTreeMap<u16, (String, String, String)> = BTreeMap::new();
+    let mut channels: BTreeMap<u16, String> = BTreeMap::new();
+    let before = bag.messages.len();
+    for record in reader {
+        let record = match record {
+            Ok(r) => r,
+            Err(e) => {
+                let read = bag.messages.len() - before;
+                let why = if complete {
+                    format!("{shown} is damaged ({e}) after {read} messages")
+                } else {
+                    format!("{shown} is truncated ({e}); {read} messages of its completed chunks recovered")
+                };
+                if read == 0 && bag.topics.is_empty() {
+                    return Err(Error::invalid(
+                        shown,
+                        format!("no complete chunk could be read: {e}"),
+                    ));
+                }
+                bag.truncated = Some(why);
+                break;
+            }
+        };
+        match record {
+            mcap::records::Record::Schema { header, data } => {
+                let text = String::from_utf8(data.into_owned()).map_err(|_| {
+                    Error::invalid(
+                        format!("{shown}: schema {}", header.name),
+                        "the definition is not UTF-8 text",
+                    )
+                })?;
+                schemas.insert(header.id, (header.name, header.encoding, text));
+            }
+            mcap::records::Record::Channel(c) => {
+                let (type_name, schema_encoding, definition) =
+                    schemas.get(&c.schema_id).cloned().ok_or_else(|| {
+                        Error::invalid(
+                            format!("{shown}: {}", c.topic),
+                            format!("channel refers to unknown schema {}", c.schema_id),
+                        )
+                    })?;
+                let qos = c
+                    .metadata
+                    .get("offered_qos_profiles")
+                    .cloned()
+                    .unwrap_or_default();
+                channels.insert(c.id, c.topic.clone());
+                bag.topics.entry(c.topic.clone()).or_insert(RecordedTopic {
+                    topic: c.topic,
+                    type_name,
+                    schema_encoding,
+                    definition,
+                    message_encoding: c.message_encoding,
+                    offered_qos_profiles: qos,
+                    message_count: 0,
+                });
+            }
+            mcap::records::Record::Message { header, data } => {
+                let topic = channels.get(&header.channel_id).cloned().ok_or_else(|| {
+                    Error::invalid(
+                        shown.clone(),
+                        format!(
+                            "message {} on unknown channel {}",
+                            header.sequence, header.channel_id
+                        ),
+                    )
+                })?;
+                if let Some(t) = bag.topics.get_mut(&topic) {
+                    t.message_count += 1;
+                }
+                bag.messages.push(RecordedMessage {
+                    topic,
+                    log_time: header.log_time,
+                    sequence: header.sequence,
+                    data: data.into_owned(),
+                });
+            }
+            _ => {}
+        }
+    }
+    if !complete && bag.truncated.is_none() {
+        let read = bag.messages.len() - before;
+        bag.truncated = Some(format!(
+            "{shown} is truncated (no footer); {read} messages of its completed chunks recovered"
+        ));
+    }
+    Ok(())
+}
+
+impl Bag {
+    /// Messages on `topic`, in order.
+    pub fn messages_on<'a>(
+        &'a self,
+        topic: &'a str,
+    ) -> impl Iterator<Item = &'a RecordedMessage> + 'a {
+        self.messages.iter().filter(move |m| m.topic == topic)
+    }
+
+    /// Checks that `topic`, if recorded, has the expected type, encodings and
+    /// definition (comments and spacing aside).
+    pub fn check_topic(&self, spec: &TopicSpec) -> Result<()> {
+        let Some(t) = self.topics.get(&spec.topic) else {
+            return Ok(());
+        };
+        if t.type_name != spec.type_name {
+            return Err(Error::invalid(
+                spec.topic.clone(),
+                format!(
+                    "recorded with type {}, expected {}",
+                    t.type_name, spec.type_name
+                ),
+            ));
+        }
+        if t.schema_encoding != "ros2msg" {
+            return Err(Error::invalid(
+                spec.topic.clone(),
+                format!(
+                    "schema encoding \"{}\", expected ros2msg",
+                    t.schema_encoding
+                ),
+            ));
+        }
+        if t.message_encoding != "cdr" {
+            return Err(Error::invalid(
+                spec.topic.clone(),
+                format!("message encoding \"{}\", expected cdr", t.message_encoding),
+            ));
+        }
+        let (a, b) = (
+            normalize_definition(&t.definition),
+            normalize_definition(&spec.definition),
+        );
+        if a != b {
+            let line = a
+                .lines()
+                .zip(b.lines())
+                .position(|(x, y)| x != y)
+                .unwrap_or(a.lines().count().min(b.lines().count()));
+            return Err(Error::invalid(
+                spec.topic.clone(),
+                format!(
+                    "the recorded schema of {} differs from this build's definition (first difference at field line {}: recorded \"{}\", expected \"{}\")",
+                    t.type_name,
+                    line + 1,
+                    a.lines().nth(line).unwrap_or("<end>"),
+                    b.lines().nth(line).unwrap_or("<end>")
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks every recorded topic against `known`: unknown topics or types
+    /// and mismatching schemas are errors.
+    pub fn check_types(&self, known: &[TopicSpec]) -> Result<()> {
+        for t in self.topics.values() {
+            match known.iter().find(|k| k.topic == t.topic) {
+                Some(spec) => self.check_topic(spec)?,
+                None => {
+                    return Err(Error::invalid(
+                        t.topic.clone(),
+                        format!(
+                            "unknown topic of type {} (this build knows {})",
+                            t.type_name,
+                            known
+                                .iter()
+                                .map(|k| k.topic.as_str())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    ))
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Decodes message `index` of the bag as `T` (after checking its topic against `spec`).
+    pub fn decode<T: DeserializeOwned>(&self, index: usize, spec: &TopicSpec) -> Result<T> {
+        let m = self
+            .messages
+            .get(index)
+            .ok_or_else(|| Error::invalid("", format!("no message {index} in the bag")))?;
+        if m.topic != spec.topic {
+            return Err(Error::invalid(
+                m.topic.clone(),
+                format!("message {index} is on {}, not {}", m.topic, spec.topic),
+            ));
+        }
+        self.check_topic(spec)?;
+        from_cdr(&m.data).map_err(|e| {
+            e.within(&format!(
+                "{}[message {index}, sequence {}]",
+                m.topic, m.sequence
+            ))
+        })
+    }
+}
