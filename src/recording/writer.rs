@@ -282,11 +282,11 @@ impl BagWriter {
             .take()
             .ok_or_else(|| Error::io(path.display().to_string(), "the bag is already finished"))?;
         let mut record = BTreeMap::new();
-        record.insert("serialized_metadata".to_string(), {
-            // The record holds the bare bagfile information, as rosbag2 does.
-            let yaml = serde_yaml_ng::to_string(&meta).unwrap_or_default();
-            yaml
-        });
+        // The record holds the bare bagfile information, as rosbag2 does.
+        record.insert(
+            "serialized_metadata".to_string(),
+            serde_yaml_ng::to_string(&meta).unwrap_or_default(),
+        );
         record.insert("ROS_DISTRO".to_string(), "jazzy".to_string());
         w.write_metadata(&mcap::records::Metadata {
             name: "rosbag2".into(),
