@@ -9,11 +9,19 @@ pub mod iso_parametric;
 pub mod iso_scallop;
 pub mod mpec;
 pub mod mpec_error_curve;
+pub mod pass_points;
 pub mod pocket_mat;
+pub mod strip_width;
 pub mod tensor_regions;
+#[cfg(test)]
+pub mod test_surfaces;
 
 use crate::error::Result;
 use crate::formats::{Job, PlanResult};
+
+/// Cells per parameter direction for the path-length lower bound quadrature
+/// (3 x 3 Gauss points each).
+pub const LOWER_BOUND_CELLS: usize = 40;
 
 /// Progress reporting from a planner to its caller (CLI bar, node status).
 pub trait Progress: Sync {

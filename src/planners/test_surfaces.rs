@@ -1,0 +1,137 @@
+//! Test surfaces for the strip-width planners: B-spline interpolation of a
+//! function at the Greville abscissae (exact for polynomials within the
+//! spline space), so that a surface can be given any parametrisation and
+//! knot vector while its geometry stays known in closed form.
+
+use crate::geometry::NurbsSurface;
+use nalgebra::DMatrix;
+
+/// Cox-de Boor basis function N_{i,p}(t) (right-continuous, last span closed).
+fn basis(i: usize, p: usize, knots: &[f64], t: f64) -> f64 {
+    if p == 0 {
+        let last = knots[knots.len() - 1];
+        let (a, b) = (knots[i], knots[i + 1]);
+        return if (a <= t && t < b) || (t == last && b == last && a < b) { 1.0 } else { 0.0 };
+    }
+    let mut s = 0.0;
+    let d1 = knots[i + p] - knots[i];
+    if d1 > 0.0 {
+        s += (t - knots[i]) / d1 * basis(i, p - 1, knots, t);
+    }
+    let d2 = knots[i + p + 1] - knots[i + 1];
+    if d2 > 0.0 {
+        s += (knots[i + p + 1] - t) / d2 * basis(i + 1, p - 1, knots, t);
+    }
+    s
+}
+
+fn greville(p: usize, knots: &[f64], count: usize) -> Vec<f64> {
+    (0..count).map(|i| knots[i + 1..=i + p].iter().sum::<f64>() / p as f64).collect()
+}
+
+/// Interpolates `f(u, v)` with a B-spline surface of the given degrees and
+/// clamped knot vectors.
+pub fn fit(pu: usize, pv: usize, knots_u: Vec<f64>, knots_v: Vec<f64>, f: impl Fn(f64, f64) -> [f64; 3]) -> NurbsSurface {
+    let nu = knots_u.len() - pu - 1;
+    let nv = knots_v.len() - pv - 1;
+    let gu = greville(pu, &knots_u, nu);
+    let gv = greville(pv, &knots_v, nv);
+    let bu = DMatrix::from_fn(nu, nu, |r, c| basis(c, pu, &knots_u, gu[r]));
+    let bv = DMatrix::from_fn(nv, nv, |r, c| basis(c, pv, &knots_v, gv[r]));
+    let iu = bu.try_inverse().expect("collocation matrix");
+    let iv = bv.try_inverse().expect("collocation matrix");
+    let mut cps = vec![vec![[0.0; 3]; nv]; nu];
+    for k in 0..3 {
+        let vals = DMatrix::from_fn(nu, nv, |r, c| f(gu[r], gv[c])[k]);
+        // P = Bu^-1 F Bv^-T
+        let p = &iu * vals * iv.transpose();
+        for i in 0..nu {
+            for j in 0..nv {
+                cps[i][j][k] = p[(i, j)];
+            }
+        }
+    }
+    NurbsSurface::new(pu, pv, knots_u, knots_v, &cps, None).expect("valid test surface")
+}
+
+/// Clamped knot vector of degree p on [0, 1] with the given interior knots.
+pub fn clamped(p: usize, interior: &[f64]) -> Vec<f64> {
+    let mut k = vec![0.0; p + 1];
+    k.extend_from_slice(interior);
+    k.extend(std::iter::repeat_n(1.0, p + 1));
+    k
+}
+
+/// Monkey saddle z = 1e-5 (x^3 - 3 x y^2) on [-50, 50]^2 (methods.md A),
+/// moved by `offset` in xy, with x and y given by monotone maps of u and v
+/// (`warp` = 0: linear). Non-uniform interior knots when `warp` != 0.
+pub fn monkey_saddle(offset: [f64; 2], warp: f64) -> NurbsSurface {
+    // x(u) = -50 + 100 (u + warp u (1 - u)): quadratic, monotone for |warp| < 1.
+    let map = move |t: f64| -50.0 + 100.0 * (t + warp * t * (1.0 - t));
+    let f = move |u: f64, v: f64| {
+        let (x, y) = (map(u), map(v));
+        [x + offset[0], y + offset[1], 1e-5 * (x * x * x - 3.0 * x * y * y)]
+    };
+    if warp == 0.0 {
+        fit(3, 3, clamped(3, &[]), clamped(3, &[]), f)
+    } else {
+        // Degree 6 holds x^3 with quadratic x(u) exactly, on any knots.
+        fit(6, 6, clamped(6, &[0.13, 0.5, 0.71]), clamped(6, &[0.29, 0.41, 0.83]), f)
+    }
+}
+
+/// Plane z = 0 on [0, 100]^2 with a sheared, non-orthogonal parametrisation.
+pub fn sheared_plane() -> NurbsSurface {
+    fit(1, 1, clamped(1, &[]), clamped(1, &[]), |u, v| [100.0 * u + 40.0 * v, 100.0 * v, 0.0])
+}
+
+/// Elliptic paraboloid z = a x^2 + b y^2 (concave towards +z) with the
+/// sheared parametrisation x = 60 (u + 0.7 v) - 30, y = 60 v - 30.
+pub fn sheared_paraboloid(a: f64, b: f64) -> NurbsSurface {
+    fit(2, 2, clamped(2, &[]), clamped(2, &[]), move |u, v| {
+        let (x, y) = (60.0 * (u + 0.7 * v) - 30.0, 60.0 * v - 30.0);
+        [x, y, a * x * x + b * y * y]
+    })
+}
+
+/// A milling job on `surface` with a flat-end cutter.
+pub fn job(surface: NurbsSurface, strategy: crate::formats::Strategy, radius: f64, lead_deg: f64, scallop: f64) -> crate::formats::Job {
+    let file = crate::formats::JobFile {
+        job_id: "test".into(),
+        surface: serde_json::Value::Null,
+        strategy,
+        tool: crate::tools::Tool::FlatEnd { radius, length: None },
+        machine: None,
+        scallop: Some(scallop),
+        tolerance: None,
+        lead_angle_deg: Some(lead_deg),
+        side_tilt_deg: None,
+        feed_direction: None,
+        feed_rate: Some(1000.0),
+        tool_catalogue: None,
+        section_normal: None,
+        simulation_resolution: None,
+        grinding: None,
+    };
+    crate::formats::Job::new(file, crate::formats::Shape::Surface(surface)).expect("valid test job")
+}
+
+/// Concave half-cylinder of radius `r` about an axis along x at height r,
+/// x in [0, length], as a rational quadratic surface (exact).
+pub fn concave_cylinder(r: f64, length: f64) -> NurbsSurface {
+    let w = std::f64::consts::FRAC_1_SQRT_2;
+    // Arc from (y=-r, z=r) through the bottom (0, 0) to (r, r); inside faces +z.
+    let arc = [
+        ([-r, r], 1.0),
+        ([-r, 0.0], w),
+        ([0.0, 0.0], 1.0),
+        ([r, 0.0], w),
+        ([r, r], 1.0),
+    ];
+    let cps: Vec<Vec<[f64; 3]>> = (0..2)
+        .map(|i| arc.iter().map(|(p, _)| [length * i as f64, p[0], p[1]]).collect())
+        .collect();
+    let ws: Vec<Vec<f64>> = (0..2).map(|_| arc.iter().map(|(_, w)| *w).collect()).collect();
+    NurbsSurface::new(1, 2, vec![0., 0., 1., 1.], vec![0., 0., 0., 0.5, 0.5, 1., 1., 1.], &cps, Some(&ws))
+        .expect("valid cylinder")
+}
