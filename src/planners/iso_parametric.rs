@@ -66,7 +66,11 @@ pub fn plan_passes(
             return Ok(passes);
         }
         let step = next_step(surface, s, feed, &contacts, across, c1 - across)?;
-        across = if across + step >= c1 - 1e-9 * (c1 - c0) { c1 } else { across + step };
+        across = if across + step >= c1 - 1e-9 * (c1 - c0) {
+            c1
+        } else {
+            across + step
+        };
         forward = !forward;
     }
     Err(Error::planning(format!(
@@ -138,7 +142,9 @@ fn next_step(
         };
         let w_here = p.half_width_towards(s, dir_across)?;
         // First guess from the first-order distance per unit parameter.
-        let lateral_rate = (dir_across - p.travel * dir_across.dot(&p.travel)).norm().max(1e-12);
+        let lateral_rate = (dir_across - p.travel * dir_across.dot(&p.travel))
+            .norm()
+            .max(1e-12);
         let mut step = (2.0 * w_here / lateral_rate).min(remaining);
         for _ in 0..6 {
             let uv = uv_of(feed, along, across + step);
@@ -164,7 +170,7 @@ fn next_step(
         }
         best = best.min(step);
     }
-    if !(best > 0.0) {
+    if best.is_nan() || best <= 0.0 {
         return Err(Error::planning("iso_parametric: zero step between passes"));
     }
     Ok(best)
@@ -200,7 +206,10 @@ mod tests {
             let spacing = (yb - ya).abs();
             let scallop = ellipse_scallop(2.5, lead, spacing);
             // The last pass sits on the boundary edge, closer than needed.
-            assert!(scallop <= 0.05 + 1e-9 && (i == last || scallop > 0.8 * 0.05), "{scallop}");
+            assert!(
+                scallop <= 0.05 + 1e-9 && (i == last || scallop > 0.8 * 0.05),
+                "{scallop}"
+            );
         }
         // Zig-zag: travel alternates and the lead tilts along the travel.
         let (a, b) = (&r.passes[0].points[0], &r.passes[1].points[0]);
@@ -224,7 +233,10 @@ mod tests {
         let r = plan(&job, &NoProgress).unwrap();
         let arc = std::f64::consts::PI * 100.0;
         let per_pass = arc / (r.passes.len() - 1) as f64;
-        assert!(per_pass > 3.18704 * 0.9 && per_pass <= 3.58875 * 1.001, "{per_pass}");
+        assert!(
+            per_pass > 3.18704 * 0.9 && per_pass <= 3.58875 * 1.001,
+            "{per_pass}"
+        );
         // Every cc is on the cylinder and the cl is R sin(lead) above the contact plane.
         for p in r.passes.iter().flat_map(|p| p.points.iter()) {
             let rad = (p.cc[1].powi(2) + (p.cc[2] - 100.0).powi(2)).sqrt();
@@ -240,7 +252,10 @@ mod tests {
         let surface = test_surfaces::concave_cylinder(10.0, 50.0);
         let job = test_surfaces::job(surface, Strategy::IsoParametric, 2.5, 5.0, 0.05);
         let e = plan(&job, &NoProgress).unwrap_err().to_string();
-        assert!(e.contains("tool too large for the curvature") && e.contains("lead angle of at least"), "{e}");
+        assert!(
+            e.contains("tool too large for the curvature") && e.contains("lead angle of at least"),
+            "{e}"
+        );
         let surface = test_surfaces::concave_cylinder(2.0, 50.0);
         let job = test_surfaces::job(surface, Strategy::IsoParametric, 2.5, 5.0, 0.05);
         let e = plan(&job, &NoProgress).unwrap_err().to_string();

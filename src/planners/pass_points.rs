@@ -2,7 +2,7 @@
 //! tensor_regions): tool poses along a pass of contact points, the widths each
 //! pose leaves, and chord-tolerance sampling of a pass.
 
-use super::strip_width::{curvatures_along, gouge_error, Cutter, Curvatures, WidthError};
+use super::strip_width::{curvatures_along, gouge_error, Curvatures, Cutter, WidthError};
 use crate::error::Result;
 use crate::formats::PathPoint;
 use crate::geometry::{LocalGeometry, NurbsSurface};
@@ -77,22 +77,35 @@ impl Contact {
 
     /// Half-width on the side of `towards` (a 3-D direction), for scallop h.
     pub fn half_width_towards(&self, s: &PassSettings, towards: Vector3<f64>) -> Result<f64> {
-        let side = if towards.dot(&self.cross()) >= 0.0 { 1.0 } else { -1.0 };
+        let side = if towards.dot(&self.cross()) >= 0.0 {
+            1.0
+        } else {
+            -1.0
+        };
         s.cutter
             .half_width(s.scallop, self.k, side)
-            .map_err(|WidthError::Gouge { depth }| gouge_error(&s.cutter, self.uv().into(), self.k.cross, depth))
+            .map_err(|WidthError::Gouge { depth }| {
+                gouge_error(&s.cutter, self.uv().into(), self.k.cross, depth)
+            })
     }
 
     /// The path point: pose, strip width and feed. Errors where the cutter gouges.
     pub fn path_point(&self, s: &PassSettings) -> Result<PathPoint> {
         let depth = s.cutter.disc_gouge(self.k);
         if depth > 1e-3 * s.scallop {
-            return Err(gouge_error(&s.cutter, self.uv().into(), self.k.cross.max(self.k.feed), depth));
+            return Err(gouge_error(
+                &s.cutter,
+                self.uv().into(),
+                self.k.cross.max(self.k.feed),
+                depth,
+            ));
         }
-        let w = s
-            .cutter
-            .strip_width(s.scallop, self.k)
-            .map_err(|WidthError::Gouge { depth }| gouge_error(&s.cutter, self.uv().into(), self.k.cross, depth))?;
+        let w =
+            s.cutter
+                .strip_width(s.scallop, self.k)
+                .map_err(|WidthError::Gouge { depth }| {
+                    gouge_error(&s.cutter, self.uv().into(), self.k.cross, depth)
+                })?;
         let cc = self.point();
         let (cl, axis) = s.cutter.pose(cc, self.g.n, self.travel);
         Ok(PathPoint {
@@ -111,10 +124,17 @@ impl Contact {
 /// Samples a curve `curve(s)`, s in [0, 1], so that every chord stays within
 /// `tol` of the curve (checked at chord midpoints, recursively) and no step is
 /// longer than `max_step`. Returns the parameters, sorted, including 0 and 1.
-pub fn sample_curve(curve: &dyn Fn(f64) -> Point3<f64>, tol: f64, max_step: f64, initial: usize) -> Vec<f64> {
+pub fn sample_curve(
+    curve: &dyn Fn(f64) -> Point3<f64>,
+    tol: f64,
+    max_step: f64,
+    initial: usize,
+) -> Vec<f64> {
     let n0 = initial.max(2);
     let mut out = vec![0.0];
-    let mut stack: Vec<(f64, f64, Point3<f64>, Point3<f64>, u32)> = Vec::new();
+    // (a, b, curve(a), curve(b), depth)
+    type Span = (f64, f64, Point3<f64>, Point3<f64>, u32);
+    let mut stack: Vec<Span> = Vec::new();
     for k in (0..n0 - 1).rev() {
         let (a, b) = (k as f64 / (n0 - 1) as f64, (k + 1) as f64 / (n0 - 1) as f64);
         stack.push((a, b, curve(a), curve(b), 0));
@@ -167,6 +187,10 @@ mod tests {
         }
         // Not absurdly dense: within 2x of the optimum count 3 / (2 acos(1 - tol/r)).
         let optimum = 3.0 / (2.0 * (1.0 - tol / r).acos());
-        assert!((ts.len() as f64) < 2.2 * optimum + 2.0, "{} vs {optimum}", ts.len());
+        assert!(
+            (ts.len() as f64) < 2.2 * optimum + 2.0,
+            "{} vs {optimum}",
+            ts.len()
+        );
     }
 }

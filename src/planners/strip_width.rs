@@ -103,7 +103,12 @@ impl Cutter {
     /// tilted by lambda about the cross-feed so that its front bottom edge
     /// touches cc and the heel is lifted: axis = cos(l) n + sin(l) t and the
     /// centre of the bottom disc is cc - R d with d = cos(l) t - sin(l) n.
-    pub fn pose(&self, cc: Point3<f64>, n: Vector3<f64>, t: Vector3<f64>) -> (Point3<f64>, Vector3<f64>) {
+    pub fn pose(
+        &self,
+        cc: Point3<f64>,
+        n: Vector3<f64>,
+        t: Vector3<f64>,
+    ) -> (Point3<f64>, Vector3<f64>) {
         if self.ball {
             // Tip = ball centre - R axis, axis along the normal.
             return (cc, n);
@@ -123,7 +128,11 @@ impl Cutter {
             (0.0, r * s, r * (1.0 - c))
         } else {
             let one_minus = if phi < 1e-4 { 0.5 * phi * phi } else { 1.0 - c };
-            (-r * one_minus * self.lead.cos(), r * s, r * self.lead.sin() * one_minus)
+            (
+                -r * one_minus * self.lead.cos(),
+                r * s,
+                r * self.lead.sin() * one_minus,
+            )
         }
     }
 
@@ -150,7 +159,12 @@ impl Cutter {
     /// Half-width of a pass on side `side` (+1 towards n x t) for scallop `h`:
     /// the arc length on the surface from the contact to where the residual
     /// reaches h. Limited to the cutter radius where the residual stays below h.
-    pub fn half_width(&self, h: f64, k: Curvatures, side: f64) -> std::result::Result<f64, WidthError> {
+    pub fn half_width(
+        &self,
+        h: f64,
+        k: Curvatures,
+        side: f64,
+    ) -> std::result::Result<f64, WidthError> {
         const SAMPLES: usize = 24;
         let top = std::f64::consts::FRAC_PI_2;
         let mut prev = 0.0;
@@ -193,7 +207,11 @@ impl Cutter {
     pub fn disc_gouge(&self, k: Curvatures) -> f64 {
         if self.ball {
             let worst = k.feed.max(k.cross) + k.twist.abs();
-            return if worst > 1.0 / self.radius { (worst * self.radius - 1.0) * self.radius } else { 0.0 };
+            return if worst > 1.0 / self.radius {
+                (worst * self.radius - 1.0) * self.radius
+            } else {
+                0.0
+            };
         }
         let (s, c) = self.lead.sin_cos();
         let r = self.radius;
@@ -238,7 +256,7 @@ fn cholesky_inverse(g: &Matrix2<f64>) -> Option<Matrix2<f64>> {
     let l11 = g[(0, 0)].sqrt();
     let l21 = g[(0, 1)] / l11;
     let l22 = (g[(1, 1)] - l21 * l21).max(0.0).sqrt();
-    if !(l11 > 0.0 && l22 > 0.0) {
+    if l11.is_nan() || l22.is_nan() || l11 <= 0.0 || l22 <= 0.0 {
         return None;
     }
     Some(Matrix2::new(1.0 / l11, 0.0, -l21 / (l11 * l22), 1.0 / l22))
@@ -275,10 +293,14 @@ pub fn feed_at(g: &LocalGeometry, k_b: f64) -> Option<FieldSample> {
     // (M - mu I) t = 0: two candidate null vectors; take the better conditioned.
     let t1 = Vector2::new(b, mu - a);
     let t2 = Vector2::new(mu - d, c);
-    let t = if t1.norm_squared() >= t2.norm_squared() { t1 } else { t2 };
+    let t = if t1.norm_squared() >= t2.norm_squared() {
+        t1
+    } else {
+        t2
+    };
     let t3 = g.uv_to_tangent(t);
     let len = t3.norm();
-    if !(len > 0.0) {
+    if len.is_nan() || len <= 0.0 {
         return None;
     }
     let feed = t3 / len;
@@ -300,13 +322,21 @@ pub fn deviator(g: &LocalGeometry) -> Option<(f64, f64, Matrix2<f64>)> {
     let li = cholesky_inverse(&g.first)?;
     // K_b only shifts S by a multiple of I, so it does not enter e and f.
     let s = li * tensor_h(g, 0.0) * li.transpose();
-    Some((0.5 * (s[(0, 0)] - s[(1, 1)]), 0.5 * (s[(0, 1)] + s[(1, 0)]), li))
+    Some((
+        0.5 * (s[(0, 0)] - s[(1, 1)]),
+        0.5 * (s[(0, 1)] + s[(1, 0)]),
+        li,
+    ))
 }
 
 /// The widest single-pass strip width at a point (over the feed directions;
 /// the principal directions are its stationary points, so both are tried) and
 /// the feed that gives it.
-pub fn max_strip_width(cutter: &Cutter, h: f64, g: &LocalGeometry) -> std::result::Result<(f64, Vector3<f64>), WidthError> {
+pub fn max_strip_width(
+    cutter: &Cutter,
+    h: f64,
+    g: &LocalGeometry,
+) -> std::result::Result<(f64, Vector3<f64>), WidthError> {
     let mut best: Option<(f64, Vector3<f64>)> = None;
     let mut err = None;
     for t in [g.dir_min, g.dir_max] {
@@ -360,7 +390,12 @@ const GAUSS3: [(f64, f64); 3] = [
 /// Lower bound of the path length for scallop h: the integral over the
 /// surface of dA / w_max(p). No set of passes can be shorter, since each unit
 /// of length clears at most w_max of area. `cells` per parameter direction.
-pub fn path_length_lower_bound(surface: &NurbsSurface, cutter: &Cutter, h: f64, cells: usize) -> Result<f64> {
+pub fn path_length_lower_bound(
+    surface: &NurbsSurface,
+    cutter: &Cutter,
+    h: f64,
+    cells: usize,
+) -> Result<f64> {
     let ((u0, u1), (v0, v1)) = surface.domain();
     let (du, dv) = ((u1 - u0) / cells as f64, (v1 - v0) / cells as f64);
     let mut total = 0.0;
@@ -491,7 +526,10 @@ mod tests {
             twist: 0.0,
             cross: 0.05,
         };
-        assert!(matches!(flat().strip_width(H, k), Err(WidthError::Gouge { .. })));
+        assert!(matches!(
+            flat().strip_width(H, k),
+            Err(WidthError::Gouge { .. })
+        ));
         assert!(flat().disc_gouge(k) > 0.0);
         let ok = Curvatures {
             feed: 0.01,
@@ -522,7 +560,10 @@ mod tests {
                 lowest = (hgt, p);
             }
         }
-        assert!(lowest.0.abs() < 1e-9 && (lowest.1 - cc).norm() < 1e-2, "{lowest:?}");
+        assert!(
+            lowest.0.abs() < 1e-9 && (lowest.1 - cc).norm() < 1e-2,
+            "{lowest:?}"
+        );
     }
 
     /// Feed = minimum normal curvature direction, found by brute force over
@@ -568,7 +609,10 @@ mod tests {
             let wrong = g.uv_to_tangent(Vector2::new(mb, mu - ma)).normalize();
             worst_trap = worst_trap.max(wrong.dot(&best.1).abs().min(1.0).acos().to_degrees());
         }
-        assert!(worst_trap > 1.0, "the sheared test surface must expose the covector trap ({worst_trap} deg)");
+        assert!(
+            worst_trap > 1.0,
+            "the sheared test surface must expose the covector trap ({worst_trap} deg)"
+        );
     }
 
     #[test]

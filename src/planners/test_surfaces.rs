@@ -11,7 +11,11 @@ fn basis(i: usize, p: usize, knots: &[f64], t: f64) -> f64 {
     if p == 0 {
         let last = knots[knots.len() - 1];
         let (a, b) = (knots[i], knots[i + 1]);
-        return if (a <= t && t < b) || (t == last && b == last && a < b) { 1.0 } else { 0.0 };
+        return if (a <= t && t < b) || (t == last && b == last && a < b) {
+            1.0
+        } else {
+            0.0
+        };
     }
     let mut s = 0.0;
     let d1 = knots[i + p] - knots[i];
@@ -26,12 +30,20 @@ fn basis(i: usize, p: usize, knots: &[f64], t: f64) -> f64 {
 }
 
 fn greville(p: usize, knots: &[f64], count: usize) -> Vec<f64> {
-    (0..count).map(|i| knots[i + 1..=i + p].iter().sum::<f64>() / p as f64).collect()
+    (0..count)
+        .map(|i| knots[i + 1..=i + p].iter().sum::<f64>() / p as f64)
+        .collect()
 }
 
 /// Interpolates `f(u, v)` with a B-spline surface of the given degrees and
 /// clamped knot vectors.
-pub fn fit(pu: usize, pv: usize, knots_u: Vec<f64>, knots_v: Vec<f64>, f: impl Fn(f64, f64) -> [f64; 3]) -> NurbsSurface {
+pub fn fit(
+    pu: usize,
+    pv: usize,
+    knots_u: Vec<f64>,
+    knots_v: Vec<f64>,
+    f: impl Fn(f64, f64) -> [f64; 3],
+) -> NurbsSurface {
     let nu = knots_u.len() - pu - 1;
     let nv = knots_v.len() - pv - 1;
     let gu = greville(pu, &knots_u, nu);
@@ -45,9 +57,9 @@ pub fn fit(pu: usize, pv: usize, knots_u: Vec<f64>, knots_v: Vec<f64>, f: impl F
         let vals = DMatrix::from_fn(nu, nv, |r, c| f(gu[r], gv[c])[k]);
         // P = Bu^-1 F Bv^-T
         let p = &iu * vals * iv.transpose();
-        for i in 0..nu {
-            for j in 0..nv {
-                cps[i][j][k] = p[(i, j)];
+        for (i, row) in cps.iter_mut().enumerate() {
+            for (j, cp) in row.iter_mut().enumerate() {
+                cp[k] = p[(i, j)];
             }
         }
     }
@@ -70,19 +82,31 @@ pub fn monkey_saddle(offset: [f64; 2], warp: f64) -> NurbsSurface {
     let map = move |t: f64| -50.0 + 100.0 * (t + warp * t * (1.0 - t));
     let f = move |u: f64, v: f64| {
         let (x, y) = (map(u), map(v));
-        [x + offset[0], y + offset[1], 1e-5 * (x * x * x - 3.0 * x * y * y)]
+        [
+            x + offset[0],
+            y + offset[1],
+            1e-5 * (x * x * x - 3.0 * x * y * y),
+        ]
     };
     if warp == 0.0 {
         fit(3, 3, clamped(3, &[]), clamped(3, &[]), f)
     } else {
         // Degree 6 holds x^3 with quadratic x(u) exactly, on any knots.
-        fit(6, 6, clamped(6, &[0.13, 0.5, 0.71]), clamped(6, &[0.29, 0.41, 0.83]), f)
+        fit(
+            6,
+            6,
+            clamped(6, &[0.13, 0.5, 0.71]),
+            clamped(6, &[0.29, 0.41, 0.83]),
+            f,
+        )
     }
 }
 
 /// Plane z = 0 on [0, 100]^2 with a sheared, non-orthogonal parametrisation.
 pub fn sheared_plane() -> NurbsSurface {
-    fit(1, 1, clamped(1, &[]), clamped(1, &[]), |u, v| [100.0 * u + 40.0 * v, 100.0 * v, 0.0])
+    fit(1, 1, clamped(1, &[]), clamped(1, &[]), |u, v| {
+        [100.0 * u + 40.0 * v, 100.0 * v, 0.0]
+    })
 }
 
 /// Elliptic paraboloid z = a x^2 + b y^2 (concave towards +z) with the
@@ -95,12 +119,21 @@ pub fn sheared_paraboloid(a: f64, b: f64) -> NurbsSurface {
 }
 
 /// A milling job on `surface` with a flat-end cutter.
-pub fn job(surface: NurbsSurface, strategy: crate::formats::Strategy, radius: f64, lead_deg: f64, scallop: f64) -> crate::formats::Job {
+pub fn job(
+    surface: NurbsSurface,
+    strategy: crate::formats::Strategy,
+    radius: f64,
+    lead_deg: f64,
+    scallop: f64,
+) -> crate::formats::Job {
     let file = crate::formats::JobFile {
         job_id: "test".into(),
         surface: serde_json::Value::Null,
         strategy,
-        tool: crate::tools::Tool::FlatEnd { radius, length: None },
+        tool: crate::tools::Tool::FlatEnd {
+            radius,
+            length: None,
+        },
         machine: None,
         scallop: Some(scallop),
         tolerance: None,
@@ -129,9 +162,22 @@ pub fn concave_cylinder(r: f64, length: f64) -> NurbsSurface {
         ([r, r], 1.0),
     ];
     let cps: Vec<Vec<[f64; 3]>> = (0..2)
-        .map(|i| arc.iter().map(|(p, _)| [length * i as f64, p[0], p[1]]).collect())
+        .map(|i| {
+            arc.iter()
+                .map(|(p, _)| [length * i as f64, p[0], p[1]])
+                .collect()
+        })
         .collect();
-    let ws: Vec<Vec<f64>> = (0..2).map(|_| arc.iter().map(|(_, w)| *w).collect()).collect();
-    NurbsSurface::new(1, 2, vec![0., 0., 1., 1.], vec![0., 0., 0., 0.5, 0.5, 1., 1., 1.], &cps, Some(&ws))
-        .expect("valid cylinder")
+    let ws: Vec<Vec<f64>> = (0..2)
+        .map(|_| arc.iter().map(|(_, w)| *w).collect())
+        .collect();
+    NurbsSurface::new(
+        1,
+        2,
+        vec![0., 0., 1., 1.],
+        vec![0., 0., 0., 0.5, 0.5, 1., 1., 1.],
+        &cps,
+        Some(&ws),
+    )
+    .expect("valid cylinder")
 }
