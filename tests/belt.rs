@@ -9,6 +9,7 @@ use toolpath_planner::formats::{FeedDirection, Job, JobFile, PlanResult, Shape, 
 use toolpath_planner::geometry::NurbsSurface;
 use toolpath_planner::pipeline::{self, RunOptions};
 use toolpath_planner::planners::NoProgress;
+use toolpath_planner::samples::surfaces as samples;
 use toolpath_planner::tools::Tool;
 
 fn job(
@@ -119,7 +120,7 @@ fn sine_arc_length() -> f64 {
 
 #[test]
 fn sine_wave_iso_planar_follows_the_rulings() {
-    let s = sine_wave();
+    let s = samples::sine_wave();
     let r = run(s.clone(), job(s, Strategy::BeltIsoPlanar, 10.0, 25.0, 0.01)).unwrap();
     let n = r.section_normal.unwrap();
     assert!(
@@ -160,7 +161,7 @@ fn sine_wave_iso_planar_follows_the_rulings() {
 
 #[test]
 fn sine_wave_across_the_rulings_reference() {
-    let s = sine_wave();
+    let s = samples::sine_wave();
     let mut f = job(s.clone(), Strategy::BeltIsoParametric, 10.0, 25.0, 0.01);
     f.feed_direction = Some(FeedDirection::V);
     let r = run(s, f).unwrap();
@@ -213,7 +214,13 @@ fn section_normal_ignores_the_sign_of_the_directions() {
     use toolpath_planner::planners::belt_iso_planar::{
         min_curvature_directions, section_normal_from_directions,
     };
-    for s in [conical_blade(), egg_crate(3.0, 50.0, 100.0), sine_wave()] {
+    for s in [
+        conical_blade(),
+        egg_crate(3.0, 50.0, 100.0),
+        samples::egg_crate(),
+        samples::turbine_blade(),
+        sine_wave(),
+    ] {
         let dirs = min_curvature_directions(&s, 24);
         assert!(dirs.len() > 100);
         let base = section_normal_from_directions(&dirs).unwrap();
@@ -242,40 +249,61 @@ fn section_normal_ignores_the_sign_of_the_directions() {
     }
 }
 
+/// Contact-path length and passes of an iso-planar plan with an optional fixed normal.
+fn iso_planar_cost(
+    s: &NurbsSurface,
+    normal: Option<[f64; 3]>,
+    r: f64,
+    h: f64,
+) -> (f64, usize, PlanResult) {
+    let mut f = job(s.clone(), Strategy::BeltIsoPlanar, 10.0, r, h);
+    f.section_normal = normal;
+    let res = run(s.clone(), f).unwrap();
+    (res.stats.extra["cc_path_length_mm"], res.passes.len(), res)
+}
+
 #[test]
-fn blade_chosen_normal_halves_path_and_passes_of_a_poor_normal() {
-    let s = conical_blade();
-    let good = run(
-        s.clone(),
-        job(s.clone(), Strategy::BeltIsoPlanar, 10.0, 5.0, 0.02),
-    )
-    .unwrap();
-    let mut f = job(s.clone(), Strategy::BeltIsoPlanar, 10.0, 5.0, 0.02);
-    f.section_normal = Some([0.1, 0.5, 0.85]);
-    let poor = run(s, f).unwrap();
-    let (lg, lp) = (
-        good.stats.extra["cc_path_length_mm"],
-        poor.stats.extra["cc_path_length_mm"],
-    );
-    eprintln!(
-        "blade: chosen {:?} {} mm / {} passes; poor {} mm / {} passes",
-        good.section_normal,
-        lg,
-        good.passes.len(),
-        lp,
-        poor.passes.len()
-    );
-    assert!(lg <= 0.5 * lp, "path length {lg} vs {lp}");
-    assert!(
-        2 * good.passes.len() <= poor.passes.len(),
-        "passes {} vs {}",
-        good.passes.len(),
-        poor.passes.len()
-    );
-    assert_eq!(poor.section_normal_eigen_ratio, None);
-    // The chosen normal is close to the mean ruling direction (apex side, +y).
+fn blade_chosen_normal_beats_poor_normals() {
+    // The built-in sample at the paper's blade settings (w = 10, wheel
+    // diameter 10, h = 0.02): the chosen normal beats every fixed normal tried
+    // and halves length and passes of the planes lying along the blade.
+    let s = samples::turbine_blade();
+    let (lg, pg, good) = iso_planar_cost(&s, None, 5.0, 0.02);
     let n = good.section_normal.unwrap();
     assert!(n[1].abs() > 0.95, "{n:?}");
+    assert!(good.section_normal_eigen_ratio.unwrap() < 0.1);
+    for poor in [
+        [0.1, 0.5, 0.85],
+        [1.0, 0.0, 0.0],
+        [0.7, 0.7, 0.0],
+        [0.0, 0.0, 1.0],
+    ] {
+        let (lp, pp, res) = iso_planar_cost(&s, Some(poor), 5.0, 0.02);
+        assert_eq!(res.section_normal_eigen_ratio, None);
+        eprintln!(
+            "turbine_blade: chosen {lg:.1} mm / {pg} passes, {poor:?}: {lp:.1} mm / {pp} passes"
+        );
+        assert!(lg < lp && pg < pp, "{poor:?}: {lg} / {pg} vs {lp} / {pp}");
+        if poor == [0.0, 0.0, 1.0] {
+            assert!(
+                2.0 * lg <= lp && 2 * pg <= pp,
+                "{poor:?}: {lg} / {pg} vs {lp} / {pp}"
+            );
+        }
+    }
+}
+
+#[test]
+fn cambered_blade_chosen_normal_halves_the_paper_poor_normal() {
+    // A more strongly cambered conical blade (arc 85 mm over a 70 mm chord),
+    // where the paper's poor normal (0.1, 0.5, 0.85) cuts obliquely across the
+    // rulings as in its figure 6.
+    let s = conical_blade();
+    let (lg, pg, _) = iso_planar_cost(&s, None, 5.0, 0.02);
+    let (lp, pp, _) = iso_planar_cost(&s, Some([0.1, 0.5, 0.85]), 5.0, 0.02);
+    eprintln!("conical blade: chosen {lg:.1} mm / {pg} passes, poor {lp:.1} mm / {pp} passes");
+    assert!(2.0 * lg <= lp, "path length {lg} vs {lp}");
+    assert!(2 * pg <= pp, "passes {pg} vs {pp}");
 }
 
 #[test]
@@ -293,8 +321,8 @@ fn wheel_poses_are_consistent() {
                 assert!(dot(n, a).abs() < 1e-9 && dot(t, a).abs() < 1e-9 && dot(t, n).abs() < 1e-9);
                 assert_eq!(q.axis, a);
                 assert_eq!(Some(q.cl), q.wheel_center);
-                for i in 0..3 {
-                    assert!((q.cl[i] - q.cc[i] - 6.0 * n[i]).abs() < 1e-9);
+                for ((cl, cc), ni) in q.cl.iter().zip(q.cc).zip(n) {
+                    assert!((cl - cc - 6.0 * ni).abs() < 1e-9);
                 }
                 // The normal is the surface normal there (independent evaluation).
                 let sn = s.normal(q.uv[0], q.uv[1]).unwrap();
@@ -312,7 +340,7 @@ fn wheel_poses_are_consistent() {
 #[test]
 fn bad_input_gives_clear_errors() {
     use toolpath_planner::Error;
-    let s = sine_wave();
+    let s = samples::sine_wave();
     // Belt width <= 0: tool validation.
     for width in [0.0, -3.0, f64::NAN] {
         let e = run(
@@ -332,7 +360,7 @@ fn bad_input_gives_clear_errors() {
     )
     .unwrap_err();
     assert!(
-        matches!(&e, Error::Invalid { field, message } if field == "tool.wheel_radius" && message.contains("50.6")),
+        matches!(&e, Error::Invalid { field, message } if field == "tool.wheel_radius" && message.contains("concave radius of curvature along the feed, 50.")),
         "{e}"
     );
     // A wheel of 50 mm fits.
@@ -388,5 +416,29 @@ fn output_is_deterministic() {
         )
         .unwrap();
         assert_eq!(a, b);
+    }
+}
+
+#[test]
+fn belt_sample_jobs_plan_with_both_strategies() {
+    for name in ["sine_wave", "egg_crate", "turbine_blade"] {
+        for strategy in [Strategy::BeltIsoParametric, Strategy::BeltIsoPlanar] {
+            let mut job = toolpath_planner::samples::job(name).unwrap();
+            job.strategy = strategy;
+            let r = pipeline::run(
+                &job,
+                &NoProgress,
+                RunOptions {
+                    skip_verify: true,
+                    no_timing: true,
+                },
+            )
+            .unwrap_or_else(|e| panic!("{name} {strategy:?}: {e}"));
+            assert!(
+                r.passes.len() >= 2 && r.stats.max_gouge_mm.is_some(),
+                "{name}"
+            );
+            assert_eq!(r.strategy, strategy.name());
+        }
     }
 }

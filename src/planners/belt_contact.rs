@@ -257,7 +257,7 @@ fn trace(
         // Predictor: unit tangent step mapped to uv through the first fundamental form.
         let (e, f, g) = (d.su.dot(&d.su), d.su.dot(&d.sv), d.sv.dot(&d.sv));
         let det = e * g - f * f;
-        if !(det > 1e-300) {
+        if det.is_nan() || det <= 1e-300 {
             return (out, true);
         }
         let (ru, rv) = (tau.dot(&d.su), tau.dot(&d.sv));

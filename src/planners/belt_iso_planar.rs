@@ -393,7 +393,7 @@ pub fn plan_paths(
             (a.min(x), b.max(x))
         });
     let extent = hi - lo;
-    if !(extent > 1e-9) {
+    if extent.is_nan() || extent <= 1e-9 {
         return Err(Error::planning(format!(
             "the belt cannot reach the surface along section normal ({:.4}, {:.4}, {:.4}): the surface lies in one section plane (the planes are tangent to it); choose a section_normal across the surface",
             normal.x, normal.y, normal.z
