@@ -3,8 +3,9 @@
 
 use crate::error::Result;
 use crate::formats::result::polyline_length;
-use crate::formats::{Job, PlanResult};
+use crate::formats::{Job, PlanResult, Strategy};
 use crate::planners::{self, Progress};
+use crate::simulation::scallop::{self, ScallopReport, ScallopSettings};
 use std::time::Instant;
 
 /// Options that do not change the toolpath.
@@ -30,7 +31,10 @@ pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<Pl
     } else {
         (elapsed_ms * 1000.0).round() / 1000.0
     };
-    let _ = options.skip_verify;
+    if !options.skip_verify && is_milling(job.strategy) {
+        let report = verify_milling(job, &result)?;
+        fill_scallop_stats(&mut result, &report);
+    }
     progress.set(1.0);
     Ok(result)
 }
@@ -53,4 +57,30 @@ pub fn fill_path_stats(result: &mut PlanResult, feed_rate: f64) {
     };
     result.stats.points = Some(result.point_count());
     result.stats.machining_time_min = Some(length / feed_rate);
+}
+
+/// Strategies whose results the scallop simulator checks (pocket and belt results have their own).
+pub fn is_milling(strategy: Strategy) -> bool {
+    matches!(
+        strategy,
+        Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric | Strategy::Mpec
+    )
+}
+
+/// Runs the scallop simulator on a milling result of `job` at the job's `simulation_resolution`.
+pub fn verify_milling(job: &Job, result: &PlanResult) -> Result<ScallopReport> {
+    let surface = job.surface()?;
+    let settings = ScallopSettings::with_resolution(job.simulation_resolution);
+    scallop::simulate(surface, &job.tool, result, &settings)
+}
+
+/// Puts the simulator's figures into the result's stats: max_scallop_mm,
+/// max_gouge_mm and, in `extra`, uncovered/machined area and the grid spacing.
+pub fn fill_scallop_stats(result: &mut PlanResult, report: &ScallopReport) {
+    result.stats.max_scallop_mm = Some(report.max_scallop_mm);
+    result.stats.max_gouge_mm = Some(report.max_gouge_mm);
+    let extra = &mut result.stats.extra;
+    extra.insert("uncovered_area_mm2".into(), report.uncovered_area_mm2);
+    extra.insert("machined_area_mm2".into(), report.machined_area_mm2);
+    extra.insert("simulation_resolution_mm".into(), report.resolution_mm);
 }

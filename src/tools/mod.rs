@@ -1,5 +1,9 @@
 //! Cutting tools and the belt-grinder contact wheel. Sizes in mm.
 
+pub mod cutter_shape;
+
+pub use cutter_shape::CutterShape;
+
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 
