@@ -5,10 +5,12 @@
 
 pub mod belt_iso_parametric;
 pub mod belt_iso_planar;
+pub mod degenerate_points;
 pub mod iso_parametric;
 pub mod iso_scallop;
 pub mod mpec;
 pub mod mpec_error_curve;
+pub mod partition;
 pub mod pass_points;
 pub mod pocket_mat;
 pub mod strip_width;

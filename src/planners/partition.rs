@@ -1,0 +1,607 @@
+//! Partitioning a surface into machining regions (paper section 2.2): trace
+//! the separatrices of each trisector along the optimal feed field to the
+//! boundary or another degenerate point, then split the parameter domain
+//! into the faces of the planar graph formed by the separatrices and the
+//! domain boundary. Also the field-line tracer the initial passes use.
+
+use super::degenerate_points::{DegeneratePoint, Kind};
+use super::strip_width::feed_at;
+use crate::geometry::{LocalGeometry, NurbsSurface};
+use nalgebra::{Point3, Vector2, Vector3};
+
+/// How a traced field line ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TraceEnd {
+    /// Reached the domain boundary (the last point is on it).
+    Boundary,
+    /// Ran into degenerate point `index` (the last point is that point).
+    Degenerate(usize),
+    /// `stop` said so (left the region); the last point is the first outside.
+    Stopped,
+    /// Field undefined (isotropic point, singular surface) or too long.
+    Lost,
+}
+
+#[derive(Clone, Debug)]
+pub struct Trace {
+    pub uv: Vec<Vector2<f64>>,
+    pub end: TraceEnd,
+}
+
+/// Unit feed direction in parameter space (maps to a unit 3-D tangent),
+/// oriented along `prev` (3-D), with the 3-D tangent.
+fn oriented_feed(
+    surface: &NurbsSurface,
+    uv: Vector2<f64>,
+    k_b: f64,
+    prev: Vector3<f64>,
+) -> Option<(Vector2<f64>, Vector3<f64>)> {
+    let g = LocalGeometry::at(surface, uv.x, uv.y)?;
+    let f = feed_at(&g, k_b)?;
+    if f.feed.dot(&prev) < 0.0 {
+        Some((-f.feed_uv, -f.feed))
+    } else {
+        Some((f.feed_uv, f.feed))
+    }
+}
+
+fn inside_domain(surface: &NurbsSurface, uv: Vector2<f64>) -> bool {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    uv.x >= u0 && uv.x <= u1 && uv.y >= v0 && uv.y <= v1
+}
+
+/// Clips the segment a -> b (a inside) at the domain boundary.
+fn clip_to_domain(surface: &NurbsSurface, a: Vector2<f64>, b: Vector2<f64>) -> Vector2<f64> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let d = b - a;
+    let mut t = 1.0f64;
+    if d.x > 0.0 {
+        t = t.min((u1 - a.x) / d.x);
+    } else if d.x < 0.0 {
+        t = t.min((u0 - a.x) / d.x);
+    }
+    if d.y > 0.0 {
+        t = t.min((v1 - a.y) / d.y);
+    } else if d.y < 0.0 {
+        t = t.min((v0 - a.y) / d.y);
+    }
+    let p = a + d * t.clamp(0.0, 1.0);
+    let (u, v) = surface.clamp_uv(p.x, p.y);
+    Vector2::new(u, v)
+}
+
+/// Traces the feed field line from `start` in the 3-D direction `dir` with
+/// midpoint steps of `step` mm, until the domain boundary, a degenerate point
+/// (within `snap` mm, other than the first `skip` of them... none skipped
+/// once `away` mm have been travelled), `stop(uv)`, or `max_len` mm.
+pub struct Tracer<'a> {
+    pub surface: &'a NurbsSurface,
+    pub k_b: f64,
+    pub step: f64,
+    pub max_len: f64,
+    /// Degenerate points to end at (xyz) and the distance that counts as reaching one.
+    pub degenerate: &'a [Point3<f64>],
+    pub snap: f64,
+}
+
+impl Tracer<'_> {
+    pub fn trace(
+        &self,
+        start: Vector2<f64>,
+        dir: Vector3<f64>,
+        stop: &dyn Fn(Vector2<f64>) -> bool,
+    ) -> Trace {
+        let s = self.surface;
+        let mut uv = start;
+        let mut pts = vec![uv];
+        let mut prev = dir;
+        let start_xyz = s.point(start.x, start.y);
+        let mut travelled = 0.0;
+        while travelled < self.max_len {
+            let Some((k1, t1)) = oriented_feed(s, uv, self.k_b, prev) else {
+                return Trace {
+                    uv: pts,
+                    end: TraceEnd::Lost,
+                };
+            };
+            let mid = uv + k1 * (0.5 * self.step);
+            let (mu, mv) = s.clamp_uv(mid.x, mid.y);
+            let Some((k2, t2)) = oriented_feed(s, Vector2::new(mu, mv), self.k_b, t1) else {
+                return Trace {
+                    uv: pts,
+                    end: TraceEnd::Lost,
+                };
+            };
+            let next = uv + k2 * self.step;
+            prev = t2;
+            travelled += self.step;
+            if !inside_domain(s, next) {
+                let b = clip_to_domain(s, uv, next);
+                if (b - uv).norm() > 0.0 {
+                    pts.push(b);
+                }
+                return Trace {
+                    uv: pts,
+                    end: TraceEnd::Boundary,
+                };
+            }
+            let p = s.point(next.x, next.y);
+            for (k, d) in self.degenerate.iter().enumerate() {
+                // Not the point the trace started from (it leaves it radially).
+                if (d - start_xyz).norm() < self.snap && (p - start_xyz).norm() < 4.0 * self.snap {
+                    continue;
+                }
+                if (p - d).norm() < self.snap {
+                    return Trace {
+                        uv: pts,
+                        end: TraceEnd::Degenerate(k),
+                    };
+                }
+            }
+            pts.push(next);
+            if stop(next) {
+                return Trace {
+                    uv: pts,
+                    end: TraceEnd::Stopped,
+                };
+            }
+            uv = next;
+        }
+        Trace {
+            uv: pts,
+            end: TraceEnd::Lost,
+        }
+    }
+}
+
+/// One machining region: a face of the partition.
+#[derive(Clone, Debug)]
+pub struct Region {
+    pub id: usize,
+    /// Closed polygon in parameter space, counter-clockwise, first point not repeated.
+    pub boundary_uv: Vec<Vector2<f64>>,
+    pub area_mm2: f64,
+}
+
+impl Region {
+    /// Even-odd point-in-polygon in parameter space.
+    pub fn contains(&self, uv: Vector2<f64>) -> bool {
+        polygon_contains(&self.boundary_uv, uv)
+    }
+}
+
+pub fn polygon_contains(poly: &[Vector2<f64>], p: Vector2<f64>) -> bool {
+    let n = poly.len();
+    let mut inside = false;
+    let mut j = n.wrapping_sub(1);
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[j]);
+        if (a.y > p.y) != (b.y > p.y) {
+            let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
+            if p.x < x {
+                inside = !inside;
+            }
+        }
+        j = i;
+    }
+    inside
+}
+
+/// The partition of a surface.
+#[derive(Clone, Debug)]
+pub struct Partition {
+    pub regions: Vec<Region>,
+    /// Separatrices in parameter space, each from its trisector.
+    pub separatrices_uv: Vec<Vec<Vector2<f64>>>,
+}
+
+/// Gauss-Legendre on [0, 1], 3 points.
+const GAUSS3: [(f64, f64); 3] = [
+    (0.112_701_665_379_258_3, 5.0 / 18.0),
+    (0.5, 8.0 / 18.0),
+    (0.887_298_334_620_741_7, 5.0 / 18.0),
+];
+
+/// Surface area of a parameter-space polygon: scanlines in v at Gauss
+/// points, each crossing interval integrated in u with Gauss points.
+pub fn polygon_area(surface: &NurbsSurface, poly: &[Vector2<f64>], strips: usize) -> f64 {
+    let (vmin, vmax) = poly
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.y), b.max(p.y))
+        });
+    if vmax.is_nan() || vmin.is_nan() || vmax <= vmin {
+        return 0.0;
+    }
+    let dv = (vmax - vmin) / strips as f64;
+    let area_element =
+        |u: f64, v: f64| LocalGeometry::at(surface, u, v).map_or(0.0, |g| g.area_element());
+    let mut total = 0.0;
+    let mut xs = Vec::new();
+    for k in 0..strips {
+        for &(gv, wv) in &GAUSS3 {
+            let v = vmin + (k as f64 + gv) * dv;
+            xs.clear();
+            let n = poly.len();
+            for i in 0..n {
+                let (a, b) = (poly[i], poly[(i + 1) % n]);
+                if (a.y > v) != (b.y > v) {
+                    xs.push(a.x + (v - a.y) / (b.y - a.y) * (b.x - a.x));
+                }
+            }
+            xs.sort_by(f64::total_cmp);
+            let mut row = 0.0;
+            for pair in xs.chunks_exact(2) {
+                let (ua, ub) = (pair[0], pair[1]);
+                let sub = 8;
+                let du = (ub - ua) / sub as f64;
+                for m in 0..sub {
+                    for &(gu, wu) in &GAUSS3 {
+                        row += wu * du * area_element(ua + (m as f64 + gu) * du, v);
+                    }
+                }
+            }
+            total += wv * dv * row;
+        }
+    }
+    total
+}
+
+/// Perimeter coordinate of a boundary point, counter-clockwise from (u0, v0).
+fn perimeter_s(surface: &NurbsSurface, p: Vector2<f64>) -> f64 {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let (w, h) = (u1 - u0, v1 - v0);
+    let tol = 1e-9 * (w + h);
+    if (p.y - v0).abs() <= tol {
+        (p.x - u0) / w
+    } else if (p.x - u1).abs() <= tol {
+        1.0 + (p.y - v0) / h
+    } else if (p.y - v1).abs() <= tol {
+        2.0 + (u1 - p.x) / w
+    } else {
+        3.0 + (v1 - p.y) / h
+    }
+}
+
+fn on_boundary(surface: &NurbsSurface, p: Vector2<f64>) -> bool {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let tol = 1e-9 * ((u1 - u0) + (v1 - v0));
+    (p.x - u0).abs() <= tol
+        || (p.x - u1).abs() <= tol
+        || (p.y - v0).abs() <= tol
+        || (p.y - v1).abs() <= tol
+}
+
+/// Traces the separatrices of the trisectors and splits the domain.
+/// `step` mm for tracing.
+pub fn partition(
+    surface: &NurbsSurface,
+    k_b: f64,
+    points: &[DegeneratePoint],
+    step: f64,
+) -> Partition {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let (w, h) = (u1 - u0, v1 - v0);
+    let xyz: Vec<Point3<f64>> = points.iter().map(|p| p.xyz).collect();
+    let (lo, hi) = surface.bounding_box();
+    let tracer = Tracer {
+        surface,
+        k_b,
+        step,
+        max_len: 20.0 * (hi - lo).norm(),
+        degenerate: &xyz,
+        snap: 1.5 * step,
+    };
+    // Nodes: degenerate points (index = point index), then boundary nodes.
+    let mut nodes: Vec<Vector2<f64>> = points.iter().map(|p| p.uv).collect();
+    let mut edges: Vec<(usize, usize, Vec<Vector2<f64>>)> = Vec::new();
+    let mut separatrices_uv = Vec::new();
+    for (pi, p) in points.iter().enumerate() {
+        if p.kind != Kind::Trisector {
+            continue;
+        }
+        for (t3, t_uv) in &p.separatrices {
+            // Start one step out along the separatrix direction.
+            let start = p.uv + t_uv * step;
+            if !inside_domain(surface, start) {
+                continue; // a trisector on the boundary: this separatrix leaves at once
+            }
+            let tr = tracer.trace(start, *t3, &|_| false);
+            let mut line = vec![p.uv];
+            line.extend(tr.uv.iter().copied());
+            let end = match tr.end {
+                TraceEnd::Degenerate(k) => {
+                    line.push(points[k].uv);
+                    Some(k)
+                }
+                TraceEnd::Boundary => {
+                    nodes.push(*line.last().unwrap_or(&p.uv));
+                    Some(nodes.len() - 1)
+                }
+                _ => {
+                    nodes.push(*line.last().unwrap_or(&p.uv));
+                    Some(nodes.len() - 1)
+                }
+            };
+            if let Some(b) = end {
+                // The same separatrix traced from its other end: keep one copy.
+                let dup = b < points.len()
+                    && edges.iter().any(|(a0, b0, l)| {
+                        *a0 == b
+                            && *b0 == pi
+                            && l.len() > 1
+                            && (l[1] - line[line.len() - 2]).norm() < 2.0 * step / (w + h)
+                    });
+                separatrices_uv.push(line.clone());
+                if !dup {
+                    edges.push((pi, b, line));
+                }
+            }
+        }
+    }
+    // Boundary cycle: corners, boundary nodes and degenerate points on the boundary.
+    let corners = [
+        Vector2::new(u0, v0),
+        Vector2::new(u1, v0),
+        Vector2::new(u1, v1),
+        Vector2::new(u0, v1),
+    ];
+    let mut ring: Vec<usize> = Vec::new();
+    for c in corners {
+        nodes.push(c);
+        ring.push(nodes.len() - 1);
+    }
+    for (k, n) in nodes.iter().enumerate() {
+        if on_boundary(surface, *n) && !ring.contains(&k) {
+            ring.push(k);
+        }
+    }
+    ring.sort_by(|&a, &b| {
+        perimeter_s(surface, nodes[a]).total_cmp(&perimeter_s(surface, nodes[b]))
+    });
+    ring.dedup_by(|a, b| (nodes[*a] - nodes[*b]).norm() <= 1e-12 * (w + h));
+    for k in 0..ring.len() {
+        let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
+        if (nodes[a] - nodes[b]).norm() > 0.0 {
+            edges.push((a, b, vec![nodes[a], nodes[b]]));
+        }
+    }
+    let faces = faces(&nodes, &edges, (w, h));
+    let mut regions: Vec<Region> = faces
+        .into_iter()
+        .map(|poly| Region {
+            id: 0,
+            area_mm2: polygon_area(surface, &poly, 48),
+            boundary_uv: poly,
+        })
+        .collect();
+    // Deterministic ids: by centroid, u then v.
+    let centroid = |r: &Region| {
+        let n = r.boundary_uv.len() as f64;
+        r.boundary_uv.iter().fold(Vector2::zeros(), |a, p| a + p) / n
+    };
+    regions.sort_by(|a, b| {
+        let (ca, cb) = (centroid(a), centroid(b));
+        ca.x.total_cmp(&cb.x).then(ca.y.total_cmp(&cb.y))
+    });
+    for (k, r) in regions.iter_mut().enumerate() {
+        r.id = k;
+    }
+    Partition {
+        regions,
+        separatrices_uv,
+    }
+}
+
+fn signed_area(poly: &[Vector2<f64>]) -> f64 {
+    let n = poly.len();
+    (0..n)
+        .map(|i| poly[i].perp(&poly[(i + 1) % n]))
+        .sum::<f64>()
+        * 0.5
+}
+
+/// Bounded faces of the planar graph (counter-clockwise polygons).
+fn faces(
+    nodes: &[Vector2<f64>],
+    edges: &[(usize, usize, Vec<Vector2<f64>>)],
+    scale: (f64, f64),
+) -> Vec<Vec<Vector2<f64>>> {
+    // Half-edge 2k runs a -> b along the polyline, 2k + 1 back.
+    let norm = |d: Vector2<f64>| Vector2::new(d.x / scale.0, d.y / scale.1);
+    let half = |h: usize| -> (usize, usize, Vec<Vector2<f64>>) {
+        let (a, b, l) = &edges[h / 2];
+        if h.is_multiple_of(2) {
+            (*a, *b, l.clone())
+        } else {
+            (*b, *a, l.iter().rev().copied().collect())
+        }
+    };
+    let angle = |line: &[Vector2<f64>]| {
+        let o = line[0];
+        let p = line
+            .iter()
+            .skip(1)
+            .find(|p| (**p - o).norm() > 0.0)
+            .copied()
+            .unwrap_or(o);
+        let d = norm(p - o);
+        d.y.atan2(d.x)
+    };
+    let count = edges.len() * 2;
+    let mut outgoing: Vec<Vec<(f64, usize)>> = vec![Vec::new(); nodes.len()];
+    for h in 0..count {
+        let (a, _, l) = half(h);
+        outgoing[a].push((angle(&l), h));
+    }
+    for o in &mut outgoing {
+        o.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+    }
+    let mut used = vec![false; count];
+    let mut out = Vec::new();
+    for h0 in 0..count {
+        if used[h0] {
+            continue;
+        }
+        let mut poly: Vec<Vector2<f64>> = Vec::new();
+        let mut h = h0;
+        let mut guard = 0;
+        while !used[h] && guard <= count {
+            used[h] = true;
+            guard += 1;
+            let (_, b, l) = half(h);
+            poly.extend(l.iter().take(l.len().saturating_sub(1)).copied());
+            // Next: the outgoing edge at b just clockwise of the twin.
+            let twin = h ^ 1;
+            let list = &outgoing[b];
+            let Some(pos) = list.iter().position(|&(_, x)| x == twin) else {
+                break;
+            };
+            let prev = if pos == 0 { list.len() - 1 } else { pos - 1 };
+            h = list[prev].1;
+        }
+        if poly.len() >= 3 && signed_area(&poly) > 0.0 {
+            out.push(poly);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::planners::degenerate_points;
+    use crate::planners::test_surfaces;
+
+    /// Independent region areas: the exact rays at 60, 180 and 300 deg
+    /// bound the three sectors of the square; the surface area of each is
+    /// integrated on a fine grid of the closed-form monkey saddle.
+    fn reference_areas() -> Vec<(f64, f64)> {
+        let n = 800;
+        let mut sums = [0.0f64; 3];
+        let mut proj = [0.0f64; 3];
+        let d = 100.0 / n as f64;
+        for i in 0..n {
+            for j in 0..n {
+                let (x, y) = (-50.0 + (i as f64 + 0.5) * d, -50.0 + (j as f64 + 0.5) * d);
+                let (zx, zy) = (3e-5 * (x * x - y * y), -6e-5 * x * y);
+                let da = (1.0 + zx * zx + zy * zy).sqrt() * d * d;
+                let a = y.atan2(x).to_degrees().rem_euclid(360.0);
+                let k = if !(60.0..300.0).contains(&a) {
+                    0
+                } else if a < 180.0 {
+                    1
+                } else {
+                    2
+                };
+                sums[k] += da;
+                proj[k] += d * d;
+            }
+        }
+        (0..3).map(|k| (sums[k], proj[k])).collect()
+    }
+
+    #[test]
+    fn monkey_saddle_splits_into_three_regions_of_the_exact_areas() {
+        let reference = reference_areas();
+        assert!((reference[0].0 - 3563.7).abs() < 1.0 && (reference[0].1 - 3556.6).abs() < 1.0);
+        for (offset, warp) in [([0.0, 0.0], 0.0), ([137.0, -41.0], 0.35)] {
+            let s = test_surfaces::monkey_saddle(offset, warp);
+            let a = degenerate_points::find(&s, 32).unwrap();
+            let k_b = 5f64.to_radians().sin() / 2.5;
+            let p = partition(&s, k_b, &a.points, 1.0);
+            assert_eq!(p.separatrices_uv.len(), 3);
+            // Separatrices are straight rays at 60, 180, 300 deg (within 1 deg).
+            for line in &p.separatrices_uv {
+                let mut ang = Vec::new();
+                for uv in line {
+                    let q = s.point(uv.x, uv.y);
+                    let (x, y) = (q.x - offset[0], q.y - offset[1]);
+                    if x.hypot(y) > 3.0 {
+                        ang.push(y.atan2(x).to_degrees().rem_euclid(360.0));
+                    }
+                }
+                let want = [60.0, 180.0, 300.0]
+                    .into_iter()
+                    .min_by(|a: &f64, b: &f64| (a - ang[0]).abs().total_cmp(&(b - ang[0]).abs()))
+                    .unwrap();
+                assert!(ang.iter().all(|a| (a - want).abs() < 1.0), "{ang:?}");
+                let end = line.last().unwrap();
+                assert!(on_boundary(&s, *end));
+            }
+            assert_eq!(p.regions.len(), 3);
+            let mut got: Vec<f64> = p.regions.iter().map(|r| r.area_mm2).collect();
+            got.sort_by(f64::total_cmp);
+            let mut want: Vec<f64> = reference.iter().map(|r| r.0).collect();
+            want.sort_by(f64::total_cmp);
+            for (g, w) in got.iter().zip(&want) {
+                assert!((g - w).abs() / w < 0.01, "{got:?} vs {want:?}");
+            }
+            // Projected on xy (shoelace of the mapped boundary).
+            let mut proj: Vec<f64> = p
+                .regions
+                .iter()
+                .map(|r| {
+                    let xy: Vec<Vector2<f64>> = r
+                        .boundary_uv
+                        .iter()
+                        .map(|uv| {
+                            let q = s.point(uv.x, uv.y);
+                            Vector2::new(q.x, q.y)
+                        })
+                        .collect();
+                    signed_area(&xy).abs()
+                })
+                .collect();
+            proj.sort_by(f64::total_cmp);
+            for (g, w) in proj.iter().zip([3221.7, 3221.7, 3556.6]) {
+                assert!((g - w).abs() / w < 0.01, "{proj:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn no_trisector_means_one_region_of_the_whole_surface() {
+        let s = test_surfaces::concave_cylinder(100.0, 100.0);
+        let p = partition(&s, 0.03, &[], 1.0);
+        assert_eq!(p.regions.len(), 1);
+        let want = 100.0 * std::f64::consts::PI * 100.0;
+        assert!(
+            (p.regions[0].area_mm2 - want).abs() / want < 1e-3,
+            "{}",
+            p.regions[0].area_mm2
+        );
+    }
+
+    #[test]
+    fn trisector_on_the_boundary_still_partitions() {
+        // Monkey saddle cut at x = 0: the trisector sits on the edge u = 0.
+        let s = test_surfaces::fit(
+            3,
+            3,
+            test_surfaces::clamped(3, &[]),
+            test_surfaces::clamped(3, &[]),
+            |u, v| {
+                let (x, y) = (50.0 * u, 100.0 * v - 50.0);
+                [x, y, 1e-5 * (x * x * x - 3.0 * x * y * y)]
+            },
+        );
+        let a = degenerate_points::find(&s, 32).unwrap();
+        let p = partition(&s, 0.03, &a.points, 1.0);
+        let total: f64 = p.regions.iter().map(|r| r.area_mm2).sum();
+        let whole = polygon_area(
+            &s,
+            &[
+                Vector2::new(0.0, 0.0),
+                Vector2::new(1.0, 0.0),
+                Vector2::new(1.0, 1.0),
+                Vector2::new(0.0, 1.0),
+            ],
+            48,
+        );
+        assert!(
+            !p.regions.is_empty() && (total - whole).abs() / whole < 1e-3,
+            "{total} {whole}"
+        );
+    }
+}
