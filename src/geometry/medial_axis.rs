@@ -24,6 +24,12 @@ use boostvoronoi::prelude::{Builder, Diagram, Line, SourceCategory};
 /// an interior angle above 170 degrees is treated as smooth.
 pub const MIN_OBJECT_ANGLE: f64 = 10.0 * std::f64::consts::PI / 180.0;
 
+/// A polygon vertex turning by less than this (radians; 30 degrees) is read as
+/// one sample of a rounded corner: its corner radius is the radius where its
+/// medial-axis branch meets the others (the fan centre of the arc's vertices),
+/// not 0. Vertices turning more are sharp corners (radius 0).
+pub const SHARP_CORNER_TURN: f64 = 30.0 * std::f64::consts::PI / 180.0;
+
 /// Largest spacing of the samples along curved medial-axis edges, mm.
 const SAMPLE_STEP_MM: f64 = 0.25;
 
@@ -38,6 +44,10 @@ pub struct Branch {
     /// Node indices of the first and last point.
     pub start: usize,
     pub end: usize,
+    /// Object angle (between the directions to the two nearest boundary
+    /// points) of the first and last edge, radians. At a polygon corner it is
+    /// the corner's turning angle.
+    pub end_angles: [f64; 2],
 }
 
 /// A branch point (degree >= 3) or an end point (degree 1) of the medial axis.
@@ -213,6 +223,7 @@ struct KeptEdge {
     v0: usize,
     v1: usize,
     points: Vec<[f64; 3]>,
+    angle: f64,
 }
 
 /// Samples the edge between two Voronoi vertices separated by sites s1 and s2.
@@ -367,15 +378,13 @@ pub fn medial_axis(pocket: &Pocket) -> Result<MedialAxis> {
             v0: v0.usize(),
             v1: v1.usize(),
             points,
+            angle,
         });
     }
     let centre = bd.to_mm(best.1);
     let rmax = best.0 / bd.scale;
     let (branches, nodes) = chain_branches(&kept, vertices.len());
-    let min_corner_radius = nodes
-        .iter()
-        .filter(|n| n.degree == 1)
-        .map(|n| n.r)
+    let min_corner_radius = corner_radii(&branches, &nodes)
         .min_by(f64::total_cmp)
         .unwrap_or(rmax);
     Ok(MedialAxis {
@@ -384,6 +393,32 @@ pub fn medial_axis(pocket: &Pocket) -> Result<MedialAxis> {
         dmax: 2.0 * rmax,
         dmax_center: centre,
         min_corner_radius,
+    })
+}
+
+/// Corner radius at every end point: its r when the axis ends inside (the tip
+/// of a smooth lobe); at a polygon vertex 0 when the vertex is a sharp corner,
+/// else the radius at the other end of its branch.
+fn corner_radii<'a>(branches: &'a [Branch], nodes: &'a [Node]) -> impl Iterator<Item = f64> + 'a {
+    let tiny = 1e-6;
+    branches.iter().flat_map(move |b| {
+        let ends = [
+            (b.start, b.end, b.end_angles[0]),
+            (b.end, b.start, b.end_angles[1]),
+        ];
+        ends.into_iter().filter_map(move |(here, there, angle)| {
+            let n = nodes.get(here)?;
+            if n.degree != 1 {
+                return None;
+            }
+            if n.r > tiny {
+                return Some(n.r);
+            }
+            if angle >= SHARP_CORNER_TURN {
+                return Some(0.0);
+            }
+            nodes.get(there).map(|m| m.r)
+        })
     })
 }
 
@@ -414,30 +449,33 @@ fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<N
         })
     };
     // Walk from vertex `v` along edge `k`, through degree-2 vertices.
-    let walk = |start_v: usize, first: usize, used: &mut Vec<bool>| -> (Vec<[f64; 3]>, usize) {
-        let mut pts: Vec<[f64; 3]> = Vec::new();
-        let (mut v, mut k) = (start_v, first);
-        loop {
-            used[k] = true;
-            let e = &kept[k];
-            let forward = e.v0 == v;
-            let seq: Vec<[f64; 3]> = if forward {
-                e.points.clone()
-            } else {
-                e.points.iter().rev().copied().collect()
-            };
-            let skip = usize::from(!pts.is_empty());
-            pts.extend(seq.into_iter().skip(skip));
-            v = if forward { e.v1 } else { e.v0 };
-            if incident[v].len() != 2 || v == start_v {
-                return (pts, v);
+    let walk =
+        |start_v: usize, first: usize, used: &mut Vec<bool>| -> (Vec<[f64; 3]>, usize, [f64; 2]) {
+            let mut pts: Vec<[f64; 3]> = Vec::new();
+            let (mut v, mut k) = (start_v, first);
+            let first_angle = kept[first].angle;
+            loop {
+                used[k] = true;
+                let e = &kept[k];
+                let angles = [first_angle, e.angle];
+                let forward = e.v0 == v;
+                let seq: Vec<[f64; 3]> = if forward {
+                    e.points.clone()
+                } else {
+                    e.points.iter().rev().copied().collect()
+                };
+                let skip = usize::from(!pts.is_empty());
+                pts.extend(seq.into_iter().skip(skip));
+                v = if forward { e.v1 } else { e.v0 };
+                if incident[v].len() != 2 || v == start_v {
+                    return (pts, v, angles);
+                }
+                match incident[v].iter().copied().find(|&j| !used[j]) {
+                    Some(j) => k = j,
+                    None => return (pts, v, angles),
+                }
             }
-            match incident[v].iter().copied().find(|&j| !used[j]) {
-                Some(j) => k = j,
-                None => return (pts, v),
-            }
-        }
-    };
+        };
     for v in 0..vertex_count {
         if incident[v].is_empty() || incident[v].len() == 2 {
             continue;
@@ -447,7 +485,7 @@ fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<N
             if used[k] {
                 continue;
             }
-            let (pts, w) = walk(v, k, &mut used);
+            let (pts, w, end_angles) = walk(v, k, &mut used);
             let (Some(&first), Some(&last)) = (pts.first(), pts.last()) else {
                 continue;
             };
@@ -457,6 +495,7 @@ fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<N
                 points: pts,
                 start: a,
                 end: b,
+                end_angles,
             });
         }
     }
@@ -466,13 +505,14 @@ fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<N
             continue;
         }
         let v = kept[k].v0;
-        let (pts, _) = walk(v, k, &mut used);
+        let (pts, _, end_angles) = walk(v, k, &mut used);
         let Some(&first) = pts.first() else { continue };
         let a = node_id(v, first, &mut nodes, 2);
         branches.push(Branch {
             points: pts,
             start: a,
             end: a,
+            end_angles,
         });
     }
     (branches, nodes)
@@ -489,6 +529,33 @@ mod tests {
         assert!((ma.dmax - 10.0).abs() < 1e-6);
         assert_eq!(ma.end_points().count(), 4);
         assert!(ma.min_corner_radius < 1e-9);
+    }
+
+    #[test]
+    fn rounded_corners_give_their_radius() {
+        // 40 x 30 rectangle with corners rounded to radius 3, 8 segments per quarter.
+        let (w, h, rc) = (40.0, 30.0, 3.0);
+        let mut outer = Vec::new();
+        for (cx, cy, a0) in [
+            (w - rc, rc, -90.0),
+            (w - rc, h - rc, 0.0),
+            (rc, h - rc, 90.0),
+            (rc, rc, 180.0),
+        ] {
+            for k in 0..=8 {
+                let t = (a0 + 90.0 * k as f64 / 8.0f64).to_radians();
+                outer.push([cx + rc * t.cos(), cy + rc * t.sin()]);
+            }
+        }
+        let p = Pocket::new(&outer, &[]).unwrap();
+        let ma = medial_axis(&p).unwrap();
+        let apothem = rc * (std::f64::consts::PI / 32.0).cos();
+        assert!(
+            (ma.min_corner_radius - apothem).abs() < 1e-3,
+            "{}",
+            ma.min_corner_radius
+        );
+        assert!((ma.dmax - 30.0).abs() < 1e-6);
     }
 
     #[test]

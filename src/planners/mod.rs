@@ -9,6 +9,7 @@ pub mod degenerate_points;
 pub mod iso_parametric;
 pub mod iso_scallop;
 pub mod mpec;
+pub mod pocket;
 pub mod mpec_error_curve;
 pub mod partition;
 pub mod pass_points;

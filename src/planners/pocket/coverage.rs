@@ -1,0 +1,371 @@
+//! What the tools sweep: exact point-to-path distances through a uniform
+//! grid of segments, and a raster of the pocket for the uncut area.
+
+use crate::geometry::pocket::{Pocket, Point2};
+
+/// Segments in a uniform grid of buckets, for nearest-segment queries.
+pub struct SegmentIndex {
+    segs: Vec<(Point2, Point2)>,
+    origin: Point2,
+    cell: f64,
+    nx: usize,
+    ny: usize,
+    buckets: Vec<Vec<u32>>,
+}
+
+/// Nearest point of segment ab to p.
+pub fn segment_foot(a: Point2, b: Point2, p: Point2) -> Point2 {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let l2 = d[0] * d[0] + d[1] * d[1];
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    [a[0] + t * d[0], a[1] + t * d[1]]
+}
+
+fn dist(a: Point2, b: Point2) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+impl SegmentIndex {
+    /// Segments of the polylines (each a list of points; consecutive points joined).
+    pub fn from_polylines<'a>(lines: impl IntoIterator<Item = &'a [Point2]>) -> Self {
+        let mut segs = Vec::new();
+        for l in lines {
+            if l.len() == 1 {
+                segs.push((l[0], l[0]));
+            }
+            segs.extend(l.windows(2).map(|w| (w[0], w[1])));
+        }
+        Self::new(segs)
+    }
+
+    /// Segments of the closed loops of a pocket.
+    pub fn from_pocket(pocket: &Pocket) -> Self {
+        let mut segs = Vec::new();
+        for l in std::iter::once(&pocket.outer).chain(pocket.holes.iter()) {
+            for i in 0..l.len() {
+                segs.push((l[i], l[(i + 1) % l.len()]));
+            }
+        }
+        Self::new(segs)
+    }
+
+    pub fn new(segs: Vec<(Point2, Point2)>) -> Self {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        let mut total = 0.0;
+        for &(a, b) in &segs {
+            for p in [a, b] {
+                for t in 0..2 {
+                    lo[t] = lo[t].min(p[t]);
+                    hi[t] = hi[t].max(p[t]);
+                }
+            }
+            total += dist(a, b);
+        }
+        if segs.is_empty() {
+            lo = [0.0; 2];
+            hi = [0.0; 2];
+        }
+        let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1e-6);
+        // About two segments per bucket along a path, at most 512 x 512 buckets.
+        let mean = total / segs.len().max(1) as f64;
+        let cell = (2.0 * mean).max(extent / 512.0).max(1e-6);
+        let nx = (((hi[0] - lo[0]) / cell).floor() as usize + 1).min(513);
+        let ny = (((hi[1] - lo[1]) / cell).floor() as usize + 1).min(513);
+        let mut buckets: Vec<Vec<u32>> = vec![Vec::new(); nx * ny];
+        let clampi = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
+        for (k, &(a, b)) in segs.iter().enumerate() {
+            let x0 = clampi((a[0].min(b[0]) - lo[0]) / cell, nx);
+            let x1 = clampi((a[0].max(b[0]) - lo[0]) / cell, nx);
+            let y0 = clampi((a[1].min(b[1]) - lo[1]) / cell, ny);
+            let y1 = clampi((a[1].max(b[1]) - lo[1]) / cell, ny);
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    buckets[y * nx + x].push(k as u32);
+                }
+            }
+        }
+        Self {
+            segs,
+            origin: lo,
+            cell,
+            nx,
+            ny,
+            buckets,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.segs.is_empty()
+    }
+
+    /// Nearest point on the segments within `max_dist` of p: (distance, foot).
+    pub fn nearest(&self, p: Point2, max_dist: f64) -> Option<(f64, Point2)> {
+        if self.segs.is_empty() {
+            return None;
+        }
+        let span = |v: f64, o: f64, n: usize| -> (usize, usize) {
+            let lo = ((v - max_dist - o) / self.cell).floor();
+            let hi = ((v + max_dist - o) / self.cell).floor();
+            let lo = lo.max(0.0).min((n - 1) as f64) as usize;
+            let hi = hi.max(0.0).min((n - 1) as f64) as usize;
+            (lo, hi)
+        };
+        let (x0, x1) = span(p[0], self.origin[0], self.nx);
+        let (y0, y1) = span(p[1], self.origin[1], self.ny);
+        let mut best: Option<(f64, Point2)> = None;
+        let mut bound = max_dist;
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                for &k in &self.buckets[y * self.nx + x] {
+                    let (a, b) = self.segs[k as usize];
+                    let f = segment_foot(a, b, p);
+                    let d = dist(f, p);
+                    if d <= bound {
+                        bound = d;
+                        best = Some((d, f));
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    /// Is any segment within `r` of p?
+    pub fn within(&self, p: Point2, r: f64) -> bool {
+        self.nearest(p, r).is_some()
+    }
+}
+
+/// Tools already used: their paths and radii.
+#[derive(Default)]
+pub struct Swept {
+    tools: Vec<(SegmentIndex, f64)>,
+}
+
+impl Swept {
+    pub fn add(&mut self, paths: &[Vec<Point2>], radius: f64) {
+        self.tools.push((
+            SegmentIndex::from_polylines(paths.iter().map(|p| p.as_slice())),
+            radius,
+        ));
+    }
+    /// Is p swept by some tool, with `tol` slack?
+    pub fn covers(&self, p: Point2, tol: f64) -> bool {
+        self.tools.iter().any(|(idx, r)| idx.within(p, r + tol))
+    }
+}
+
+/// A raster of the pocket (cell centres inside the pocket) and which cells
+/// the tools have swept, for the uncut area.
+pub struct Raster {
+    origin: Point2,
+    pub h: f64,
+    nx: usize,
+    ny: usize,
+    /// 0 outside the pocket, 1 inside and uncut, 2 inside and swept.
+    cells: Vec<u8>,
+}
+
+/// The x-interval where the horizontal line at y meets the capsule of radius r around segment ab.
+fn capsule_span(a: Point2, b: Point2, r: f64, y: f64) -> Option<(f64, f64)> {
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for c in [a, b] {
+        let dy = y - c[1];
+        if dy.abs() <= r {
+            let w = (r * r - dy * dy).sqrt();
+            lo = lo.min(c[0] - w);
+            hi = hi.max(c[0] + w);
+        }
+    }
+    // The rectangle a +- r n, b +- r n: intersect its four edges with the line.
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let l = d[0].hypot(d[1]);
+    if l > 0.0 {
+        let n = [-d[1] / l * r, d[0] / l * r];
+        let q = [
+            [a[0] + n[0], a[1] + n[1]],
+            [b[0] + n[0], b[1] + n[1]],
+            [b[0] - n[0], b[1] - n[1]],
+            [a[0] - n[0], a[1] - n[1]],
+        ];
+        for i in 0..4 {
+            let (p0, p1) = (q[i], q[(i + 1) % 4]);
+            if (p0[1] - y) * (p1[1] - y) <= 0.0 && p0[1] != p1[1] {
+                let x = p0[0] + (y - p0[1]) / (p1[1] - p0[1]) * (p1[0] - p0[0]);
+                lo = lo.min(x);
+                hi = hi.max(x);
+            }
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
+impl Raster {
+    /// Cells of size `h` over the pocket's bounding box; a cell belongs to the
+    /// pocket when its centre does (even-odd rule along each row).
+    pub fn new(pocket: &Pocket, h: f64) -> Self {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in &pocket.outer {
+            for t in 0..2 {
+                lo[t] = lo[t].min(p[t]);
+                hi[t] = hi[t].max(p[t]);
+            }
+        }
+        let nx = ((hi[0] - lo[0]) / h).ceil().max(1.0) as usize;
+        let ny = ((hi[1] - lo[1]) / h).ceil().max(1.0) as usize;
+        let mut cells = vec![0u8; nx * ny];
+        let loops: Vec<&Vec<Point2>> = std::iter::once(&pocket.outer)
+            .chain(pocket.holes.iter())
+            .collect();
+        let mut xs: Vec<f64> = Vec::new();
+        for j in 0..ny {
+            let y = lo[1] + (j as f64 + 0.5) * h;
+            xs.clear();
+            for l in &loops {
+                for i in 0..l.len() {
+                    let (a, b) = (l[i], l[(i + 1) % l.len()]);
+                    if (a[1] > y) != (b[1] > y) {
+                        xs.push(a[0] + (y - a[1]) / (b[1] - a[1]) * (b[0] - a[0]));
+                    }
+                }
+            }
+            xs.sort_by(f64::total_cmp);
+            for pair in xs.chunks_exact(2) {
+                let i0 = ((pair[0] - lo[0]) / h - 0.5).ceil().max(0.0) as usize;
+                let i1 = ((pair[1] - lo[0]) / h - 0.5).floor();
+                if i1 < 0.0 {
+                    continue;
+                }
+                let i1 = (i1 as usize).min(nx - 1);
+                for c in cells[j * nx..(j + 1) * nx].iter_mut().take(i1 + 1).skip(i0) {
+                    *c = 1;
+                }
+            }
+        }
+        Self {
+            origin: lo,
+            h,
+            nx,
+            ny,
+            cells,
+        }
+    }
+
+    /// Marks the cells whose centres the tool of radius r sweeps along the paths.
+    pub fn sweep(&mut self, paths: &[Vec<Point2>], r: f64) {
+        let mut rows: Vec<Vec<(f64, f64)>> = vec![Vec::new(); self.ny];
+        let h = self.h;
+        for path in paths {
+            let segs: Vec<(Point2, Point2)> = if path.len() == 1 {
+                vec![(path[0], path[0])]
+            } else {
+                path.windows(2).map(|w| (w[0], w[1])).collect()
+            };
+            for (a, b) in segs {
+                let y0 = ((a[1].min(b[1]) - r - self.origin[1]) / h - 0.5)
+                    .ceil()
+                    .max(0.0) as usize;
+                let y1 = ((a[1].max(b[1]) + r - self.origin[1]) / h - 0.5).floor();
+                if y1 < 0.0 {
+                    continue;
+                }
+                let y1 = (y1 as usize).min(self.ny.saturating_sub(1));
+                for (j, row) in rows.iter_mut().enumerate().take(y1 + 1).skip(y0) {
+                    let y = self.origin[1] + (j as f64 + 0.5) * h;
+                    if let Some(s) = capsule_span(a, b, r, y) {
+                        row.push(s);
+                    }
+                }
+            }
+        }
+        for (j, row) in rows.iter_mut().enumerate() {
+            row.sort_by(|p, q| p.0.total_cmp(&q.0));
+            let line = &mut self.cells[j * self.nx..(j + 1) * self.nx];
+            for &(x0, x1) in row.iter() {
+                let i0 = ((x0 - self.origin[0]) / h - 0.5).ceil().max(0.0) as usize;
+                let i1 = ((x1 - self.origin[0]) / h - 0.5).floor();
+                if i1 < 0.0 {
+                    continue;
+                }
+                let i1 = (i1 as usize).min(self.nx - 1);
+                for c in line.iter_mut().take(i1 + 1).skip(i0) {
+                    if *c == 1 {
+                        *c = 2;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Area of pocket cells not swept yet, mm^2.
+    pub fn uncut_area(&self) -> f64 {
+        self.cells.iter().filter(|&&c| c == 1).count() as f64 * self.h * self.h
+    }
+
+    /// Area of the pocket as rasterised, mm^2.
+    pub fn pocket_area(&self) -> f64 {
+        self.cells.iter().filter(|&&c| c != 0).count() as f64 * self.h * self.h
+    }
+
+    /// Centres of the uncut cells.
+    pub fn uncut_cells(&self) -> Vec<Point2> {
+        let mut out = Vec::new();
+        for j in 0..self.ny {
+            for i in 0..self.nx {
+                if self.cells[j * self.nx + i] == 1 {
+                    out.push([
+                        self.origin[0] + (i as f64 + 0.5) * self.h,
+                        self.origin[1] + (j as f64 + 0.5) * self.h,
+                    ]);
+                }
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn disc_swept_area_matches_pi_r_squared() {
+        let p = Pocket::new(&[[0.0, 0.0], [40.0, 0.0], [40.0, 40.0], [0.0, 40.0]], &[]).unwrap();
+        let mut r = Raster::new(&p, 0.02);
+        assert!((r.pocket_area() - 1600.0).abs() < 1e-6);
+        r.sweep(&[vec![[20.0, 20.0]]], 10.0);
+        let swept = 1600.0 - r.uncut_area();
+        assert!(
+            (swept - std::f64::consts::PI * 100.0).abs() < 0.05,
+            "{swept}"
+        );
+        // A straight stroke: rectangle plus two half discs.
+        let mut r = Raster::new(&p, 0.02);
+        r.sweep(&[vec![[10.0, 10.0], [30.0, 30.0]]], 5.0);
+        let want = 20.0 * 2f64.sqrt() * 10.0 + std::f64::consts::PI * 25.0;
+        assert!((1600.0 - r.uncut_area() - want).abs() < 0.05);
+    }
+
+    #[test]
+    fn nearest_segment_matches_brute_force() {
+        let pts: Vec<Point2> = (0..200)
+            .map(|i| [i as f64 * 0.37, (i as f64 * 0.21).sin() * 5.0])
+            .collect();
+        let idx = SegmentIndex::from_polylines([pts.as_slice()]);
+        for k in 0..50 {
+            let p = [k as f64 * 1.3 - 3.0, (k as f64).cos() * 8.0];
+            let brute = pts
+                .windows(2)
+                .map(|w| dist(segment_foot(w[0], w[1], p), p))
+                .fold(f64::INFINITY, f64::min);
+            let got = idx.nearest(p, 100.0).map(|x| x.0).unwrap();
+            assert!((got - brute).abs() < 1e-12);
+            assert!(!idx.within(p, brute * 0.999));
+        }
+    }
+}
