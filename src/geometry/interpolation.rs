@@ -70,27 +70,97 @@ pub fn interpolate_height_field(
     }
     let ku = clamped_uniform_knots(degree_u, spans_u);
     let kv = clamped_uniform_knots(degree_v, spans_v);
+    // x and y are linear in u and v: exact at the Greville abscissae, only z needs solving.
     let gu = greville(degree_u, &ku);
     let gv = greville(degree_v, &kv);
     let xs: Vec<f64> = gu.iter().map(|u| x0 + (x1 - x0) * u).collect();
     let ys: Vec<f64> = gv.iter().map(|v| y0 + (y1 - y0) * v).collect();
-    let values = DMatrix::from_fn(xs.len(), ys.len(), |i, j| f(xs[i], ys[j]));
-    if values.iter().any(|z| !z.is_finite()) {
-        return Err(Error::invalid(
-            "f",
-            "the height function returned a non-finite value",
-        ));
-    }
-    // Z = Bu^-1 F Bv^-T, solved one direction at a time.
-    let singular = || Error::invalid("knots", "collocation matrix is singular");
-    let bu = collocation(degree_u, &ku, &gu).lu();
-    let bv = collocation(degree_v, &kv, &gv).lu();
-    let x = bu.solve(&values).ok_or_else(singular)?;
-    let zt = bv.solve(&x.transpose()).ok_or_else(singular)?;
+    let z = solve_tensor(degree_u, &ku, &gu, degree_v, &kv, &gv, |i, j| {
+        f(xs[i], ys[j])
+    })?;
     let cps: Vec<Vec<[f64; 3]>> = (0..xs.len())
-        .map(|i| (0..ys.len()).map(|j| [xs[i], ys[j], zt[(j, i)]]).collect())
+        .map(|i| (0..ys.len()).map(|j| [xs[i], ys[j], z[(i, j)]]).collect())
         .collect();
     NurbsSurface::new(degree_u, degree_v, ku, kv, &cps, None)
+}
+
+/// Interpolates a parametric surface `f(u, v)` with a (non-rational) B-spline
+/// on the given knot vectors (any valid ones, uniform or not): the result
+/// agrees with `f` at the Greville abscissae, and equals `f` wherever `f` is a
+/// polynomial of degree <= (degree_u, degree_v) in each span.
+pub fn interpolate_surface(
+    f: impl Fn(f64, f64) -> [f64; 3],
+    degree_u: usize,
+    knots_u: Vec<f64>,
+    degree_v: usize,
+    knots_v: Vec<f64>,
+) -> Result<NurbsSurface> {
+    // Validate the knot vectors through a throw-away surface of the right size.
+    for (name, d, k) in [("u", degree_u, &knots_u), ("v", degree_v, &knots_v)] {
+        if d == 0 || d > MAX_DEGREE || k.len() < 2 * d + 2 {
+            return Err(Error::invalid(
+                format!("knots_{name}"),
+                format!("too short for degree {d}"),
+            ));
+        }
+    }
+    let (cu, cv) = (knots_u.len() - degree_u - 1, knots_v.len() - degree_v - 1);
+    let probe: Vec<Vec<[f64; 3]>> = vec![vec![[0.0; 3]; cv]; cu];
+    NurbsSurface::new(
+        degree_u,
+        degree_v,
+        knots_u.clone(),
+        knots_v.clone(),
+        &probe,
+        None,
+    )?;
+    let gu = greville(degree_u, &knots_u);
+    let gv = greville(degree_v, &knots_v);
+    let samples: Vec<Vec<[f64; 3]>> = gu
+        .iter()
+        .map(|&u| gv.iter().map(|&v| f(u, v)).collect())
+        .collect();
+    let coords = (0..3)
+        .map(|c| {
+            solve_tensor(degree_u, &knots_u, &gu, degree_v, &knots_v, &gv, |i, j| {
+                samples[i][j][c]
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let cps: Vec<Vec<[f64; 3]>> = (0..cu)
+        .map(|i| {
+            (0..cv)
+                .map(|j| [coords[0][(i, j)], coords[1][(i, j)], coords[2][(i, j)]])
+                .collect()
+        })
+        .collect();
+    NurbsSurface::new(degree_u, degree_v, knots_u, knots_v, &cps, None)
+}
+
+/// Control values C with sum_ij N_i(u_k) N_j(v_l) C_ij = values(k, l):
+/// C = Bu^-1 F Bv^-T, solved one direction at a time.
+fn solve_tensor(
+    degree_u: usize,
+    knots_u: &[f64],
+    sites_u: &[f64],
+    degree_v: usize,
+    knots_v: &[f64],
+    sites_v: &[f64],
+    values: impl Fn(usize, usize) -> f64,
+) -> Result<DMatrix<f64>> {
+    let f = DMatrix::from_fn(sites_u.len(), sites_v.len(), values);
+    if f.iter().any(|z| !z.is_finite()) {
+        return Err(Error::invalid(
+            "f",
+            "the interpolated function returned a non-finite value",
+        ));
+    }
+    let singular = || Error::invalid("knots", "collocation matrix is singular");
+    let bu = collocation(degree_u, knots_u, sites_u).lu();
+    let bv = collocation(degree_v, knots_v, sites_v).lu();
+    let x = bu.solve(&f).ok_or_else(singular)?;
+    let ct = bv.solve(&x.transpose()).ok_or_else(singular)?;
+    Ok(ct.transpose())
 }
 
 #[cfg(test)]

@@ -3,9 +3,12 @@
 //! but `error`.
 
 pub mod differential;
+pub mod field_trace;
 pub mod interpolation;
+pub mod inversion;
 pub mod medial_axis;
 pub mod nurbs;
+pub mod plane_intersection;
 pub mod pocket;
 
 pub use differential::LocalGeometry;

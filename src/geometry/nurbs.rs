@@ -277,6 +277,11 @@ impl NurbsSurface {
         self.derivs_order(u, v, 0).p
     }
 
+    /// Position with first partial derivatives only (second ones are zero in the result).
+    pub fn first_derivs(&self, u: f64, v: f64) -> SurfaceDerivs {
+        self.derivs_order(u, v, 1)
+    }
+
     /// Position with first and second partial derivatives.
     pub fn derivs(&self, u: f64, v: f64) -> SurfaceDerivs {
         self.derivs_order(u, v, 2)

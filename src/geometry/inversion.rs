@@ -1,0 +1,255 @@
+//! Point inversion: the closest point on a surface to a point in space.
+//!
+//! Minimises f(u, v) = 1/2 |S(u, v) - q|^2 over the parameter domain. Seeds come
+//! from a coarse grid (a few per knot span); from the best seeds a projected
+//! Newton iteration (Levenberg damping where the Hessian is not positive
+//! definite, coordinates at a bound held fixed while the gradient pushes
+//! outwards, backtracking on f) converges to a local minimum, so points
+//! beyond the edge of the surface land exactly on the boundary.
+
+use super::nurbs::NurbsSurface;
+use nalgebra::{Matrix2, Point3, Vector2};
+
+/// Result of an inversion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClosestPoint {
+    /// Parameters of the closest point (inside the domain, possibly on its boundary).
+    pub uv: Vector2<f64>,
+    /// The closest point on the surface.
+    pub point: Point3<f64>,
+    /// Its distance from the query point, mm.
+    pub distance: f64,
+}
+
+/// Number of grid seeds per direction: a few per knot span, within 8..=64.
+fn seeds_per_direction(knots: &[f64], degree: usize) -> usize {
+    let spans = knots.windows(2).filter(|w| w[1] > w[0]).count();
+    (spans * (degree + 1)).clamp(8, 64)
+}
+
+/// Closest point on `surface` to `q` (global: grid seeds, then Newton from the best few).
+pub fn closest_point(surface: &NurbsSurface, q: &Point3<f64>) -> ClosestPoint {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let nu = seeds_per_direction(surface.knots_u(), surface.degree_u());
+    let nv = seeds_per_direction(surface.knots_v(), surface.degree_v());
+    // Keep the best few seeds (sorted by distance, then index for determinism),
+    // skipping seeds that coincide in space with a kept one: at a degenerate
+    // edge (a pole, a collapsed row) they would all be the same start.
+    const KEEP: usize = 4;
+    let mut best: Vec<(f64, Vector2<f64>, Point3<f64>)> = Vec::with_capacity(KEEP + 1);
+    let (lo, hi) = surface.bounding_box();
+    let same = 1e-9 * (hi - lo).norm();
+    for i in 0..=nu {
+        let u = u0 + (u1 - u0) * i as f64 / nu as f64;
+        for j in 0..=nv {
+            let v = v0 + (v1 - v0) * j as f64 / nv as f64;
+            let p = surface.point(u, v);
+            let d2 = (p - q).norm_squared();
+            if best.len() < KEEP || d2 < best[best.len() - 1].0 {
+                if best.iter().any(|b| (b.2 - p).norm() <= same) {
+                    continue;
+                }
+                let at = best.partition_point(|b| b.0 <= d2);
+                best.insert(at, (d2, Vector2::new(u, v), p));
+                best.truncate(KEEP);
+            }
+        }
+    }
+    let mut result: Option<ClosestPoint> = None;
+    for (_, seed, _) in best {
+        let c = closest_point_near(surface, q, seed);
+        // On a closed surface the minimum may lie just across the seam: restart
+        // from the matching point on the opposite edge when there is one.
+        let mut tries = vec![c];
+        for partner in seam_partners(surface, c.uv, same) {
+            tries.push(closest_point_near(surface, q, partner));
+        }
+        for c in tries {
+            if result.is_none_or(|r| c.distance < r.distance) {
+                result = Some(c);
+            }
+        }
+    }
+    // `best` is never empty: the grid has at least 81 points.
+    result.unwrap_or_else(|| closest_point_near(surface, q, Vector2::new(u0, v0)))
+}
+
+/// Parameters on the opposite edge that map to the same point as `uv` (closed surfaces).
+fn seam_partners(surface: &NurbsSurface, uv: Vector2<f64>, same: f64) -> Vec<Vector2<f64>> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let p = surface.point(uv.x, uv.y);
+    let mut out = Vec::new();
+    let mut candidates = Vec::new();
+    if uv.x == u0 || uv.x == u1 {
+        candidates.push(Vector2::new(u0 + u1 - uv.x, uv.y));
+    }
+    if uv.y == v0 || uv.y == v1 {
+        candidates.push(Vector2::new(uv.x, v0 + v1 - uv.y));
+    }
+    for c in candidates {
+        if (surface.point(c.x, c.y) - p).norm() <= same {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// Local inversion: Newton from `seed` (clamped into the domain). Use this to
+/// follow a moving point when a nearby answer is known; it finds the local
+/// minimum of the distance nearest to the seed.
+pub fn closest_point_near(
+    surface: &NurbsSurface,
+    q: &Point3<f64>,
+    seed: Vector2<f64>,
+) -> ClosestPoint {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let lo = Vector2::new(u0, v0);
+    let hi = Vector2::new(u1, v1);
+    let span = hi - lo;
+    let clamp = |x: Vector2<f64>| Vector2::new(x.x.clamp(u0, u1), x.y.clamp(v0, v1));
+    let mut x = clamp(seed);
+    let mut d = surface.derivs(x.x, x.y);
+    let mut r = d.p - q;
+    let mut f = 0.5 * r.norm_squared();
+    let mut lambda = 0.0f64;
+    for _ in 0..100 {
+        let g = Vector2::new(d.su.dot(&r), d.sv.dot(&r));
+        let h = Matrix2::new(
+            d.su.dot(&d.su) + d.suu.dot(&r),
+            d.su.dot(&d.sv) + d.suv.dot(&r),
+            d.su.dot(&d.sv) + d.suv.dot(&r),
+            d.sv.dot(&d.sv) + d.svv.dot(&r),
+        );
+        // Active set: a coordinate at a bound whose descent direction leaves the domain.
+        let active = [
+            (x.x <= u0 && g.x > 0.0) || (x.x >= u1 && g.x < 0.0),
+            (x.y <= v0 && g.y > 0.0) || (x.y >= v1 && g.y < 0.0),
+        ];
+        let scale = h[(0, 0)].abs() + h[(1, 1)].abs() + 1e-300;
+        let mut accepted = false;
+        for _ in 0..40 {
+            let step = newton_step(&h, &g, active, lambda * scale);
+            let x_new = clamp(x + step);
+            let dn = surface.derivs(x_new.x, x_new.y);
+            let rn = dn.p - q;
+            let f_new = 0.5 * rn.norm_squared();
+            // Near the minimum f stops resolving the position (f changes at
+            // rounding level long before the point settles): there, accept
+            // steps that shrink the free gradient instead.
+            let free_grad = |dd: &crate::geometry::SurfaceDerivs, rr: &nalgebra::Vector3<f64>| {
+                let gx = if active[0] { 0.0 } else { dd.su.dot(rr) };
+                let gy = if active[1] { 0.0 } else { dd.sv.dot(rr) };
+                gx.hypot(gy)
+            };
+            let flat = f_new <= f * (1.0 + 1e-12) && free_grad(&dn, &rn) < free_grad(&d, &r);
+            if f_new <= f || flat {
+                let moved = x_new - x;
+                x = x_new;
+                d = dn;
+                r = rn;
+                let converged =
+                    (moved.x / span.x).abs() + (moved.y / span.y).abs() <= 1e-14 || f_new < 1e-28;
+                f = f_new;
+                lambda = (lambda * 0.1).max(0.0);
+                if lambda < 1e-12 {
+                    lambda = 0.0;
+                }
+                accepted = true;
+                if converged {
+                    return finish(x, d.p, f);
+                }
+                break;
+            }
+            lambda = if lambda == 0.0 { 1e-6 } else { lambda * 10.0 };
+        }
+        if !accepted {
+            break;
+        }
+    }
+    finish(x, d.p, f)
+}
+
+fn finish(uv: Vector2<f64>, p: Point3<f64>, f: f64) -> ClosestPoint {
+    ClosestPoint {
+        uv,
+        point: p,
+        distance: (2.0 * f).sqrt(),
+    }
+}
+
+/// Damped Newton step for the free coordinates (active ones stay put).
+fn newton_step(
+    h: &Matrix2<f64>,
+    g: &Vector2<f64>,
+    active: [bool; 2],
+    damping: f64,
+) -> Vector2<f64> {
+    match active {
+        [true, true] => Vector2::zeros(),
+        [true, false] => Vector2::new(0.0, -g.y / positive(h[(1, 1)] + damping, damping)),
+        [false, true] => Vector2::new(-g.x / positive(h[(0, 0)] + damping, damping), 0.0),
+        [false, false] => {
+            let hd = h + Matrix2::identity() * damping;
+            let det = hd.determinant();
+            // Positive definite: Newton. Otherwise a scaled gradient step (the damping grows until f drops).
+            if hd[(0, 0)] > 0.0 && det > 1e-300 * hd[(0, 0)].abs() * hd[(1, 1)].abs() {
+                -(Matrix2::new(hd[(1, 1)], -hd[(0, 1)], -hd[(1, 0)], hd[(0, 0)]) * g) / det
+            } else {
+                let s = h[(0, 0)].abs() + h[(1, 1)].abs() + damping;
+                -g / s.max(1e-300)
+            }
+        }
+    }
+}
+
+fn positive(x: f64, damping: f64) -> f64 {
+    if x > 0.0 {
+        x
+    } else {
+        x.abs() + damping + 1e-300
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::interpolation::interpolate_height_field;
+
+    #[test]
+    fn points_above_a_paraboloid_project_onto_it() {
+        let s = interpolate_height_field(
+            |x, y| 0.01 * (x * x + y * y),
+            (-20.0, 20.0),
+            (-20.0, 20.0),
+            (3, 2),
+            (3, 2),
+        )
+        .unwrap();
+        let p = s.point(0.3, 0.7);
+        let n = s.normal(0.3, 0.7).unwrap();
+        let q = p + n * 2.0;
+        let c = closest_point(&s, &q);
+        assert!((c.uv - Vector2::new(0.3, 0.7)).norm() < 1e-10, "{:?}", c.uv);
+        assert!((c.distance - 2.0).abs() < 1e-10);
+    }
+
+    #[test]
+    fn points_beyond_the_edge_land_on_the_boundary() {
+        let s = interpolate_height_field(
+            |x, y| 0.1 * x + 0.05 * y,
+            (0.0, 10.0),
+            (0.0, 10.0),
+            (3, 1),
+            (3, 1),
+        )
+        .unwrap();
+        let c = closest_point(&s, &Point3::new(15.0, 5.0, 1.25));
+        assert!(
+            (c.uv.x - 1.0).abs() < 1e-15 && c.uv.y > 0.0 && c.uv.y < 1.0,
+            "{:?}",
+            c.uv
+        );
+        let c = closest_point(&s, &Point3::new(-5.0, -5.0, 0.0));
+        assert_eq!(c.uv, Vector2::new(0.0, 0.0));
+    }
+}
