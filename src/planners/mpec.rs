@@ -1,11 +1,634 @@
-//! Strategy `mpec`: not implemented yet.
+//! Strategy `mpec`: mid-point error control tool positioning for a torus
+//! cutter with wide strips (mpec-torus-5axis-positioning.txt, corrected by
+//! methods.md B).
+//!
+//! Drive curves are iso-parametric curves along `feed_direction`. At every
+//! drive point the tool sits with the middle of its "W" error curve at
+//! +delta and the lead angle is raised by bisection until the dips touch
+//! -delta ([`super::mpec_error_curve`]). A pass's usable width is its
+//! narrowest strip; the next drive curve is placed so that the facing
+//! half-widths of adjacent passes meet, found iteratively on the surface.
+//!
+//! The part is seen by the error-curve core as a height field over the
+//! tangent plane at the drive point. That height field comes from the real
+//! NURBS surface: a quartic least-squares fit of 49 exact surface points
+//! around the drive point, used only when it reproduces them within
+//! delta/50; otherwise every height is found by exact point inversion
+//! (Newton on (u, v)), which is slower but general.
 
+use super::mpec_error_curve::{self as ec, LeadSearch, LocalHeight, SolveError, Status, TorusCutter};
 use super::Progress;
 use crate::error::{Error, Result};
-use crate::formats::{Job, PlanResult};
+use crate::formats::{FeedDirection, Job, Pass, PathPoint, PlanResult};
+use crate::geometry::{LocalGeometry, NurbsSurface, SurfaceDerivs};
+use crate::tools::Tool;
+use nalgebra::{Point3, SMatrix, SVector, Vector2, Vector3};
 
-pub fn plan(_job: &Job, _progress: &dyn Progress) -> Result<PlanResult> {
-    Err(Error::planning(
-        "strategy mpec is not available in this build yet",
-    ))
+/// Drive-point spacing along a pass, mm (the paper: 400 points on ~600 mm).
+pub const POINT_SPACING: f64 = 1.5;
+
+/// Positions and derivatives of the surface, continued past its boundary by
+/// the second-order Taylor expansion at the nearest boundary point, so that
+/// tools overhanging the edge see a smooth continuation.
+pub fn extended_derivs(surface: &NurbsSurface, u: f64, v: f64) -> SurfaceDerivs {
+    let (uc, vc) = surface.clamp_uv(u, v);
+    let d = surface.derivs(uc, vc);
+    let (du, dv) = (u - uc, v - vc);
+    if du == 0.0 && dv == 0.0 {
+        return d;
+    }
+    SurfaceDerivs {
+        p: d.p + d.su * du + d.sv * dv + 0.5 * (d.suu * du * du + 2.0 * d.suv * du * dv + d.svv * dv * dv),
+        su: d.su + d.suu * du + d.suv * dv,
+        sv: d.sv + d.suv * du + d.svv * dv,
+        ..d
+    }
+}
+
+/// The tool's second reference frame at a drive point.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    pub p: Point3<f64>,
+    pub e1: Vector3<f64>,
+    pub e2: Vector3<f64>,
+    pub e3: Vector3<f64>,
+}
+
+impl Frame {
+    pub fn to_world(&self, local: [f64; 3]) -> Point3<f64> {
+        self.p + self.e1 * local[0] + self.e2 * local[1] + self.e3 * local[2]
+    }
+    pub fn dir_to_world(&self, local: [f64; 3]) -> Vector3<f64> {
+        self.e1 * local[0] + self.e2 * local[1] + self.e3 * local[2]
+    }
+}
+
+/// Exact height of the part over the tangent plane: Newton point inversion of
+/// (S(u, v) - P1) . (e1, e2) = (x, y) on the (extended) surface.
+pub struct ExactHeight<'a> {
+    pub surface: &'a NurbsSurface,
+    pub frame: Frame,
+    pub uv: Vector2<f64>,
+}
+
+impl ExactHeight<'_> {
+    fn solve(&self, x: f64, y: f64) -> (SurfaceDerivs, f64, f64, f64) {
+        let f = &self.frame;
+        let mut uv = self.uv;
+        let mut d = extended_derivs(self.surface, uv.x, uv.y);
+        for _ in 0..12 {
+            let r = d.p - f.p;
+            let res = Vector2::new(r.dot(&f.e1) - x, r.dot(&f.e2) - y);
+            let j = nalgebra::Matrix2::new(d.su.dot(&f.e1), d.sv.dot(&f.e1), d.su.dot(&f.e2), d.sv.dot(&f.e2));
+            let Some(ji) = j.try_inverse() else { break };
+            let step = ji * res;
+            uv -= step;
+            d = extended_derivs(self.surface, uv.x, uv.y);
+            if res.norm() < 1e-10 {
+                break;
+            }
+        }
+        let j = nalgebra::Matrix2::new(d.su.dot(&f.e1), d.sv.dot(&f.e1), d.su.dot(&f.e2), d.sv.dot(&f.e2));
+        // dh/dx, dh/dy: the parameter steps that move one unit along e1, e2.
+        let (hx, hy) = j
+            .try_inverse()
+            .map(|ji| {
+                let a = ji * Vector2::new(1.0, 0.0);
+                let b = ji * Vector2::new(0.0, 1.0);
+                ((d.su * a.x + d.sv * a.y).dot(&f.e3), (d.su * b.x + d.sv * b.y).dot(&f.e3))
+            })
+            .unwrap_or((0.0, 0.0));
+        (d, (d.p - f.p).dot(&f.e3), hx, hy)
+    }
+}
+
+impl LocalHeight for ExactHeight<'_> {
+    fn height(&self, x: f64, y: f64) -> (f64, f64, f64) {
+        let (_, h, hx, hy) = self.solve(x, y);
+        (h, hx, hy)
+    }
+}
+
+const FIT_TERMS: usize = 15;
+const FIT_GRID: usize = 7;
+
+/// Quartic height field z = sum c_ij X^i Y^j (i + j <= 4, X = x / L, Y = y / L)
+/// fitted to exact surface points.
+#[derive(Clone, Copy, Debug)]
+pub struct FittedHeight {
+    c: [f64; FIT_TERMS],
+    inv_scale: f64,
+}
+
+#[inline]
+fn monomials(x: f64, y: f64) -> [f64; FIT_TERMS] {
+    let (x2, y2) = (x * x, y * y);
+    [
+        1.0,
+        x,
+        y,
+        x2,
+        x * y,
+        y2,
+        x2 * x,
+        x2 * y,
+        x * y2,
+        y2 * y,
+        x2 * x2,
+        x2 * x * y,
+        x2 * y2,
+        x * y2 * y,
+        y2 * y2,
+    ]
+}
+
+impl LocalHeight for FittedHeight {
+    #[inline]
+    fn height(&self, x: f64, y: f64) -> (f64, f64, f64) {
+        let (x, y) = (x * self.inv_scale, y * self.inv_scale);
+        let c = &self.c;
+        let (x2, y2) = (x * x, y * y);
+        let h = c[0]
+            + c[1] * x
+            + c[2] * y
+            + c[3] * x2
+            + c[4] * x * y
+            + c[5] * y2
+            + c[6] * x2 * x
+            + c[7] * x2 * y
+            + c[8] * x * y2
+            + c[9] * y2 * y
+            + c[10] * x2 * x2
+            + c[11] * x2 * x * y
+            + c[12] * x2 * y2
+            + c[13] * x * y2 * y
+            + c[14] * y2 * y2;
+        let dy = c[2]
+            + c[4] * x
+            + 2.0 * c[5] * y
+            + c[7] * x2
+            + 2.0 * c[8] * x * y
+            + 3.0 * c[9] * y2
+            + c[11] * x2 * x
+            + 2.0 * c[12] * x2 * y
+            + 3.0 * c[13] * x * y2
+            + 4.0 * c[14] * y2 * y;
+        let dx = c[1]
+            + 2.0 * c[3] * x
+            + c[4] * y
+            + 3.0 * c[6] * x2
+            + 2.0 * c[7] * x * y
+            + c[8] * y2
+            + 4.0 * c[10] * x2 * x
+            + 3.0 * c[11] * x2 * y
+            + 2.0 * c[12] * x * y2
+            + c[13] * y2 * y;
+        (h, dx * self.inv_scale, dy * self.inv_scale)
+    }
+}
+
+/// Fits the quartic to a 7 x 7 grid of exact surface points covering the
+/// tool's footprint behind the drive point. Returns the fit and its largest
+/// residual at the fitted points (mm).
+pub fn fit_height(surface: &NurbsSurface, g: &LocalGeometry, frame: &Frame, tool: TorusCutter) -> Option<(FittedHeight, f64)> {
+    let reach = tool.r0 + tool.r;
+    let (x0, x1) = (-(2.0 * tool.r0 + tool.r), tool.r);
+    let (y0, y1) = (-reach, reach);
+    let d = &g.derivs;
+    let j = nalgebra::Matrix2::new(d.su.dot(&frame.e1), d.sv.dot(&frame.e1), d.su.dot(&frame.e2), d.sv.dot(&frame.e2));
+    let ji = j.try_inverse()?;
+    let scale = reach;
+    let mut ata = SMatrix::<f64, FIT_TERMS, FIT_TERMS>::zeros();
+    let mut atb = SVector::<f64, FIT_TERMS>::zeros();
+    let mut samples = [(0.0, 0.0, 0.0); FIT_GRID * FIT_GRID];
+    for a in 0..FIT_GRID {
+        for b in 0..FIT_GRID {
+            let x = x0 + (x1 - x0) * a as f64 / (FIT_GRID - 1) as f64;
+            let y = y0 + (y1 - y0) * b as f64 / (FIT_GRID - 1) as f64;
+            let uv = g.uv + ji * Vector2::new(x, y);
+            let p = extended_derivs(surface, uv.x, uv.y).p - frame.p;
+            let (lx, ly, lz) = (p.dot(&frame.e1) / scale, p.dot(&frame.e2) / scale, p.dot(&frame.e3));
+            samples[a * FIT_GRID + b] = (lx, ly, lz);
+            let m = SVector::<f64, FIT_TERMS>::from(monomials(lx, ly));
+            ata += m * m.transpose();
+            atb += m * lz;
+        }
+    }
+    let c = ata.cholesky()?.solve(&atb);
+    let fit = FittedHeight {
+        c: c.into(),
+        inv_scale: 1.0 / scale,
+    };
+    let residual = samples
+        .iter()
+        .map(|&(x, y, z)| (fit.height(x * scale, y * scale).0 - z).abs())
+        .fold(0.0, f64::max);
+    Some((fit, residual))
+}
+
+/// One positioned drive point.
+#[derive(Clone, Debug)]
+pub struct DrivePoint {
+    pub uv: [f64; 2],
+    pub frame: Frame,
+    pub solution: ec::Solution,
+    /// Inside the surface's parameter domain (false on the run-out past the edge).
+    pub inside: bool,
+}
+
+impl DrivePoint {
+    /// Half-widths towards increasing / decreasing cross parameter.
+    fn half_widths(&self, cross_sign: f64) -> (f64, f64) {
+        if cross_sign > 0.0 {
+            (self.solution.y_right, -self.solution.y_left)
+        } else {
+            (-self.solution.y_left, self.solution.y_right)
+        }
+    }
+
+    pub fn to_path_point(&self, tool: TorusCutter) -> PathPoint {
+        let (tip, axis) = ec::tip_and_axis(tool, self.solution.pos);
+        let f = &self.frame;
+        let cl = f.to_world(tip);
+        let axis = f.dir_to_world(axis).normalize();
+        PathPoint {
+            cc: f.p.into(),
+            cl: cl.into(),
+            axis: axis.into(),
+            uv: self.uv,
+            strip_width: Some(self.solution.strip_width()),
+            feed: Some(f.e1.into()),
+            lead_deg: Some(self.solution.pos.theta.to_degrees()),
+            mpec: Some(
+                match self.solution.status {
+                    Status::Ok => "ok",
+                    Status::NotApplicable => "not_applicable",
+                }
+                .to_string(),
+            ),
+            normal: Some(f.e3.into()),
+            ..Default::default()
+        }
+    }
+}
+
+/// Everything fixed for one job.
+pub struct Planner<'a> {
+    pub surface: &'a NurbsSurface,
+    pub tool: TorusCutter,
+    pub delta: f64,
+    pub feed: FeedDirection,
+    pub theta_min: f64,
+    /// Force exact point inversion for every height (tests; slow).
+    pub exact_heights: bool,
+}
+
+impl<'a> Planner<'a> {
+    /// Validates the job's parameters for MPEC.
+    pub fn from_job(job: &'a Job) -> Result<Self> {
+        let surface = job.surface()?;
+        let Tool::Torus {
+            radius, corner_radius, ..
+        } = job.tool
+        else {
+            return Err(Error::invalid("tool.kind", format!("strategy mpec needs a torus tool, got {}", job.tool.kind())));
+        };
+        if corner_radius >= radius {
+            return Err(Error::invalid(
+                "tool.corner_radius",
+                format!("corner radius {corner_radius} must be smaller than the cutter radius {radius}"),
+            ));
+        }
+        let delta = job.tolerance()?;
+        if !(delta.is_finite() && delta > 0.0) {
+            return Err(Error::invalid("tolerance", format!("must be positive, got {delta}")));
+        }
+        if delta >= 0.5 * corner_radius {
+            return Err(Error::invalid(
+                "tolerance",
+                format!("{delta} mm is not small against the corner radius {corner_radius} mm; MPEC needs delta << r"),
+            ));
+        }
+        if job.side_tilt() != 0.0 {
+            return Err(Error::invalid(
+                "side_tilt_deg",
+                "mpec keeps the side tilt at 0 (as the paper does); remove side_tilt_deg",
+            ));
+        }
+        let theta_min = job.lead_angle();
+        if !(0.0..60f64.to_radians()).contains(&theta_min) {
+            return Err(Error::invalid(
+                "lead_angle_deg",
+                format!("is the smallest lead mpec may use and must be in 0..60 degrees, got {}", theta_min.to_degrees()),
+            ));
+        }
+        Ok(Self {
+            surface,
+            tool: TorusCutter::new(radius, corner_radius),
+            delta,
+            feed: job.feed_direction.unwrap_or(FeedDirection::U),
+            theta_min,
+            exact_heights: false,
+        })
+    }
+
+    /// (u, v) from (feed parameter s, cross parameter t).
+    pub fn uv(&self, s: f64, t: f64) -> (f64, f64) {
+        match self.feed {
+            FeedDirection::U => (s, t),
+            FeedDirection::V => (t, s),
+        }
+    }
+
+    /// Feed and cross parameter ranges.
+    pub fn ranges(&self) -> ((f64, f64), (f64, f64)) {
+        let (du, dv) = self.surface.domain();
+        match self.feed {
+            FeedDirection::U => (du, dv),
+            FeedDirection::V => (dv, du),
+        }
+    }
+
+    /// +1 when e2 points towards increasing cross parameter.
+    fn cross_sign(&self) -> f64 {
+        match self.feed {
+            FeedDirection::U => 1.0,
+            FeedDirection::V => -1.0,
+        }
+    }
+
+    pub fn point(&self, s: f64, t: f64) -> Point3<f64> {
+        let (u, v) = self.uv(s, t);
+        extended_derivs(self.surface, u, v).p
+    }
+
+    /// Frame and geometry at (s, t) on the extended surface.
+    fn local(&self, s: f64, t: f64) -> Result<(LocalGeometry, Frame)> {
+        let (u, v) = self.uv(s, t);
+        let d = extended_derivs(self.surface, u, v);
+        let g = LocalGeometry::from_derivs(Vector2::new(u, v), d)
+            .ok_or_else(|| Error::planning(format!("the surface is degenerate (no normal) at (u, v) = ({u:.6}, {v:.6})")))?;
+        let tangent = match self.feed {
+            FeedDirection::U => d.su,
+            FeedDirection::V => d.sv,
+        };
+        let e3 = g.n;
+        let e1 = (tangent - e3 * tangent.dot(&e3)).normalize();
+        let e2 = e3.cross(&e1);
+        Ok((g, Frame { p: d.p, e1, e2, e3 }))
+    }
+
+    /// Positions the tool at (s, t).
+    pub fn drive_point(&self, s: f64, t: f64, hint: Option<f64>, inside: bool) -> Result<DrivePoint> {
+        let (g, frame) = self.local(s, t)?;
+        let kappa_across = g.normal_curvature(frame.e2);
+        if g.k_max * self.tool.r >= 1.0 {
+            return Err(Error::planning(format!(
+                "at (u, v) = ({:.6}, {:.6}) the surface is too curved for the torus: its concave curvature radius {:.3} mm is smaller than the corner radius {:.3} mm",
+                g.uv.x,
+                g.uv.y,
+                1.0 / g.k_max,
+                self.tool.r
+            )));
+        }
+        let search = LeadSearch {
+            theta_min: self.theta_min,
+            hint,
+            ..LeadSearch::default()
+        };
+        let exact = ExactHeight {
+            surface: self.surface,
+            frame,
+            uv: g.uv,
+        };
+        let fitted = if self.exact_heights {
+            None
+        } else {
+            fit_height(self.surface, &g, &frame, self.tool).filter(|(_, res)| *res <= self.delta / 50.0)
+        };
+        let h: &dyn LocalHeight = match &fitted {
+            Some((fit, _)) => fit,
+            None => &exact,
+        };
+        let solution = ec::solve(self.tool, h, kappa_across, self.delta, &search).map_err(|e| {
+            let (u, v) = (g.uv.x, g.uv.y);
+            match e {
+                SolveError::TooCurved { theta_max, min_error } => Error::planning(format!(
+                    "at (u, v) = ({u:.6}, {v:.6}) the surface is too curved for the torus (R0 {:.3} mm, r {:.3} mm): even at a lead angle of {:.1} deg the error curve dips to {min_error:.4} mm, below -tolerance = {:.4} mm; use a smaller tool or a larger tolerance",
+                    self.tool.r0,
+                    self.tool.r,
+                    theta_max.to_degrees(),
+                    -self.delta
+                )),
+                SolveError::NoStrip => Error::planning(format!(
+                    "at (u, v) = ({u:.6}, {v:.6}) the tool never comes within the tolerance band: no strip"
+                )),
+            }
+        })?;
+        Ok(DrivePoint {
+            uv: [g.uv.x, g.uv.y],
+            frame,
+            solution,
+            inside,
+        })
+    }
+
+    /// Feed parameters of the drive points: the domain at about
+    /// [`POINT_SPACING`], then a run-out of R0 + r past the far edge so that
+    /// the trailing characteristic points (behind the contact, down to
+    /// -2 R0 along the feed) finish the last sections.
+    pub fn feed_samples(&self) -> Vec<(f64, bool)> {
+        let ((s0, s1), (t0, t1)) = self.ranges();
+        let length = |t: f64| {
+            (0..64)
+                .map(|i| {
+                    let a = s0 + (s1 - s0) * i as f64 / 64.0;
+                    let b = s0 + (s1 - s0) * (i + 1) as f64 / 64.0;
+                    (self.point(b, t) - self.point(a, t)).norm()
+                })
+                .sum::<f64>()
+        };
+        let len = [t0, 0.5 * (t0 + t1), t1].into_iter().map(length).fold(0.0, f64::max);
+        let n = ((len / POINT_SPACING).ceil() as usize).max(2);
+        let ds = (s1 - s0) / n as f64;
+        let mut out: Vec<(f64, bool)> = (0..=n).map(|i| (s0 + ds * i as f64, true)).collect();
+        let step_len = len / n as f64;
+        let extra = if step_len > 0.0 {
+            ((self.tool.r0 + self.tool.r) / step_len).ceil() as usize
+        } else {
+            0
+        };
+        out.extend((1..=extra).map(|i| (s1 + ds * i as f64, false)));
+        out
+    }
+
+    /// Positions every drive point of the pass at cross parameter `t`.
+    pub fn pass(&self, t: f64, samples: &[(f64, bool)]) -> Result<Vec<DrivePoint>> {
+        let mut out: Vec<DrivePoint> = Vec::with_capacity(samples.len());
+        for &(s, inside) in samples {
+            let hint = out.last().map(|p| p.solution.pos.theta);
+            out.push(self.drive_point(s, t, hint, inside)?);
+        }
+        Ok(out)
+    }
+
+    /// Narrowest half-widths (towards +cross, towards -cross) over the points inside the surface.
+    fn narrowest(&self, pass: &[DrivePoint]) -> (f64, f64) {
+        let sign = self.cross_sign();
+        pass.iter()
+            .filter(|p| p.inside)
+            .map(|p| p.half_widths(sign))
+            .fold((f64::INFINITY, f64::INFINITY), |(a, b), (c, d)| (a.min(c), b.min(d)))
+    }
+
+    /// Largest distance between the drive curves at `from` and `to`, over the feed samples.
+    pub fn gap(&self, samples: &[(f64, bool)], from: f64, to: f64) -> f64 {
+        samples
+            .iter()
+            .filter(|(_, inside)| *inside)
+            .map(|&(s, _)| (self.point(s, to) - self.point(s, from)).norm())
+            .fold(0.0, f64::max)
+    }
+
+    /// Cross parameter beyond `from` (towards `end`) at which the gap is `target`.
+    pub fn advance(&self, samples: &[(f64, bool)], from: f64, end: f64, target: f64) -> f64 {
+        if self.gap(samples, from, end) <= target {
+            return end;
+        }
+        let (mut a, mut b) = (from, end);
+        for _ in 0..50 {
+            let m = 0.5 * (a + b);
+            if self.gap(samples, from, m) <= target {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        a
+    }
+
+    /// Places the pass after `from` so that `fixed` (the facing half-width of
+    /// the previous pass, or 0 at the boundary) plus the new pass's own
+    /// narrowest facing half-width covers the gap. The new half-width is not
+    /// known before the pass is computed: start from `guess`, compute the pass
+    /// on every fourth drive point, and move it closer until its half-width
+    /// covers the assumption (or further out while it is wider); then compute
+    /// the whole pass and check again.
+    fn place_next(&self, samples: &[(f64, bool)], from: f64, end: f64, fixed: f64, guess: f64) -> Result<(f64, Vec<DrivePoint>)> {
+        let trial: Vec<(f64, bool)> = samples
+            .iter()
+            .enumerate()
+            .filter(|(i, (_, inside))| *inside && (i % 4 == 0 || samples.get(i + 1).is_none_or(|n| !n.1)))
+            .map(|(_, s)| *s)
+            .collect();
+        let facing_of = |pass: &[DrivePoint]| {
+            let (plus, minus) = self.narrowest(pass);
+            if end > from {
+                minus
+            } else {
+                plus
+            }
+        };
+        let mut guess = guess;
+        for _ in 0..6 {
+            let mut accepted: Option<(f64, f64)> = None;
+            for _ in 0..8 {
+                let t = self.advance(samples, from, end, fixed + guess);
+                let facing = facing_of(&self.pass(t, &trial)?);
+                if facing >= guess - 1e-9 {
+                    let widen = facing > guess * 1.01 && t != end;
+                    accepted = Some((t, guess));
+                    if !widen {
+                        break;
+                    }
+                    // Wider than assumed: try placing it further out.
+                    guess = facing;
+                } else if accepted.is_some() {
+                    break;
+                } else {
+                    guess = facing * 0.999;
+                }
+            }
+            let Some((t, used)) = accepted else {
+                break;
+            };
+            let full = self.pass(t, samples)?;
+            let facing = facing_of(&full);
+            if facing >= used - 1e-9 {
+                return Ok((t, full));
+            }
+            guess = facing * 0.999;
+        }
+        Err(Error::planning(format!(
+            "could not place the drive curve after cross parameter {from:.6}: the strip width keeps shrinking"
+        )))
+    }
+}
+
+/// Plans an MPEC job.
+pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+    let planner = Planner::from_job(job)?;
+    plan_with(&planner, &job.job_id, progress)
+}
+
+/// Plans with a prepared [`Planner`] (tests use it to force exact heights).
+pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Result<PlanResult> {
+    let samples = planner.feed_samples();
+    let (_, (t0, t1)) = planner.ranges();
+    let mut passes: Vec<Vec<DrivePoint>> = Vec::new();
+    // First pass: its lower strip edge on the boundary t0.
+    let probe = planner.pass(t0, &samples)?;
+    let (_, minus0) = planner.narrowest(&probe);
+    let (mut t, mut pass) = planner.place_next(&samples, t0, t1, 0.0, minus0)?;
+    loop {
+        let (plus, _) = planner.narrowest(&pass);
+        passes.push(pass);
+        progress.set(((t - t0) / (t1 - t0)).clamp(0.0, 1.0) as f32 * 0.99);
+        if t >= t1 || planner.gap(&samples, t, t1) <= plus {
+            break;
+        }
+        if passes.len() > 10_000 {
+            return Err(Error::planning("more than 10 000 passes: the strips are far too narrow for this surface"));
+        }
+        let (_, minus_prev) = planner.narrowest(passes.last().map(Vec::as_slice).unwrap_or(&[]));
+        let (nt, np) = planner.place_next(&samples, t, t1, plus, minus_prev)?;
+        if nt <= t {
+            return Err(Error::planning(format!(
+                "the drive curves stopped advancing at cross parameter {t:.6}: zero strip width"
+            )));
+        }
+        t = nt;
+        pass = np;
+    }
+    let mut result = PlanResult::new(job_id, "mpec");
+    let mut not_applicable = 0usize;
+    let mut widths = Vec::new();
+    for pass in &passes {
+        let inside: Vec<f64> = pass.iter().filter(|p| p.inside).map(|p| p.solution.strip_width()).collect();
+        widths.extend(inside.iter().copied());
+        not_applicable += pass
+            .iter()
+            .filter(|p| p.inside && p.solution.status == Status::NotApplicable)
+            .count();
+        result.passes.push(Pass {
+            region: 0,
+            points: pass.iter().map(|p| p.to_path_point(planner.tool)).collect(),
+            min_strip_width: Some(inside.iter().copied().fold(f64::INFINITY, f64::min)),
+        });
+    }
+    let mean = widths.iter().sum::<f64>() / widths.len().max(1) as f64;
+    let narrowest = widths.iter().copied().fold(f64::INFINITY, f64::min);
+    result.stats.extra.insert("mean_strip_width_mm".into(), mean);
+    result.stats.extra.insert("min_strip_width_mm".into(), narrowest);
+    result.stats.extra.insert("not_applicable_points".into(), not_applicable as f64);
+    result.warnings.push(format!(
+        "every pass runs {:.1} mm (R0 + r) past the far edge of the surface, on its second-order continuation, so the tool's trailing part finishes the last sections",
+        planner.tool.r0 + planner.tool.r
+    ));
+    if not_applicable > 0 {
+        result.warnings.push(format!(
+            "{not_applicable} drive points are convex (or flat) across the feed: no \"W\" forms there, so MPEC does not apply; they use the conventional position (tool touching, smallest non-gouging lead) with the strip where the scallop stays below the tolerance"
+        ));
+    }
+    Ok(result)
 }

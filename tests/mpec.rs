@@ -1,0 +1,338 @@
+//! Strategy `mpec` against the methods.md B reference and an independent
+//! brute-force sweep of the solid torus along the planned positions.
+
+use toolpath_planner::error::Error;
+use toolpath_planner::formats::{FeedDirection, Job, JobFile, PlanResult, Shape, Strategy};
+use toolpath_planner::geometry::NurbsSurface;
+use toolpath_planner::planners::{self, mpec, NoProgress};
+use toolpath_planner::tools::Tool;
+
+const R: f64 = 31.5;
+const RC: f64 = 6.0;
+const DELTA: f64 = 0.01;
+
+/// z = 1/2 kf x^2 + 1/2 kc y^2 on [-a, a] x [-b, b], exactly, as a biquadratic Bezier patch.
+fn quadric(kf: f64, kc: f64, a: f64, b: f64) -> NurbsSurface {
+    let f = [0.5 * kf * a * a, -0.5 * kf * a * a, 0.5 * kf * a * a];
+    let g = [0.5 * kc * b * b, -0.5 * kc * b * b, 0.5 * kc * b * b];
+    let xs = [-a, 0.0, a];
+    let ys = [-b, 0.0, b];
+    let cps: Vec<Vec<[f64; 3]>> = (0..3)
+        .map(|i| (0..3).map(|j| [xs[i], ys[j], f[i] + g[j]]).collect())
+        .collect();
+    let k = vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+    NurbsSurface::new(2, 2, k.clone(), k, &cps, None).unwrap()
+}
+
+/// Surface of revolution about an axis along y, so that the feed along the
+/// circles (u) is exactly homogeneous: profile z = 1/2 kc y^2 at the drive
+/// line x = 0, feed curvature kf (> 0 concave: axis above, < 0: axis below),
+/// |x| up to about `a`, |y| <= b. Rational biquadratic, exact.
+fn revolved(kf: f64, kc: f64, a: f64, b: f64) -> NurbsSurface {
+    let rho = 1.0 / kf.abs();
+    let s = kf.signum();
+    let alpha = a / rho;
+    let (sa, ca) = alpha.sin_cos();
+    // Unit arc control points (x, z) seen from the axis, and weights.
+    let arc = [(-sa, -s * ca), (0.0, -s / ca), (sa, -s * ca)];
+    let w = [1.0, ca, 1.0];
+    // Profile: distance from the axis d(y) = rho -+ 1/2 kc y^2 as a quadratic Bezier.
+    let ys = [-b, 0.0, b];
+    let e = 0.5 * kc * b * b;
+    let d = [rho - s * e, rho + s * e, rho - s * e];
+    let cps: Vec<Vec<[f64; 3]>> = (0..3)
+        .map(|i| (0..3).map(|j| [d[j] * arc[i].0, ys[j], s * rho + d[j] * arc[i].1]).collect())
+        .collect();
+    let ws: Vec<Vec<f64>> = (0..3).map(|i| vec![w[i]; 3]).collect();
+    let k = vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+    NurbsSurface::new(2, 2, k.clone(), k, &cps, Some(&ws)).unwrap()
+}
+
+fn revolved_height(kf: f64, kc: f64, x: f64, y: f64) -> f64 {
+    let rho = 1.0 / kf.abs();
+    let s = kf.signum();
+    let d = rho - s * 0.5 * kc * y * y;
+    s * (rho - (d * d - x * x).sqrt())
+}
+
+fn job_file(feed: FeedDirection) -> JobFile {
+    JobFile {
+        job_id: "mpec_test".into(),
+        surface: serde_json::Value::Null,
+        strategy: Strategy::Mpec,
+        tool: Tool::Torus {
+            radius: R,
+            corner_radius: RC,
+            length: None,
+        },
+        machine: None,
+        scallop: None,
+        tolerance: Some(DELTA),
+        lead_angle_deg: None,
+        side_tilt_deg: None,
+        feed_direction: Some(feed),
+        feed_rate: None,
+        tool_catalogue: None,
+        section_normal: None,
+        simulation_resolution: None,
+        grinding: None,
+    }
+}
+
+fn plan(surface: NurbsSurface, feed: FeedDirection) -> toolpath_planner::error::Result<PlanResult> {
+    let job = Job::new(job_file(feed), Shape::Surface(surface))?;
+    planners::plan(&job, &NoProgress)
+}
+
+fn inside_points(r: &PlanResult) -> impl Iterator<Item = &toolpath_planner::formats::PathPoint> {
+    r.passes
+        .iter()
+        .flat_map(|p| p.points.iter())
+        .filter(|q| (0.0..=1.0).contains(&q.uv[0]) && (0.0..=1.0).contains(&q.uv[1]))
+}
+
+#[test]
+fn reference_quadric_on_a_nurbs_surface() {
+    let r = plan(quadric(0.0, 1.0 / 1198.0, 100.0, 100.0), FeedDirection::U).unwrap();
+    assert!(r.passes.len() >= 4, "{} passes", r.passes.len());
+    let mut n = 0;
+    for p in inside_points(&r) {
+        n += 1;
+        assert_eq!(p.mpec.as_deref(), Some("ok"));
+        let lead = p.lead_deg.unwrap();
+        assert!((lead - 0.8938).abs() < 0.01, "lead {lead} at {:?}", p.uv);
+        let w = p.strip_width.unwrap();
+        assert!((w - 45.62).abs() < 0.01 * 45.62, "width {w} at {:?}", p.uv);
+    }
+    assert!(n > 100);
+    for pass in &r.passes {
+        let w = pass.min_strip_width.unwrap();
+        assert!((w - 45.62).abs() < 0.01 * 45.62, "{w}");
+    }
+}
+
+#[test]
+fn convex_across_the_feed_is_not_applicable() {
+    let r = plan(quadric(0.0, -1.0 / 1198.0, 100.0, 100.0), FeedDirection::U).unwrap();
+    for p in inside_points(&r) {
+        assert_eq!(p.mpec.as_deref(), Some("not_applicable"));
+        assert!(p.strip_width.unwrap() > 0.0);
+    }
+    assert!(r.warnings.iter().any(|w| w.contains("MPEC does not apply")));
+}
+
+#[test]
+fn bad_input_gives_clear_errors() {
+    let s = quadric(0.0, 1.0 / 1198.0, 100.0, 100.0);
+    let mut f = job_file(FeedDirection::U);
+    f.tool = Tool::Torus {
+        radius: 6.0,
+        corner_radius: 6.0,
+        length: None,
+    };
+    match Job::new(f, Shape::Surface(s.clone())) {
+        Err(Error::Invalid { field, .. }) => assert_eq!(field, "tool.corner_radius"),
+        other => panic!("{other:?}"),
+    }
+    for tol in [0.0, -0.01] {
+        let mut f = job_file(FeedDirection::U);
+        f.tolerance = Some(tol);
+        match Job::new(f, Shape::Surface(s.clone())) {
+            Err(Error::Invalid { field, .. }) => assert_eq!(field, "tolerance"),
+            other => panic!("{other:?}"),
+        }
+    }
+    let mut f = job_file(FeedDirection::U);
+    f.tolerance = None;
+    let job = Job::new(f, Shape::Surface(s.clone())).unwrap();
+    match planners::plan(&job, &NoProgress) {
+        Err(Error::Invalid { field, .. }) => assert_eq!(field, "tolerance"),
+        other => panic!("{other:?}"),
+    }
+    // Curvature radius 4 mm across the feed: smaller than the corner radius.
+    // Radius 20 mm: no lead up to 60 degrees keeps the dips above -delta.
+    for k in [1.0 / 4.0, 1.0 / 20.0] {
+        match plan(quadric(0.0, k, 2.0, 2.0), FeedDirection::U) {
+            Err(Error::Planning { message }) => assert!(message.contains("too curved"), "{message}"),
+            other => panic!("{other:?}"),
+        }
+    }
+}
+
+// ---- brute force: the solid torus swept along the planned positions ----
+
+/// Signed-distance lower bound of the tool solid (flat bottom of radius R0 at
+/// the tip, torus corner r around it, cylinder above) at `q`.
+fn tool_sdf(cl: [f64; 3], axis: [f64; 3], q: [f64; 3]) -> f64 {
+    let d = [q[0] - cl[0], q[1] - cl[1], q[2] - cl[2]];
+    let h = d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2];
+    let rad = [d[0] - h * axis[0], d[1] - h * axis[1], d[2] - h * axis[2]];
+    let rho = (rad[0] * rad[0] + rad[1] * rad[1] + rad[2] * rad[2]).sqrt();
+    let r0 = R - RC;
+    let torus = ((rho - r0).powi(2) + (h - RC).powi(2)).sqrt() - RC;
+    // Inner disk body: rho <= R0, h >= 0 (capped far above).
+    let core = (rho - r0).max(-h).max(h - 200.0);
+    // Outer cylinder above the corner: rho <= R, h >= r.
+    let upper = (rho - R).max(RC - h).max(h - 200.0);
+    torus.min(core).min(upper)
+}
+
+/// Lowest point of the tool on the vertical line through (x, y), searched upwards from z_from.
+fn lowest_on_line(cl: [f64; 3], axis: [f64; 3], x: f64, y: f64, z_from: f64, z_to: f64) -> f64 {
+    let mut z = z_from;
+    for _ in 0..2000 {
+        let d = tool_sdf(cl, axis, [x, y, z]);
+        if d <= 1e-7 {
+            return z;
+        }
+        z += d.max(1e-7);
+        if z > z_to {
+            return f64::INFINITY;
+        }
+    }
+    f64::INFINITY
+}
+
+/// Machined height over (x, y) by the continuous motion through `points` (cl,
+/// axis linearly interpolated): 0.1 mm steps, then the best step refined by
+/// golden section so that no feed-direction cusp of the sampling remains.
+fn envelope(points: &[([f64; 3], [f64; 3])], x: f64, y: f64, z_from: f64, z_to: f64) -> f64 {
+    let at = |a: ([f64; 3], [f64; 3]), b: ([f64; 3], [f64; 3]), t: f64| {
+        let cl = [0, 1, 2].map(|i| a.0[i] + t * (b.0[i] - a.0[i]));
+        let ax = [0, 1, 2].map(|i| a.1[i] + t * (b.1[i] - a.1[i]));
+        let n = (ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2]).sqrt();
+        lowest_on_line(cl, ax.map(|c| c / n), x, y, z_from, z_to)
+    };
+    let mut best = (f64::INFINITY, 0usize, 0.0, 0.0);
+    for (w_i, w) in points.windows(2).enumerate() {
+        let (a, b) = (w[0], w[1]);
+        let len = ((b.0[0] - a.0[0]).powi(2) + (b.0[1] - a.0[1]).powi(2) + (b.0[2] - a.0[2]).powi(2)).sqrt();
+        let dx = (a.0[0] - x).abs().min((b.0[0] - x).abs());
+        let dy = (a.0[1] - y).abs().min((b.0[1] - y).abs());
+        if dx > R + 2.0 || dy > R + 2.0 {
+            continue;
+        }
+        let steps = ((len / 0.1).ceil() as usize).max(1);
+        for k in 0..=steps {
+            let t = k as f64 / steps as f64;
+            let z = at(a, b, t);
+            if z < best.0 {
+                best = (z, w_i, t, 1.0 / steps as f64);
+            }
+        }
+    }
+    if !best.0.is_finite() {
+        return best.0;
+    }
+    let (a, b) = (points[best.1], points[best.1 + 1]);
+    let (mut lo, mut hi) = ((best.2 - best.3).max(0.0), (best.2 + best.3).min(1.0));
+    const G: f64 = 0.618_033_988_749_894_8;
+    for _ in 0..30 {
+        let (m1, m2) = (hi - G * (hi - lo), lo + G * (hi - lo));
+        if at(a, b, m1) <= at(a, b, m2) {
+            hi = m2;
+        } else {
+            lo = m1;
+        }
+    }
+    best.0.min(at(a, b, 0.5 * (lo + hi)))
+}
+
+/// Checks one pass's strip at the section x = x0 against the swept solid tool.
+fn check_strip_by_sweep(kf: f64, kc: f64, heel_free: bool) {
+    let height = |x: f64, y: f64| revolved_height(kf, kc, x, y);
+    let surface = revolved(kf, kc, 80.0, 80.0);
+    // The test surface itself: on the drive line and across it.
+    for (x, y) in [(0.0, 0.0), (0.0, 40.0), (30.0, -20.0)] {
+        let p = surface.point(0.5 + x / 160.0, 0.5 + y / 160.0);
+        assert!((p.z - height(p.x, p.y)).abs() < 1e-9, "{p:?}");
+    }
+    let job = Job::new(job_file(FeedDirection::U), Shape::Surface(surface)).unwrap();
+    let r = planners::plan(&job, &NoProgress).unwrap();
+    // The pass nearest the middle, and its drive point nearest x = 0.
+    let pass = r
+        .passes
+        .iter()
+        .min_by(|a, b| {
+            let ya = a.points[0].cc[1].abs();
+            let yb = b.points[0].cc[1].abs();
+            ya.total_cmp(&yb)
+        })
+        .unwrap();
+    let mid = pass
+        .points
+        .iter()
+        .min_by(|a, b| a.cc[0].abs().total_cmp(&b.cc[0].abs()))
+        .unwrap();
+    assert_eq!(mid.mpec.as_deref(), Some("ok"));
+    let x0 = mid.cc[0];
+    let yc = mid.cc[1];
+    // The same drive curve positioned every 0.15 mm from just behind the
+    // section to past the tool's heel, so that moving linearly between
+    // positions adds no chord error (at the planned 1.5 mm spacing the chord
+    // of a 600 mm feed curvature lifts the tool by about 0.5 um mid-step).
+    let planner = mpec::Planner::from_job(&job).unwrap();
+    let du = 0.15 / 160.0;
+    let dense: Vec<(f64, bool)> = (0..440).map(|i| (mid.uv[0] - 20.0 * du + du * i as f64, true)).collect();
+    let positions: Vec<([f64; 3], [f64; 3])> = planner
+        .pass(mid.uv[1], &dense)
+        .unwrap()
+        .iter()
+        .map(|q| {
+            let p = q.to_path_point(planner.tool);
+            (p.cl, p.axis)
+        })
+        .collect();
+    let err = |y: f64| {
+        let s = height(x0, y);
+        envelope(&positions, x0, y, s - 0.5, s + 0.5) - s
+    };
+    // Middle at +delta, unless the heel (concave feed) cuts it lower, within the band.
+    let middle = err(yc);
+    if heel_free {
+        assert!((middle - DELTA).abs() < 5e-4, "middle {middle}");
+    } else {
+        assert!((-DELTA - 5e-4..=DELTA + 5e-4).contains(&middle), "middle {middle}");
+    }
+    // Scan the strip: within the band, lowest point touching -delta.
+    let mut lowest = f64::INFINITY;
+    let mut inside = vec![];
+    for i in -120..=120 {
+        let y = yc + 0.25 * i as f64;
+        let e = err(y);
+        lowest = lowest.min(e);
+        if e <= DELTA {
+            inside.push(y);
+        }
+    }
+    assert!(lowest >= -DELTA - 5e-4, "gouge {lowest}");
+    assert!(lowest <= -DELTA + 1e-3, "dips do not reach -delta: {lowest}");
+    // Outermost +delta crossings by bisection from the scan.
+    let crossing = |inner: f64, outer: f64| {
+        let (mut a, mut b) = (inner, outer);
+        for _ in 0..30 {
+            let m = 0.5 * (a + b);
+            if err(m) <= DELTA {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        a
+    };
+    let lo = inside.first().copied().unwrap();
+    let hi = inside.last().copied().unwrap();
+    let width = crossing(hi, hi + 0.25) - crossing(lo, lo - 0.25);
+    let claimed = mid.strip_width.unwrap();
+    assert!((width - claimed).abs() < 0.01 * claimed, "swept width {width}, planned {claimed}");
+}
+
+#[test]
+fn strip_with_convex_feed_curvature_matches_the_swept_tool() {
+    check_strip_by_sweep(-1.0 / 500.0, 1.0 / 700.0, true);
+}
+
+#[test]
+fn strip_with_concave_feed_curvature_matches_the_swept_tool() {
+    check_strip_by_sweep(1.0 / 600.0, 1.0 / 900.0, false);
+}
