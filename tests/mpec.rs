@@ -41,7 +41,11 @@ fn revolved(kf: f64, kc: f64, a: f64, b: f64) -> NurbsSurface {
     let e = 0.5 * kc * b * b;
     let d = [rho - s * e, rho + s * e, rho - s * e];
     let cps: Vec<Vec<[f64; 3]>> = (0..3)
-        .map(|i| (0..3).map(|j| [d[j] * arc[i].0, ys[j], s * rho + d[j] * arc[i].1]).collect())
+        .map(|i| {
+            (0..3)
+                .map(|j| [d[j] * arc[i].0, ys[j], s * rho + d[j] * arc[i].1])
+                .collect()
+        })
         .collect();
     let ws: Vec<Vec<f64>> = (0..3).map(|i| vec![w[i]; 3]).collect();
     let k = vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
@@ -153,7 +157,9 @@ fn bad_input_gives_clear_errors() {
     // Radius 20 mm: no lead up to 60 degrees keeps the dips above -delta.
     for k in [1.0 / 4.0, 1.0 / 20.0] {
         match plan(quadric(0.0, k, 2.0, 2.0), FeedDirection::U) {
-            Err(Error::Planning { message }) => assert!(message.contains("too curved"), "{message}"),
+            Err(Error::Planning { message }) => {
+                assert!(message.contains("too curved"), "{message}")
+            }
             other => panic!("{other:?}"),
         }
     }
@@ -206,7 +212,9 @@ fn envelope(points: &[([f64; 3], [f64; 3])], x: f64, y: f64, z_from: f64, z_to: 
     let mut best = (f64::INFINITY, 0usize, 0.0, 0.0);
     for (w_i, w) in points.windows(2).enumerate() {
         let (a, b) = (w[0], w[1]);
-        let len = ((b.0[0] - a.0[0]).powi(2) + (b.0[1] - a.0[1]).powi(2) + (b.0[2] - a.0[2]).powi(2)).sqrt();
+        let len =
+            ((b.0[0] - a.0[0]).powi(2) + (b.0[1] - a.0[1]).powi(2) + (b.0[2] - a.0[2]).powi(2))
+                .sqrt();
         let dx = (a.0[0] - x).abs().min((b.0[0] - x).abs());
         let dy = (a.0[1] - y).abs().min((b.0[1] - y).abs());
         if dx > R + 2.0 || dy > R + 2.0 {
@@ -273,7 +281,9 @@ fn check_strip_by_sweep(kf: f64, kc: f64, heel_free: bool) {
     // of a 600 mm feed curvature lifts the tool by about 0.5 um mid-step).
     let planner = mpec::Planner::from_job(&job).unwrap();
     let du = 0.15 / 160.0;
-    let dense: Vec<(f64, bool)> = (0..440).map(|i| (mid.uv[0] - 20.0 * du + du * i as f64, true)).collect();
+    let dense: Vec<(f64, bool)> = (0..440)
+        .map(|i| (mid.uv[0] - 20.0 * du + du * i as f64, true))
+        .collect();
     let positions: Vec<([f64; 3], [f64; 3])> = planner
         .pass(mid.uv[1], &dense)
         .unwrap()
@@ -292,7 +302,10 @@ fn check_strip_by_sweep(kf: f64, kc: f64, heel_free: bool) {
     if heel_free {
         assert!((middle - DELTA).abs() < 5e-4, "middle {middle}");
     } else {
-        assert!((-DELTA - 5e-4..=DELTA + 5e-4).contains(&middle), "middle {middle}");
+        assert!(
+            (-DELTA - 5e-4..=DELTA + 5e-4).contains(&middle),
+            "middle {middle}"
+        );
     }
     // Scan the strip: within the band, lowest point touching -delta.
     let mut lowest = f64::INFINITY;
@@ -306,7 +319,10 @@ fn check_strip_by_sweep(kf: f64, kc: f64, heel_free: bool) {
         }
     }
     assert!(lowest >= -DELTA - 5e-4, "gouge {lowest}");
-    assert!(lowest <= -DELTA + 1e-3, "dips do not reach -delta: {lowest}");
+    assert!(
+        lowest <= -DELTA + 1e-3,
+        "dips do not reach -delta: {lowest}"
+    );
     // Outermost +delta crossings by bisection from the scan.
     let crossing = |inner: f64, outer: f64| {
         let (mut a, mut b) = (inner, outer);
@@ -324,7 +340,10 @@ fn check_strip_by_sweep(kf: f64, kc: f64, heel_free: bool) {
     let hi = inside.last().copied().unwrap();
     let width = crossing(hi, hi + 0.25) - crossing(lo, lo - 0.25);
     let claimed = mid.strip_width.unwrap();
-    assert!((width - claimed).abs() < 0.01 * claimed, "swept width {width}, planned {claimed}");
+    assert!(
+        (width - claimed).abs() < 0.01 * claimed,
+        "swept width {width}, planned {claimed}"
+    );
 }
 
 #[test]
@@ -335,4 +354,38 @@ fn strip_with_convex_feed_curvature_matches_the_swept_tool() {
 #[test]
 fn strip_with_concave_feed_curvature_matches_the_swept_tool() {
     check_strip_by_sweep(1.0 / 600.0, 1.0 / 900.0, false);
+}
+
+/// The paper's die: every drive point positioned with MPEC, passes spaced by
+/// the strip widths, the whole surface covered.
+#[test]
+fn die_saddle_plan() {
+    let job = toolpath_planner::samples::job("die_saddle").unwrap();
+    let r = planners::plan(&job, &NoProgress).unwrap();
+    let n = r.passes.len();
+    assert!((8..=12).contains(&n), "{n} passes");
+    for p in inside_points(&r) {
+        assert_eq!(p.mpec.as_deref(), Some("ok"));
+        let w = p.strip_width.unwrap();
+        // kc = 1/1198 across the feed everywhere on the drive lines' middle;
+        // the strip stays close to the reference width.
+        assert!(w > 40.0 && w < 50.0, "{w} at {:?}", p.uv);
+    }
+    // Adjacent drive lines are no further apart than the facing narrowest half-widths.
+    for w in r.passes.windows(2) {
+        let gap = w[0]
+            .points
+            .iter()
+            .zip(&w[1].points)
+            .filter(|(a, _)| (0.0..=1.0).contains(&a.uv[0]))
+            .map(|(a, b)| {
+                ((a.cc[0] - b.cc[0]).powi(2)
+                    + (a.cc[1] - b.cc[1]).powi(2)
+                    + (a.cc[2] - b.cc[2]).powi(2))
+                .sqrt()
+            })
+            .fold(0.0, f64::max);
+        let budget = 0.5 * (w[0].min_strip_width.unwrap() + w[1].min_strip_width.unwrap());
+        assert!(gap <= budget + 0.05, "gap {gap} > {budget}");
+    }
 }

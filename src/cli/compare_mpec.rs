@@ -24,7 +24,11 @@ pub fn ball_stepover(rb: f64, kappa: f64, h: f64) -> f64 {
     // Part circle of radius rho about O; ball centres at |OC| = rho -+ rb,
     // the cusp on the bisector at |OQ| = rho -+ h, |QC| = rb.
     let rho = 1.0 / kappa.abs();
-    let (oc, oq) = if kappa > 0.0 { (rho - rb, rho - h) } else { (rho + rb, rho + h) };
+    let (oc, oq) = if kappa > 0.0 {
+        (rho - rb, rho - h)
+    } else {
+        (rho + rb, rho + h)
+    };
     let cos_a = ((oc * oc + oq * oq - rb * rb) / (2.0 * oc * oq)).clamp(-1.0, 1.0);
     2.0 * rho * cos_a.acos()
 }
@@ -89,8 +93,16 @@ pub fn run(job: &Job) -> Result<()> {
         },
     )?;
     let mpec_ms = start.elapsed().as_secs_f64() * 1e3;
-    let mean = result.stats.extra.get("mean_strip_width_mm").copied().unwrap_or(f64::NAN);
-    println!("job {}: torus R {rb} r {} with MPEC, tolerance +-{delta} mm, feed along {:?}", job.job_id, planner.tool.r, planner.feed);
+    let mean = result
+        .stats
+        .extra
+        .get("mean_strip_width_mm")
+        .copied()
+        .unwrap_or(f64::NAN);
+    println!(
+        "job {}: torus R {rb} r {} with MPEC, tolerance +-{delta} mm, feed along {:?}",
+        job.job_id, planner.tool.r, planner.feed
+    );
     println!(
         "{:<34} {:>7} {:>16} {:>16} {:>10}",
         "strategy", "passes", "path_length_mm", "mean_width_mm", "time_ms"
@@ -103,11 +115,17 @@ pub fn run(job: &Job) -> Result<()> {
         mean,
         mpec_ms
     );
-    for (label, h) in [("ball, scallop delta", delta), ("ball, scallop 2 delta (same band)", 2.0 * delta)] {
+    for (label, h) in [
+        ("ball, scallop delta", delta),
+        ("ball, scallop 2 delta (same band)", 2.0 * delta),
+    ] {
         let start = std::time::Instant::now();
         let (passes, length) = ball_passes(&planner, rb, h)?;
         let ms = start.elapsed().as_secs_f64() * 1e3;
-        println!("{:<34} {:>7} {:>16.1} {:>16} {:>10.1}", label, passes, length, "-", ms);
+        println!(
+            "{:<34} {:>7} {:>16.1} {:>16} {:>10.1}",
+            label, passes, length, "-", ms
+        );
         println!(
             "  ball / mpec: {:.1} x the passes, {:.1} x the path length",
             passes as f64 / result.passes.len().max(1) as f64,

@@ -16,7 +16,9 @@
 //! delta/50; otherwise every height is found by exact point inversion
 //! (Newton on (u, v)), which is slower but general.
 
-use super::mpec_error_curve::{self as ec, LeadSearch, LocalHeight, SolveError, Status, TorusCutter};
+use super::mpec_error_curve::{
+    self as ec, LeadSearch, LocalHeight, SolveError, Status, TorusCutter,
+};
 use super::Progress;
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, Pass, PathPoint, PlanResult};
@@ -38,7 +40,10 @@ pub fn extended_derivs(surface: &NurbsSurface, u: f64, v: f64) -> SurfaceDerivs 
         return d;
     }
     SurfaceDerivs {
-        p: d.p + d.su * du + d.sv * dv + 0.5 * (d.suu * du * du + 2.0 * d.suv * du * dv + d.svv * dv * dv),
+        p: d.p
+            + d.su * du
+            + d.sv * dv
+            + 0.5 * (d.suu * du * du + 2.0 * d.suv * du * dv + d.svv * dv * dv),
         su: d.su + d.suu * du + d.suv * dv,
         sv: d.sv + d.suv * du + d.svv * dv,
         ..d
@@ -79,7 +84,12 @@ impl ExactHeight<'_> {
         for _ in 0..12 {
             let r = d.p - f.p;
             let res = Vector2::new(r.dot(&f.e1) - x, r.dot(&f.e2) - y);
-            let j = nalgebra::Matrix2::new(d.su.dot(&f.e1), d.sv.dot(&f.e1), d.su.dot(&f.e2), d.sv.dot(&f.e2));
+            let j = nalgebra::Matrix2::new(
+                d.su.dot(&f.e1),
+                d.sv.dot(&f.e1),
+                d.su.dot(&f.e2),
+                d.sv.dot(&f.e2),
+            );
             let Some(ji) = j.try_inverse() else { break };
             let step = ji * res;
             uv -= step;
@@ -88,14 +98,22 @@ impl ExactHeight<'_> {
                 break;
             }
         }
-        let j = nalgebra::Matrix2::new(d.su.dot(&f.e1), d.sv.dot(&f.e1), d.su.dot(&f.e2), d.sv.dot(&f.e2));
+        let j = nalgebra::Matrix2::new(
+            d.su.dot(&f.e1),
+            d.sv.dot(&f.e1),
+            d.su.dot(&f.e2),
+            d.sv.dot(&f.e2),
+        );
         // dh/dx, dh/dy: the parameter steps that move one unit along e1, e2.
         let (hx, hy) = j
             .try_inverse()
             .map(|ji| {
                 let a = ji * Vector2::new(1.0, 0.0);
                 let b = ji * Vector2::new(0.0, 1.0);
-                ((d.su * a.x + d.sv * a.y).dot(&f.e3), (d.su * b.x + d.sv * b.y).dot(&f.e3))
+                (
+                    (d.su * a.x + d.sv * a.y).dot(&f.e3),
+                    (d.su * b.x + d.sv * b.y).dot(&f.e3),
+                )
             })
             .unwrap_or((0.0, 0.0));
         (d, (d.p - f.p).dot(&f.e3), hx, hy)
@@ -190,12 +208,22 @@ impl LocalHeight for FittedHeight {
 /// Fits the quartic to a 7 x 7 grid of exact surface points covering the
 /// tool's footprint behind the drive point. Returns the fit and its largest
 /// residual at the fitted points (mm).
-pub fn fit_height(surface: &NurbsSurface, g: &LocalGeometry, frame: &Frame, tool: TorusCutter) -> Option<(FittedHeight, f64)> {
+pub fn fit_height(
+    surface: &NurbsSurface,
+    g: &LocalGeometry,
+    frame: &Frame,
+    tool: TorusCutter,
+) -> Option<(FittedHeight, f64)> {
     let reach = tool.r0 + tool.r;
     let (x0, x1) = (-(2.0 * tool.r0 + tool.r), tool.r);
     let (y0, y1) = (-reach, reach);
     let d = &g.derivs;
-    let j = nalgebra::Matrix2::new(d.su.dot(&frame.e1), d.sv.dot(&frame.e1), d.su.dot(&frame.e2), d.sv.dot(&frame.e2));
+    let j = nalgebra::Matrix2::new(
+        d.su.dot(&frame.e1),
+        d.sv.dot(&frame.e1),
+        d.su.dot(&frame.e2),
+        d.sv.dot(&frame.e2),
+    );
     let ji = j.try_inverse()?;
     let scale = reach;
     let mut ata = SMatrix::<f64, FIT_TERMS, FIT_TERMS>::zeros();
@@ -207,7 +235,11 @@ pub fn fit_height(surface: &NurbsSurface, g: &LocalGeometry, frame: &Frame, tool
             let y = y0 + (y1 - y0) * b as f64 / (FIT_GRID - 1) as f64;
             let uv = g.uv + ji * Vector2::new(x, y);
             let p = extended_derivs(surface, uv.x, uv.y).p - frame.p;
-            let (lx, ly, lz) = (p.dot(&frame.e1) / scale, p.dot(&frame.e2) / scale, p.dot(&frame.e3));
+            let (lx, ly, lz) = (
+                p.dot(&frame.e1) / scale,
+                p.dot(&frame.e2) / scale,
+                p.dot(&frame.e3),
+            );
             samples[a * FIT_GRID + b] = (lx, ly, lz);
             let m = SVector::<f64, FIT_TERMS>::from(monomials(lx, ly));
             ata += m * m.transpose();
@@ -288,20 +320,30 @@ impl<'a> Planner<'a> {
     pub fn from_job(job: &'a Job) -> Result<Self> {
         let surface = job.surface()?;
         let Tool::Torus {
-            radius, corner_radius, ..
+            radius,
+            corner_radius,
+            ..
         } = job.tool
         else {
-            return Err(Error::invalid("tool.kind", format!("strategy mpec needs a torus tool, got {}", job.tool.kind())));
+            return Err(Error::invalid(
+                "tool.kind",
+                format!("strategy mpec needs a torus tool, got {}", job.tool.kind()),
+            ));
         };
         if corner_radius >= radius {
             return Err(Error::invalid(
                 "tool.corner_radius",
-                format!("corner radius {corner_radius} must be smaller than the cutter radius {radius}"),
+                format!(
+                    "corner radius {corner_radius} must be smaller than the cutter radius {radius}"
+                ),
             ));
         }
         let delta = job.tolerance()?;
         if !(delta.is_finite() && delta > 0.0) {
-            return Err(Error::invalid("tolerance", format!("must be positive, got {delta}")));
+            return Err(Error::invalid(
+                "tolerance",
+                format!("must be positive, got {delta}"),
+            ));
         }
         if delta >= 0.5 * corner_radius {
             return Err(Error::invalid(
@@ -319,7 +361,10 @@ impl<'a> Planner<'a> {
         if !(0.0..60f64.to_radians()).contains(&theta_min) {
             return Err(Error::invalid(
                 "lead_angle_deg",
-                format!("is the smallest lead mpec may use and must be in 0..60 degrees, got {}", theta_min.to_degrees()),
+                format!(
+                    "is the smallest lead mpec may use and must be in 0..60 degrees, got {}",
+                    theta_min.to_degrees()
+                ),
             ));
         }
         Ok(Self {
@@ -366,8 +411,11 @@ impl<'a> Planner<'a> {
     fn local(&self, s: f64, t: f64) -> Result<(LocalGeometry, Frame)> {
         let (u, v) = self.uv(s, t);
         let d = extended_derivs(self.surface, u, v);
-        let g = LocalGeometry::from_derivs(Vector2::new(u, v), d)
-            .ok_or_else(|| Error::planning(format!("the surface is degenerate (no normal) at (u, v) = ({u:.6}, {v:.6})")))?;
+        let g = LocalGeometry::from_derivs(Vector2::new(u, v), d).ok_or_else(|| {
+            Error::planning(format!(
+                "the surface is degenerate (no normal) at (u, v) = ({u:.6}, {v:.6})"
+            ))
+        })?;
         let tangent = match self.feed {
             FeedDirection::U => d.su,
             FeedDirection::V => d.sv,
@@ -379,7 +427,13 @@ impl<'a> Planner<'a> {
     }
 
     /// Positions the tool at (s, t).
-    pub fn drive_point(&self, s: f64, t: f64, hint: Option<f64>, inside: bool) -> Result<DrivePoint> {
+    pub fn drive_point(
+        &self,
+        s: f64,
+        t: f64,
+        hint: Option<f64>,
+        inside: bool,
+    ) -> Result<DrivePoint> {
         let (g, frame) = self.local(s, t)?;
         let kappa_across = g.normal_curvature(frame.e2);
         if g.k_max * self.tool.r >= 1.0 {
@@ -404,7 +458,8 @@ impl<'a> Planner<'a> {
         let fitted = if self.exact_heights {
             None
         } else {
-            fit_height(self.surface, &g, &frame, self.tool).filter(|(_, res)| *res <= self.delta / 50.0)
+            fit_height(self.surface, &g, &frame, self.tool)
+                .filter(|(_, res)| *res <= self.delta / 50.0)
         };
         let h: &dyn LocalHeight = match &fitted {
             Some((fit, _)) => fit,
@@ -448,7 +503,10 @@ impl<'a> Planner<'a> {
                 })
                 .sum::<f64>()
         };
-        let len = [t0, 0.5 * (t0 + t1), t1].into_iter().map(length).fold(0.0, f64::max);
+        let len = [t0, 0.5 * (t0 + t1), t1]
+            .into_iter()
+            .map(length)
+            .fold(0.0, f64::max);
         let n = ((len / POINT_SPACING).ceil() as usize).max(2);
         let ds = (s1 - s0) / n as f64;
         let mut out: Vec<(f64, bool)> = (0..=n).map(|i| (s0 + ds * i as f64, true)).collect();
@@ -478,7 +536,9 @@ impl<'a> Planner<'a> {
         pass.iter()
             .filter(|p| p.inside)
             .map(|p| p.half_widths(sign))
-            .fold((f64::INFINITY, f64::INFINITY), |(a, b), (c, d)| (a.min(c), b.min(d)))
+            .fold((f64::INFINITY, f64::INFINITY), |(a, b), (c, d)| {
+                (a.min(c), b.min(d))
+            })
     }
 
     /// Largest distance between the drive curves at `from` and `to`, over the feed samples.
@@ -514,11 +574,20 @@ impl<'a> Planner<'a> {
     /// on every fourth drive point, and move it closer until its half-width
     /// covers the assumption (or further out while it is wider); then compute
     /// the whole pass and check again.
-    fn place_next(&self, samples: &[(f64, bool)], from: f64, end: f64, fixed: f64, guess: f64) -> Result<(f64, Vec<DrivePoint>)> {
+    fn place_next(
+        &self,
+        samples: &[(f64, bool)],
+        from: f64,
+        end: f64,
+        fixed: f64,
+        guess: f64,
+    ) -> Result<(f64, Vec<DrivePoint>)> {
         let trial: Vec<(f64, bool)> = samples
             .iter()
             .enumerate()
-            .filter(|(i, (_, inside))| *inside && (i % 4 == 0 || samples.get(i + 1).is_none_or(|n| !n.1)))
+            .filter(|(i, (_, inside))| {
+                *inside && (i % 4 == 0 || samples.get(i + 1).is_none_or(|n| !n.1))
+            })
             .map(|(_, s)| *s)
             .collect();
         let facing_of = |pass: &[DrivePoint]| {
@@ -588,7 +657,9 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
             break;
         }
         if passes.len() > 10_000 {
-            return Err(Error::planning("more than 10 000 passes: the strips are far too narrow for this surface"));
+            return Err(Error::planning(
+                "more than 10 000 passes: the strips are far too narrow for this surface",
+            ));
         }
         let (_, minus_prev) = planner.narrowest(passes.last().map(Vec::as_slice).unwrap_or(&[]));
         let (nt, np) = planner.place_next(&samples, t, t1, plus, minus_prev)?;
@@ -604,7 +675,11 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
     let mut not_applicable = 0usize;
     let mut widths = Vec::new();
     for pass in &passes {
-        let inside: Vec<f64> = pass.iter().filter(|p| p.inside).map(|p| p.solution.strip_width()).collect();
+        let inside: Vec<f64> = pass
+            .iter()
+            .filter(|p| p.inside)
+            .map(|p| p.solution.strip_width())
+            .collect();
         widths.extend(inside.iter().copied());
         not_applicable += pass
             .iter()
@@ -618,9 +693,18 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
     }
     let mean = widths.iter().sum::<f64>() / widths.len().max(1) as f64;
     let narrowest = widths.iter().copied().fold(f64::INFINITY, f64::min);
-    result.stats.extra.insert("mean_strip_width_mm".into(), mean);
-    result.stats.extra.insert("min_strip_width_mm".into(), narrowest);
-    result.stats.extra.insert("not_applicable_points".into(), not_applicable as f64);
+    result
+        .stats
+        .extra
+        .insert("mean_strip_width_mm".into(), mean);
+    result
+        .stats
+        .extra
+        .insert("min_strip_width_mm".into(), narrowest);
+    result
+        .stats
+        .extra
+        .insert("not_applicable_points".into(), not_applicable as f64);
     result.warnings.push(format!(
         "every pass runs {:.1} mm (R0 + r) past the far edge of the surface, on its second-order continuation, so the tool's trailing part finishes the last sections",
         planner.tool.r0 + planner.tool.r

@@ -101,7 +101,13 @@ pub fn tip_and_axis(tool: TorusCutter, pos: Position) -> ([f64; 3], [f64; 3]) {
 /// concave feed curve: methods.md B evaluates only at cx, which the swept-tool
 /// check in tests/mpec.rs shows to miss gouges of r (dh/dx)^2 / 2).
 #[inline]
-fn sphere_error(tool: TorusCutter, pos: Position, h: &dyn LocalHeight, psi: f64, y: f64) -> Option<f64> {
+fn sphere_error(
+    tool: TorusCutter,
+    pos: Position,
+    h: &dyn LocalHeight,
+    psi: f64,
+    y: f64,
+) -> Option<f64> {
     let c = sphere_centre(tool, pos, psi);
     let t = y - c[1];
     let rho2 = tool.r * tool.r - t * t;
@@ -203,10 +209,17 @@ fn minimum_candidates(tool: TorusCutter, pos: Position, h: &dyn LocalHeight) -> 
 }
 
 /// Golden-section refinement of each candidate within one sample step.
-fn refine_minimum(tool: TorusCutter, pos: Position, h: &dyn LocalHeight, cands: &[f64]) -> (f64, f64) {
+fn refine_minimum(
+    tool: TorusCutter,
+    pos: Position,
+    h: &dyn LocalHeight,
+    cands: &[f64],
+) -> (f64, f64) {
     let mut best = (f64::INFINITY, 0.0);
     for &c in cands {
-        let (psi, v) = golden_min(c - PSI_STEP, c + PSI_STEP, 16, |p| sphere_clearance(tool, pos, h, p));
+        let (psi, v) = golden_min(c - PSI_STEP, c + PSI_STEP, 16, |p| {
+            sphere_clearance(tool, pos, h, p)
+        });
         if v < best.0 {
             best = (v, psi);
         }
@@ -249,7 +262,12 @@ pub fn error_at(tool: TorusCutter, pos: Position, h: &dyn LocalHeight, y: f64) -
 /// Cross offsets of the outermost crossings of `level` by the error curve,
 /// (y_left, y_right) with y_left <= 0 <= y_right when the middle is below `level`.
 /// `None` when the curve never gets below `level`.
-pub fn outer_crossings(tool: TorusCutter, pos: Position, h: &dyn LocalHeight, level: f64) -> Option<(f64, f64)> {
+pub fn outer_crossings(
+    tool: TorusCutter,
+    pos: Position,
+    h: &dyn LocalHeight,
+    level: f64,
+) -> Option<(f64, f64)> {
     let reach = tool.r0 + tool.r;
     let side = |sign: f64| -> Option<f64> {
         // Scan inwards from the tool's outer edge for the first point at or
@@ -343,9 +361,18 @@ impl Default for LeadSearch {
 /// dips are tracked from one sampling of the whole circle; the result is
 /// checked with a fresh sampling and the search repeated with it if a new
 /// minimum turned up.
-fn bisect_lead(tool: TorusCutter, h: &dyn LocalHeight, middle: f64, floor: f64, s: &LeadSearch) -> Result<f64, SolveError> {
+fn bisect_lead(
+    tool: TorusCutter,
+    h: &dyn LocalHeight,
+    middle: f64,
+    floor: f64,
+    s: &LeadSearch,
+) -> Result<f64, SolveError> {
     let at = |theta: f64| Position { theta, middle };
-    let start = s.hint.unwrap_or(s.theta_min).clamp(s.theta_min, s.theta_max);
+    let start = s
+        .hint
+        .unwrap_or(s.theta_min)
+        .clamp(s.theta_min, s.theta_max);
     let mut cands = minimum_candidates(tool, at(start), h);
     for _ in 0..3 {
         let ok = |theta: f64| refine_minimum(tool, at(theta), h, &cands).0 >= floor;
@@ -514,7 +541,11 @@ mod tests {
             let y = -31.0 + 62.0 * i as f64 / 124.0;
             let e = dense(y);
             lowest = lowest.min(e);
-            assert!((e - error_at(t, s.pos, &h, y)).abs() < 2e-4, "y {y}: dense {e}, solver {}", error_at(t, s.pos, &h, y));
+            assert!(
+                (e - error_at(t, s.pos, &h, y)).abs() < 2e-4,
+                "y {y}: dense {e}, solver {}",
+                error_at(t, s.pos, &h, y)
+            );
             if y > s.y_left + 0.05 && y < s.y_right - 0.05 {
                 assert!((-0.01 - 1e-5..=0.01 + 1e-6).contains(&e), "y {y}: {e}");
             }
