@@ -7,6 +7,7 @@ mod compare_mpec;
 mod compare_pocket;
 mod demo;
 mod inspect;
+mod ipc_publish;
 mod node;
 mod plan;
 mod plot;
@@ -117,6 +118,21 @@ pub enum Command {
         #[arg(long)]
         publish: bool,
     },
+    /// Publish a result file over iceoryx2 (the zero-copy toolpath service; layout in docs/formats.md).
+    IpcPublish {
+        result: PathBuf,
+        #[arg(long, default_value = crate::ipc::SERVICE_NAME)]
+        service: String,
+        /// iceoryx2 file-name prefix (default: iceoryx2's own).
+        #[arg(long)]
+        prefix: Option<String>,
+        /// Send the result this many times...
+        #[arg(long, default_value_t = 1)]
+        repeat: u32,
+        /// ... this many milliseconds apart.
+        #[arg(long, default_value_t = 100)]
+        interval_ms: u64,
+    },
     /// Draw a result as PNG or SVG.
     Plot {
         result: PathBuf,
@@ -156,6 +172,13 @@ pub fn run() -> i32 {
             check,
             publish,
         } => replay::run(&bag, check, publish),
+        Command::IpcPublish {
+            result,
+            service,
+            prefix,
+            repeat,
+            interval_ms,
+        } => ipc_publish::run(&result, &service, prefix.as_deref(), repeat, interval_ms),
         Command::Plot {
             result,
             job,
