@@ -22,10 +22,25 @@ pub fn from_value<T: DeserializeOwned>(value: serde_json::Value) -> Result<T> {
     })
 }
 
-/// Parses JSON text; syntax errors give line and column.
+/// Parses JSON text; syntax errors give line and column, and the path of the
+/// value being read when the error struck (e.g. a number out of range such as
+/// 1e999, which JSON cannot hold as a finite f64).
 pub fn parse_json(text: &str, what: &str) -> Result<serde_json::Value> {
-    serde_json::from_str(text)
-        .map_err(|e| Error::invalid("", format!("{what} is not valid JSON: {e}")))
+    let mut de = serde_json::Deserializer::from_str(text);
+    let value: serde_json::Value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = e.path().to_string();
+        let path = if path == "." { String::new() } else { path };
+        let inner = e.into_inner();
+        let hint = if inner.to_string().starts_with("number out of range") {
+            " (numbers must be finite)"
+        } else {
+            ""
+        };
+        Error::invalid(path, format!("{what} is not valid JSON: {inner}{hint}"))
+    })?;
+    de.end()
+        .map_err(|e| Error::invalid("", format!("{what} is not valid JSON: {e}")))?;
+    Ok(value)
 }
 
 fn read_text(path: &Path) -> Result<String> {
