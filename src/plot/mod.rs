@@ -242,12 +242,21 @@ pub fn colormap(t: f64) -> (u8, u8, u8) {
     render::colormap(t)
 }
 
-/// The residual-height map of a milling result, from the scallop simulator.
-/// `None` for pockets and belt grinding, and while the simulator is not part
-/// of this build.
+/// The residual-height map of a milling result, from the scallop simulator
+/// (at the job's simulation resolution). `None` for pockets and belt grinding.
 pub fn residual_for(
-    _job: &crate::formats::Job,
-    _result: &PlanResult,
+    job: &crate::formats::Job,
+    result: &PlanResult,
 ) -> Result<Option<ResidualOverlay>> {
-    Ok(None)
+    if !crate::pipeline::is_milling(job.strategy) || result.passes.is_empty() {
+        return Ok(None);
+    }
+    let report = crate::pipeline::verify_milling(job, result)?;
+    let map = report.map;
+    Ok(Some(ResidualOverlay {
+        nu: map.nu,
+        nv: map.nv,
+        xyz: map.xyz,
+        residual: map.residual,
+    }))
 }

@@ -38,6 +38,10 @@ const WEDGE: (u8, u8, u8) = (0, 0, 200);
 const SEPARATRIX: (u8, u8, u8) = (0, 0, 0);
 const FEED: (u8, u8, u8) = (60, 60, 60);
 const OUTLINE: (u8, u8, u8) = (150, 150, 150);
+/// Cells where the tool cut below the surface (negative residual).
+pub const GOUGE: (u8, u8, u8) = (230, 0, 0);
+/// Residuals below this (mm) count as gouges, not round-off.
+const GOUGE_TOL: f64 = 1e-4;
 /// Residual samples the simulator left uncut.
 pub const UNCUT: (u8, u8, u8) = (255, 0, 255);
 
@@ -407,6 +411,12 @@ impl Scene {
             .is_some_and(|m| m.residual.iter().any(|x| x.is_none()))
         {
             self.legend.push((UNCUT, "uncut".into()));
+        }
+        if input
+            .residual
+            .is_some_and(|m| m.residual.iter().flatten().any(|&x| x < -GOUGE_TOL))
+        {
+            self.legend.push((GOUGE, "gouge".into()));
         }
     }
 
@@ -801,6 +811,8 @@ fn residual_quads(map: &super::ResidualOverlay, panel: &Panel, max: f64, d: &mut
                 .collect();
             let color = if known.len() < vals.len() {
                 UNCUT
+            } else if known.iter().any(|&x| x < -GOUGE_TOL) {
+                GOUGE
             } else {
                 let mean = known.iter().sum::<f64>() / known.len() as f64;
                 colormap(if max > 0.0 { mean / max } else { 0.0 })
