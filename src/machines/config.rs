@@ -1,0 +1,256 @@
+//! Machine geometry and joint limits as written in launch_configs/*.yaml.
+//! Lengths in mm, angles in degrees at this edge (`_deg` fields); converted to
+//! mm and radians by [`JointLimit`].
+
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+
+/// A linear axis: travel, velocity and acceleration limits.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinearAxis {
+    pub min_mm: f64,
+    pub max_mm: f64,
+    pub max_velocity_mm_s: f64,
+    pub max_acceleration_mm_s2: f64,
+}
+
+/// A rotary axis: travel, velocity and acceleration limits in degrees.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RotaryAxis {
+    pub min_deg: f64,
+    pub max_deg: f64,
+    pub max_velocity_deg_s: f64,
+    pub max_acceleration_deg_s2: f64,
+}
+
+/// Limits of one joint in internal units (mm or rad).
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointLimit {
+    pub name: &'static str,
+    pub rotary: bool,
+    pub min: f64,
+    pub max: f64,
+    pub max_velocity: f64,
+    pub max_acceleration: f64,
+}
+
+impl LinearAxis {
+    pub const fn new(min_mm: f64, max_mm: f64, max_velocity_mm_s: f64, max_acceleration_mm_s2: f64) -> Self {
+        Self {
+            min_mm,
+            max_mm,
+            max_velocity_mm_s,
+            max_acceleration_mm_s2,
+        }
+    }
+    pub fn limit(&self, name: &'static str) -> JointLimit {
+        JointLimit {
+            name,
+            rotary: false,
+            min: self.min_mm,
+            max: self.max_mm,
+            max_velocity: self.max_velocity_mm_s,
+            max_acceleration: self.max_acceleration_mm_s2,
+        }
+    }
+    fn validate(&self, field: &str) -> Result<()> {
+        check_range(field, "min_mm", self.min_mm, "max_mm", self.max_mm)?;
+        positive(&format!("{field}.max_velocity_mm_s"), self.max_velocity_mm_s)?;
+        positive(&format!("{field}.max_acceleration_mm_s2"), self.max_acceleration_mm_s2)
+    }
+}
+
+impl RotaryAxis {
+    pub const fn new(min_deg: f64, max_deg: f64, max_velocity_deg_s: f64, max_acceleration_deg_s2: f64) -> Self {
+        Self {
+            min_deg,
+            max_deg,
+            max_velocity_deg_s,
+            max_acceleration_deg_s2,
+        }
+    }
+    pub fn limit(&self, name: &'static str) -> JointLimit {
+        JointLimit {
+            name,
+            rotary: true,
+            min: self.min_deg.to_radians(),
+            max: self.max_deg.to_radians(),
+            max_velocity: self.max_velocity_deg_s.to_radians(),
+            max_acceleration: self.max_acceleration_deg_s2.to_radians(),
+        }
+    }
+    fn validate(&self, field: &str) -> Result<()> {
+        check_range(field, "min_deg", self.min_deg, "max_deg", self.max_deg)?;
+        positive(&format!("{field}.max_velocity_deg_s"), self.max_velocity_deg_s)?;
+        positive(&format!("{field}.max_acceleration_deg_s2"), self.max_acceleration_deg_s2)
+    }
+}
+
+fn positive(field: &str, x: f64) -> Result<()> {
+    if !x.is_finite() || x <= 0.0 {
+        return Err(Error::invalid(field, format!("must be a positive finite number, got {x}")));
+    }
+    Ok(())
+}
+
+fn finite(field: &str, x: f64) -> Result<()> {
+    if !x.is_finite() {
+        return Err(Error::invalid(field, format!("{x} is not a finite number")));
+    }
+    Ok(())
+}
+
+fn check_range(field: &str, lo_name: &str, lo: f64, hi_name: &str, hi: f64) -> Result<()> {
+    finite(&format!("{field}.{lo_name}"), lo)?;
+    finite(&format!("{field}.{hi_name}"), hi)?;
+    if lo >= hi {
+        return Err(Error::invalid(
+            format!("{field}.{hi_name}"),
+            format!("{hi} must be greater than {lo_name} {lo}"),
+        ));
+    }
+    Ok(())
+}
+
+/// The 5-axis gantry mill with an A/C swivel head (joints X Y Z A C).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Mill5Config {
+    /// Distance from the A/C pivot to the spindle gauge line, mm; the tool's
+    /// length is added per job.
+    pub pivot_length_mm: f64,
+    /// Machine X Y Z of the pivot when the tool tip is at the workpiece origin
+    /// with the tool vertical, minus the pivot length: i.e. the machine
+    /// coordinates of the workpiece frame's origin. Frames are parallel.
+    pub workpiece_origin_mm: [f64; 3],
+    pub max_feed_rate_mm_min: f64,
+    /// Retract along the tool axis before and after each pass, mm.
+    pub retract_mm: f64,
+    pub x: LinearAxis,
+    pub y: LinearAxis,
+    pub z: LinearAxis,
+    pub a: RotaryAxis,
+    pub c: RotaryAxis,
+}
+
+impl Default for Mill5Config {
+    fn default() -> Self {
+        Self {
+            pivot_length_mm: 250.0,
+            workpiece_origin_mm: [2500.0, 1000.0, 300.0],
+            max_feed_rate_mm_min: 4000.0,
+            retract_mm: 10.0,
+            x: LinearAxis::new(0.0, 6000.0, 500.0, 2000.0),
+            y: LinearAxis::new(0.0, 3000.0, 500.0, 2000.0),
+            z: LinearAxis::new(0.0, 1500.0, 300.0, 1500.0),
+            a: RotaryAxis::new(-95.0, 95.0, 90.0, 360.0),
+            c: RotaryAxis::new(-220.0, 220.0, 180.0, 720.0),
+        }
+    }
+}
+
+impl Mill5Config {
+    pub fn validate(&self) -> Result<()> {
+        positive("mill5.pivot_length_mm", self.pivot_length_mm)?;
+        for (k, v) in self.workpiece_origin_mm.iter().enumerate() {
+            finite(&format!("mill5.workpiece_origin_mm[{k}]"), *v)?;
+        }
+        positive("mill5.max_feed_rate_mm_min", self.max_feed_rate_mm_min)?;
+        if !self.retract_mm.is_finite() || self.retract_mm < 0.0 {
+            return Err(Error::invalid("mill5.retract_mm", "must be a finite number >= 0"));
+        }
+        self.x.validate("mill5.x")?;
+        self.y.validate("mill5.y")?;
+        self.z.validate("mill5.z")?;
+        self.a.validate("mill5.a")?;
+        self.c.validate("mill5.c")
+    }
+    pub fn limits(&self) -> Vec<JointLimit> {
+        vec![
+            self.x.limit("X"),
+            self.y.limit("Y"),
+            self.z.limit("Z"),
+            self.a.limit("A"),
+            self.c.limit("C"),
+        ]
+    }
+}
+
+/// The 6-axis gantry belt grinder posing the contact wheel (joints X Y Z A B C).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Belt6Config {
+    /// Machine X Y Z of the workpiece frame's origin (frames parallel); the
+    /// joints X Y Z place the contact-wheel centre.
+    pub workpiece_origin_mm: [f64; 3],
+    pub max_feed_rate_mm_min: f64,
+    /// Lift-off along the contact normal before and after each pass, mm.
+    pub retract_mm: f64,
+    pub x: LinearAxis,
+    pub y: LinearAxis,
+    pub z: LinearAxis,
+    pub a: RotaryAxis,
+    pub b: RotaryAxis,
+    pub c: RotaryAxis,
+}
+
+impl Default for Belt6Config {
+    fn default() -> Self {
+        Self {
+            workpiece_origin_mm: [1500.0, 1000.0, 400.0],
+            max_feed_rate_mm_min: 6000.0,
+            retract_mm: 10.0,
+            x: LinearAxis::new(0.0, 4000.0, 400.0, 1500.0),
+            y: LinearAxis::new(0.0, 2000.0, 400.0, 1500.0),
+            z: LinearAxis::new(0.0, 1500.0, 250.0, 1000.0),
+            a: RotaryAxis::new(-200.0, 200.0, 90.0, 360.0),
+            b: RotaryAxis::new(-90.0, 90.0, 90.0, 360.0),
+            c: RotaryAxis::new(-270.0, 270.0, 120.0, 480.0),
+        }
+    }
+}
+
+impl Belt6Config {
+    pub fn validate(&self) -> Result<()> {
+        for (k, v) in self.workpiece_origin_mm.iter().enumerate() {
+            finite(&format!("belt6.workpiece_origin_mm[{k}]"), *v)?;
+        }
+        positive("belt6.max_feed_rate_mm_min", self.max_feed_rate_mm_min)?;
+        if !self.retract_mm.is_finite() || self.retract_mm < 0.0 {
+            return Err(Error::invalid("belt6.retract_mm", "must be a finite number >= 0"));
+        }
+        self.x.validate("belt6.x")?;
+        self.y.validate("belt6.y")?;
+        self.z.validate("belt6.z")?;
+        self.a.validate("belt6.a")?;
+        self.b.validate("belt6.b")?;
+        self.c.validate("belt6.c")
+    }
+    pub fn limits(&self) -> Vec<JointLimit> {
+        vec![
+            self.x.limit("X"),
+            self.y.limit("Y"),
+            self.z.limit("Z"),
+            self.a.limit("A"),
+            self.b.limit("B"),
+            self.c.limit("C"),
+        ]
+    }
+}
+
+/// Both machines of a cell.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Machines {
+    pub mill5: Mill5Config,
+    pub belt6: Belt6Config,
+}
+
+impl Machines {
+    pub fn validate(&self) -> Result<()> {
+        self.mill5.validate()?;
+        self.belt6.validate()
+    }
+}

@@ -1,0 +1,192 @@
+//! Time parameterisation of a joint-space waypoint path.
+//!
+//! Each segment gets the shortest duration that keeps the tool at or below its
+//! Cartesian speed (the feed on cutting moves) and every joint at or below its
+//! velocity limit. Waypoint velocities are the mean of the adjacent segment
+//! velocities, zero at stops (path ends, retracts). Acceleration, measured as
+//! the change of waypoint velocity over a segment, is then brought under the
+//! limits by lengthening the offending segments; a final uniform time scaling
+//! guarantees the bound (it scales accelerations by 1/k^2).
+
+use super::config::JointLimit;
+
+/// One segment's speed cap: mm/s of tool motion, or `None` (rapid: joints only).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    /// Cartesian length of the segment, mm.
+    pub length: f64,
+    pub max_speed: Option<f64>,
+}
+
+/// A timed trajectory: times (s, strictly increasing), positions and velocities
+/// per waypoint (mm, rad, per second).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Timed {
+    pub times: Vec<f64>,
+    pub positions: Vec<Vec<f64>>,
+    pub velocities: Vec<Vec<f64>>,
+}
+
+/// Shortest segment time, s: also keeps equal consecutive waypoints apart.
+const MIN_DT: f64 = 1e-4;
+
+fn waypoint_velocities(q: &[Vec<f64>], dt: &[f64], stops: &[bool]) -> Vec<Vec<f64>> {
+    let n = q.len();
+    let joints = q.first().map_or(0, |p| p.len());
+    let seg_v = |k: usize, j: usize| (q[k + 1][j] - q[k][j]) / dt[k];
+    (0..n)
+        .map(|k| {
+            (0..joints)
+                .map(|j| {
+                    if stops[k] || k == 0 || k + 1 == n {
+                        0.0
+                    } else {
+                        0.5 * (seg_v(k - 1, j) + seg_v(k, j))
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Largest ratio of acceleration to its limit over all segments and joints.
+fn worst_acceleration(v: &[Vec<f64>], dt: &[f64], limits: &[JointLimit]) -> (f64, Vec<f64>) {
+    let mut worst = 0.0f64;
+    let per_segment: Vec<f64> = dt
+        .iter()
+        .enumerate()
+        .map(|(k, &d)| {
+            let r = limits
+                .iter()
+                .enumerate()
+                .map(|(j, l)| (v[k + 1][j] - v[k][j]).abs() / (l.max_acceleration * d))
+                .fold(0.0, f64::max);
+            worst = worst.max(r);
+            r
+        })
+        .collect();
+    (worst, per_segment)
+}
+
+/// Times the path `q` (one row of joint values per waypoint). `segments[k]`
+/// joins waypoints k and k + 1; `stops[k]` forces zero velocity at waypoint k.
+pub fn parameterise(q: Vec<Vec<f64>>, segments: &[Segment], stops: &[bool], limits: &[JointLimit]) -> Timed {
+    let n = q.len();
+    if n == 0 {
+        return Timed::default();
+    }
+    let mut dt: Vec<f64> = segments
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let cart = s.max_speed.map_or(0.0, |f| s.length / f);
+            let joint = limits
+                .iter()
+                .enumerate()
+                .map(|(j, l)| (q[k + 1][j] - q[k][j]).abs() / l.max_velocity)
+                .fold(0.0, f64::max);
+            cart.max(joint).max(MIN_DT)
+        })
+        .collect();
+    let mut v = waypoint_velocities(&q, &dt, stops);
+    for _ in 0..60 {
+        let (worst, per_segment) = worst_acceleration(&v, &dt, limits);
+        if worst <= 1.0 {
+            break;
+        }
+        for (d, r) in dt.iter_mut().zip(&per_segment) {
+            if *r > 1.0 {
+                *d *= r.sqrt().min(2.0);
+            }
+        }
+        v = waypoint_velocities(&q, &dt, stops);
+    }
+    let (worst, _) = worst_acceleration(&v, &dt, limits);
+    if worst > 1.0 {
+        // Stretching time by k divides velocities by k and accelerations by k^2.
+        let k = worst.sqrt() * (1.0 + 1e-9);
+        dt.iter_mut().for_each(|d| *d *= k);
+        v = waypoint_velocities(&q, &dt, stops);
+    }
+    let mut times = Vec::with_capacity(n);
+    let mut t = 0.0;
+    times.push(t);
+    for d in &dt {
+        t += d;
+        times.push(t);
+    }
+    Timed {
+        times,
+        positions: q,
+        velocities: v,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn limit(name: &'static str, v: f64, a: f64) -> JointLimit {
+        JointLimit {
+            name,
+            rotary: false,
+            min: -1e9,
+            max: 1e9,
+            max_velocity: v,
+            max_acceleration: a,
+        }
+    }
+
+    #[test]
+    fn straight_feed_move_runs_at_the_feed_rate() {
+        // 101 points 1 mm apart along X, feed 10 mm/s, generous joint limits.
+        let q: Vec<Vec<f64>> = (0..=100).map(|k| vec![k as f64, 0.0]).collect();
+        let segs = vec![
+            Segment {
+                length: 1.0,
+                max_speed: Some(10.0)
+            };
+            100
+        ];
+        let mut stops = vec![false; 101];
+        stops[0] = true;
+        stops[100] = true;
+        let limits = [limit("X", 1000.0, 1e6), limit("Y", 1000.0, 1e6)];
+        let t = parameterise(q, &segs, &stops, &limits);
+        assert!((t.times[100] - 10.0).abs() < 1e-9, "{}", t.times[100]);
+        assert!((t.velocities[50][0] - 10.0).abs() < 1e-9);
+        assert_eq!(t.velocities[0][0], 0.0);
+    }
+
+    #[test]
+    fn joint_limits_hold_and_time_increases() {
+        // A zig-zag with sharp reversals in Y: acceleration-limited.
+        let q: Vec<Vec<f64>> = (0..200).map(|k| vec![k as f64 * 0.5, if k % 2 == 0 { 0.0 } else { 3.0 }]).collect();
+        let segs: Vec<Segment> = q
+            .windows(2)
+            .map(|w| Segment {
+                length: (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]),
+                max_speed: Some(50.0),
+            })
+            .collect();
+        let mut stops = vec![false; 200];
+        stops[0] = true;
+        stops[199] = true;
+        let limits = [limit("X", 20.0, 100.0), limit("Y", 40.0, 200.0)];
+        let t = parameterise(q.clone(), &segs, &stops, &limits);
+        for k in 1..t.times.len() {
+            let dt = t.times[k] - t.times[k - 1];
+            assert!(dt > 0.0);
+            for (j, l) in limits.iter().enumerate() {
+                // Independent checks from the output alone.
+                let mean_v = (q[k][j] - q[k - 1][j]) / dt;
+                assert!(mean_v.abs() <= l.max_velocity * (1.0 + 1e-9));
+                assert!(t.velocities[k][j].abs() <= l.max_velocity * (1.0 + 1e-9));
+                let acc = (t.velocities[k][j] - t.velocities[k - 1][j]) / dt;
+                assert!(acc.abs() <= l.max_acceleration * (1.0 + 1e-6), "k {k} j {j} acc {acc}");
+            }
+            let speed = segs[k - 1].length / dt;
+            assert!(speed <= 50.0 * (1.0 + 1e-9));
+        }
+    }
+}

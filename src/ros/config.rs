@@ -1,0 +1,186 @@
+//! The node's configuration: one YAML file per cell (launch_configs/*.yaml).
+
+use crate::error::{Error, Result};
+use crate::machines::{Belt6Config, Machines, Mill5Config};
+use serde::{Deserialize, Serialize};
+use std::net::IpAddr;
+use std::path::Path;
+
+/// Node settings (the `node:` section).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NodeSettings {
+    /// ROS node name.
+    pub name: String,
+    /// Namespace pushed in front of every (relative) topic name.
+    pub namespace: String,
+    /// DDS domain; `null` = the ROS_DOMAIN_ID environment variable, else 0.
+    pub domain_id: Option<u16>,
+    /// IP addresses of the network interfaces DDS may use. Default: loopback
+    /// only. `["all"]` lets DDS use every interface (a real cell network).
+    pub interfaces: Vec<String>,
+    /// frame_id of every output: the workpiece frame.
+    pub frame_id: String,
+    /// How long a job waits for its surface (or pocket) to arrive, s.
+    pub surface_timeout_s: f64,
+    /// Planning worker threads.
+    pub workers: usize,
+    /// Run the simulator check after planning (fills max_scallop_mm).
+    pub verify: bool,
+}
+
+impl Default for NodeSettings {
+    fn default() -> Self {
+        Self {
+            name: "toolpath_planner".into(),
+            namespace: "/".into(),
+            domain_id: None,
+            interfaces: vec!["127.0.0.1".into()],
+            frame_id: "workpiece".into(),
+            surface_timeout_s: 10.0,
+            workers: 1,
+            verify: true,
+        }
+    }
+}
+
+/// A cell: node settings and the geometry and limits of both machines.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NodeConfig {
+    pub node: NodeSettings,
+    pub mill5: Mill5Config,
+    pub belt6: Belt6Config,
+}
+
+impl NodeConfig {
+    /// Reads and validates a YAML config; errors name the file and the field.
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path.display().to_string(), e))?;
+        Self::parse(&text).map_err(|e| match e {
+            Error::Invalid { field, message } => Error::Invalid {
+                field: if field.is_empty() {
+                    path.display().to_string()
+                } else {
+                    format!("{}: {field}", path.display())
+                },
+                message,
+            },
+            other => other,
+        })
+    }
+
+    pub fn parse(text: &str) -> Result<Self> {
+        let de = serde_yaml_ng::Deserializer::from_str(text);
+        let cfg: NodeConfig = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            let path = if path == "." { String::new() } else { path };
+            Error::invalid(path, e.into_inner().to_string())
+        })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        let n = &self.node;
+        if n.name.is_empty() {
+            return Err(Error::invalid("node.name", "must not be empty"));
+        }
+        if !n.surface_timeout_s.is_finite() || n.surface_timeout_s < 0.0 {
+            return Err(Error::invalid("node.surface_timeout_s", "must be a finite number >= 0"));
+        }
+        if n.workers == 0 {
+            return Err(Error::invalid("node.workers", "must be at least 1"));
+        }
+        if let Some(d) = n.domain_id {
+            if d > 232 {
+                return Err(Error::invalid("node.domain_id", format!("{d} is above the ROS 2 maximum 232")));
+            }
+        }
+        self.interfaces()?;
+        self.machines().validate()
+    }
+
+    pub fn machines(&self) -> Machines {
+        Machines {
+            mill5: self.mill5.clone(),
+            belt6: self.belt6.clone(),
+        }
+    }
+
+    /// The interface addresses; `None` = all interfaces.
+    pub fn interfaces(&self) -> Result<Option<Vec<IpAddr>>> {
+        let list = &self.node.interfaces;
+        if list.iter().any(|s| s == "all") {
+            return Ok(None);
+        }
+        if list.is_empty() {
+            return Err(Error::invalid(
+                "node.interfaces",
+                "is empty: list interface IP addresses (e.g. 127.0.0.1) or \"all\"",
+            ));
+        }
+        list.iter()
+            .enumerate()
+            .map(|(k, s)| {
+                s.parse::<IpAddr>().map_err(|_| {
+                    Error::invalid(format!("node.interfaces[{k}]"), format!("\"{s}\" is not an IP address (or \"all\")"))
+                })
+            })
+            .collect::<Result<Vec<_>>>()
+            .map(Some)
+    }
+
+    /// The DDS domain: the config's, else ROS_DOMAIN_ID, else 0.
+    pub fn domain_id(&self) -> Result<u16> {
+        if let Some(d) = self.node.domain_id {
+            return Ok(d);
+        }
+        match std::env::var("ROS_DOMAIN_ID") {
+            Ok(s) if !s.trim().is_empty() => s
+                .trim()
+                .parse::<u16>()
+                .ok()
+                .filter(|d| *d <= 232)
+                .ok_or_else(|| Error::invalid("ROS_DOMAIN_ID", format!("\"{s}\" is not a domain id 0..232"))),
+            _ => Ok(0),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_launch_config_parses() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("launch_configs");
+        let mut n = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let p = entry.unwrap().path();
+            if p.extension().is_some_and(|e| e == "yaml") {
+                NodeConfig::read(&p).unwrap_or_else(|e| panic!("{e}"));
+                n += 1;
+            }
+        }
+        assert!(n >= 2);
+    }
+
+    #[test]
+    fn defaults_equal_the_default_config_file() {
+        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("launch_configs/default.yaml");
+        assert_eq!(NodeConfig::read(&p).unwrap(), NodeConfig::default());
+    }
+
+    #[test]
+    fn errors_name_the_field() {
+        let e = NodeConfig::parse("mill5:\n  a:\n    min_deg: 10\n    max_deg: -10\n    max_velocity_deg_s: 1\n    max_acceleration_deg_s2: 1\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("mill5.a.max_deg"), "{e}");
+        let e = NodeConfig::parse("node:\n  interfaces: [eth0]\n").unwrap_err().to_string();
+        assert!(e.contains("node.interfaces[0]") && e.contains("not an IP address"), "{e}");
+        let e = NodeConfig::parse("mill5:\n  pivot_lenght_mm: 3\n").unwrap_err().to_string();
+        assert!(e.contains("pivot_lenght_mm"), "{e}");
+    }
+}

@@ -1,0 +1,558 @@
+//! Messages <-> the crate's formats: incoming surfaces, pockets and jobs are
+//! validated with the same checks and reasons as the CLI's files; results
+//! become Toolpath, PoseArray, JointTrajectory and MarkerArray messages.
+
+use super::msgs;
+use crate::error::{Error, Result};
+use crate::formats::{FeedDirection, Job, JobFile, Machine, PlanResult, Shape, Strategy};
+use crate::geometry::{NurbsSurface, Pocket};
+use crate::machines::{self, JointTrajectory};
+use crate::tools::Tool;
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+
+/// A surface message as a validated surface. Errors name `surface "<id>".<field>`.
+pub fn surface_from_msg(m: &msgs::Surface) -> Result<NurbsSurface> {
+    let ctx = format!("surface \"{}\"", m.surface_id);
+    let inner = || -> Result<NurbsSurface> {
+        if m.surface_id.trim().is_empty() {
+            return Err(Error::invalid("surface_id", "must not be empty"));
+        }
+        let (cu, cv) = (m.count_u as usize, m.count_v as usize);
+        if cu.checked_mul(cv) != Some(m.control_points.len()) {
+            return Err(Error::invalid(
+                "control_points",
+                format!(
+                    "has {} points, but count_u x count_v = {} x {} needs {}",
+                    m.control_points.len(),
+                    cu,
+                    cv,
+                    cu.saturating_mul(cv)
+                ),
+            ));
+        }
+        if cu == 0 || cv == 0 {
+            return Err(Error::invalid("count_u", "count_u and count_v must be at least 1"));
+        }
+        if !m.weights.is_empty() && m.weights.len() != m.control_points.len() {
+            return Err(Error::invalid(
+                "weights",
+                format!(
+                    "has {} values; give none (non-rational) or one per control point ({})",
+                    m.weights.len(),
+                    m.control_points.len()
+                ),
+            ));
+        }
+        let grid: Vec<Vec<[f64; 3]>> = m
+            .control_points
+            .chunks(cv)
+            .map(|row| row.iter().map(|p| p.to_array()).collect())
+            .collect();
+        let weights: Option<Vec<Vec<f64>>> =
+            (!m.weights.is_empty()).then(|| m.weights.chunks(cv).map(|r| r.to_vec()).collect());
+        NurbsSurface::new(
+            m.degree_u as usize,
+            m.degree_v as usize,
+            m.knots_u.clone(),
+            m.knots_v.clone(),
+            &grid,
+            weights.as_deref(),
+        )
+    };
+    inner().map_err(|e| e.within(&ctx))
+}
+
+/// A surface as a message (control points row-major, i along u).
+pub fn surface_to_msg(id: &str, s: &NurbsSurface, header: msgs::Header) -> msgs::Surface {
+    let grid = s.control_grid();
+    msgs::Surface {
+        header,
+        surface_id: id.to_string(),
+        degree_u: s.degree_u() as u32,
+        degree_v: s.degree_v() as u32,
+        knots_u: s.knots_u().to_vec(),
+        knots_v: s.knots_v().to_vec(),
+        count_u: s.count_u() as u32,
+        count_v: s.count_v() as u32,
+        control_points: grid.iter().flatten().map(|p| msgs::Point::from_array(*p)).collect(),
+        weights: s.weight_grid().map(|w| w.into_iter().flatten().collect()).unwrap_or_default(),
+    }
+}
+
+/// A pocket message as a validated pocket.
+pub fn pocket_from_msg(m: &msgs::Pocket) -> Result<Pocket> {
+    let ctx = format!("pocket \"{}\"", m.pocket_id);
+    if m.pocket_id.trim().is_empty() {
+        return Err(Error::invalid("pocket_id", "must not be empty").within(&ctx));
+    }
+    let xy = |l: &msgs::PocketLoop| l.points.iter().map(|p| [p.x, p.y]).collect::<Vec<[f64; 2]>>();
+    let holes: Vec<Vec<[f64; 2]>> = m.holes.iter().map(xy).collect();
+    Pocket::new(&xy(&m.outer), &holes).map_err(|e| e.within(&ctx))
+}
+
+pub fn pocket_to_msg(id: &str, p: &Pocket, header: msgs::Header) -> msgs::Pocket {
+    let lp = |l: &[[f64; 2]]| msgs::PocketLoop {
+        points: l.iter().map(|q| msgs::Point { x: q[0], y: q[1], z: 0.0 }).collect(),
+    };
+    msgs::Pocket {
+        header,
+        pocket_id: id.to_string(),
+        outer: lp(&p.outer),
+        holes: p.holes.iter().map(|h| lp(h)).collect(),
+    }
+}
+
+fn opt_nonzero(x: f64) -> Option<f64> {
+    (x != 0.0).then_some(x)
+}
+
+/// The job message as a job file (shape left empty). Zero means "not given"
+/// for scallop, tolerance, lead angle and feed rate, and for the tool length.
+pub fn job_file_from_msg(m: &msgs::Job) -> Result<JobFile> {
+    if m.job_id.trim().is_empty() {
+        return Err(Error::invalid("job_id", "must not be empty"));
+    }
+    if m.surface_id.trim().is_empty() {
+        return Err(Error::invalid("surface_id", "must name a surface or pocket"));
+    }
+    let strategy = Strategy::parse(&m.strategy)?;
+    let t = &m.tool;
+    let length = opt_nonzero(t.length);
+    let tool = match t.kind.as_str() {
+        "flat_end" => Tool::FlatEnd { radius: t.radius, length },
+        "ball" => Tool::Ball { radius: t.radius, length },
+        "torus" => Tool::Torus {
+            radius: t.radius,
+            corner_radius: t.corner_radius,
+            length,
+        },
+        "belt" => Tool::Belt {
+            width: t.width,
+            wheel_radius: t.radius,
+        },
+        other => {
+            return Err(Error::invalid(
+                "tool.kind",
+                format!("unknown tool kind \"{other}\": expected one of flat_end, ball, torus, belt"),
+            ))
+        }
+    };
+    let machine = match m.machine.as_str() {
+        "" => None,
+        "mill5" => Some(Machine::Mill5),
+        "belt6" => Some(Machine::Belt6),
+        other => {
+            return Err(Error::invalid(
+                "machine",
+                format!("unknown machine \"{other}\": expected mill5, belt6 or empty (the strategy's default)"),
+            ))
+        }
+    };
+    let feed_direction = match m.feed_direction.as_str() {
+        "" => None,
+        "u" => Some(FeedDirection::U),
+        "v" => Some(FeedDirection::V),
+        other => {
+            return Err(Error::invalid(
+                "feed_direction",
+                format!("unknown feed direction \"{other}\": expected u, v or empty"),
+            ))
+        }
+    };
+    Ok(JobFile {
+        job_id: m.job_id.clone(),
+        surface: serde_json::Value::Null,
+        strategy,
+        tool,
+        machine,
+        scallop: opt_nonzero(m.scallop),
+        tolerance: opt_nonzero(m.tolerance),
+        lead_angle_deg: opt_nonzero(m.lead_angle_deg),
+        side_tilt_deg: None,
+        feed_direction,
+        feed_rate: opt_nonzero(m.feed_rate),
+        tool_catalogue: None,
+        section_normal: None,
+        simulation_resolution: None,
+        grinding: None,
+    })
+}
+
+/// Checks everything about a job message that does not need its shape, with
+/// the CLI's reasons (the strategy decides which kind of shape is expected).
+pub fn prevalidate_job(m: &msgs::Job) -> Result<JobFile> {
+    let file = job_file_from_msg(m)?;
+    let stand_in = if file.strategy.needs_pocket() {
+        Shape::Pocket(Pocket::new(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], &[])?)
+    } else {
+        Shape::Surface(crate::samples::plane())
+    };
+    Job::new(file.clone(), stand_in)?;
+    Ok(file)
+}
+
+/// The message form of a job (for clients: the demo, tests).
+pub fn job_to_msg(job: &Job, surface_id: &str, header: msgs::Header) -> msgs::Job {
+    msgs::Job {
+        header,
+        job_id: job.job_id.clone(),
+        surface_id: surface_id.to_string(),
+        machine: job.machine.name().to_string(),
+        strategy: job.strategy.name().to_string(),
+        tool: tool_to_msg(&job.tool),
+        scallop: job.scallop.unwrap_or(0.0),
+        tolerance: job.tolerance.unwrap_or(0.0),
+        lead_angle_deg: job.lead_angle_deg.unwrap_or(0.0),
+        feed_rate: job.feed_rate,
+        feed_direction: match job.feed_direction {
+            Some(FeedDirection::U) => "u".into(),
+            Some(FeedDirection::V) => "v".into(),
+            None => String::new(),
+        },
+    }
+}
+
+pub fn tool_to_msg(t: &Tool) -> msgs::Tool {
+    let length = |l: &Option<f64>| l.unwrap_or(0.0);
+    match t {
+        Tool::FlatEnd { radius, length: l } | Tool::Ball { radius, length: l } => msgs::Tool {
+            kind: t.kind().into(),
+            radius: *radius,
+            length: length(l),
+            ..Default::default()
+        },
+        Tool::Torus {
+            radius,
+            corner_radius,
+            length: l,
+        } => msgs::Tool {
+            kind: t.kind().into(),
+            radius: *radius,
+            corner_radius: *corner_radius,
+            length: length(l),
+            ..Default::default()
+        },
+        Tool::Belt { width, wheel_radius } => msgs::Tool {
+            kind: t.kind().into(),
+            radius: *wheel_radius,
+            width: *width,
+            ..Default::default()
+        },
+    }
+}
+
+fn vec3(v: Option<[f64; 3]>) -> msgs::Vector3 {
+    msgs::Vector3::from_array(v.unwrap_or([0.0; 3]))
+}
+
+/// The Toolpath message of a planned job (mm, as the result file).
+pub fn toolpath_msg(
+    job: &Job,
+    surface_id: &str,
+    result: &PlanResult,
+    trajectory_duration_s: f64,
+    header: msgs::Header,
+) -> msgs::Toolpath {
+    let feed = job.feed_rate;
+    let mut passes: Vec<msgs::ToolpathPass> = result
+        .passes
+        .iter()
+        .map(|p| msgs::ToolpathPass {
+            region: u32::try_from(p.region).unwrap_or(u32::MAX),
+            stage: String::new(),
+            tool_diameter: 2.0 * job.tool.radius(),
+            min_strip_width: p.min_strip_width.unwrap_or(f64::NAN),
+            points: p
+                .points
+                .iter()
+                .map(|q| msgs::ToolpathPoint {
+                    cc: msgs::Point::from_array(q.cc),
+                    cl: msgs::Point::from_array(q.cl),
+                    axis: msgs::Vector3::from_array(q.axis),
+                    normal: vec3(q.normal),
+                    feed_direction: vec3(q.feed),
+                    u: q.uv[0],
+                    v: q.uv[1],
+                    feed_rate: feed,
+                    strip_width: q.strip_width.unwrap_or(f64::NAN),
+                    lead_angle_deg: q.lead_deg.unwrap_or(f64::NAN),
+                    gouge: q.gouge.unwrap_or(f64::NAN),
+                })
+                .collect(),
+        })
+        .collect();
+    if let Some(tools) = &result.tools {
+        for t in tools {
+            for pass in &t.passes {
+                passes.push(msgs::ToolpathPass {
+                    region: 0,
+                    stage: t.stage.clone(),
+                    tool_diameter: t.diameter,
+                    min_strip_width: f64::NAN,
+                    points: pass
+                        .iter()
+                        .map(|q| msgs::ToolpathPoint {
+                            cc: msgs::Point { x: q[0], y: q[1], z: 0.0 },
+                            cl: msgs::Point { x: q[0], y: q[1], z: 0.0 },
+                            axis: msgs::Vector3 { x: 0.0, y: 0.0, z: 1.0 },
+                            normal: msgs::Vector3 { x: 0.0, y: 0.0, z: 1.0 },
+                            feed_rate: feed,
+                            strip_width: f64::NAN,
+                            lead_angle_deg: f64::NAN,
+                            gouge: f64::NAN,
+                            ..Default::default()
+                        })
+                        .collect(),
+                });
+            }
+        }
+    }
+    let s = &result.stats;
+    let nan = |x: Option<f64>| x.unwrap_or(f64::NAN);
+    msgs::Toolpath {
+        header,
+        job_id: result.job_id.clone(),
+        surface_id: surface_id.to_string(),
+        strategy: result.strategy.clone(),
+        machine: job.machine.name().to_string(),
+        tool: tool_to_msg(&job.tool),
+        stats: msgs::ToolpathStats {
+            path_length_mm: s.path_length_mm,
+            passes: u32::try_from(s.passes).unwrap_or(u32::MAX),
+            points: u32::try_from(passes.iter().map(|p| p.points.len()).sum::<usize>()).unwrap_or(u32::MAX),
+            max_scallop_mm: nan(s.max_scallop_mm),
+            compute_ms: s.compute_ms,
+            machining_time_min: nan(s.machining_time_min),
+            trajectory_duration_s,
+            max_gouge_mm: nan(s.max_gouge_mm),
+            uncut_area_mm2: nan(s.uncut_area_mm2),
+            extra_names: s.extra.keys().cloned().collect(),
+            extra_values: s.extra.values().copied().collect(),
+        },
+        passes,
+        degenerate_points: result
+            .degenerate_points
+            .iter()
+            .flatten()
+            .map(|d| msgs::Point::from_array(d.xyz))
+            .collect(),
+        warnings: result.warnings.clone(),
+    }
+}
+
+const MM: f64 = 1e-3;
+
+fn quat(m: &Matrix3<f64>) -> msgs::Quaternion {
+    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*m));
+    msgs::Quaternion {
+        x: q.i,
+        y: q.j,
+        z: q.k,
+        w: q.w,
+    }
+}
+
+/// Tool poses in the workpiece frame, metres (REP 103). Mill: at the tool tip,
+/// z along the tool axis, x along the feed (or the next point) where known.
+/// Belt: at the wheel centre, the wheel frame (x wheel axis, z contact normal).
+pub fn pose_array(job: &Job, result: &PlanResult, header: msgs::Header) -> msgs::PoseArray {
+    let mut poses = Vec::new();
+    for pass in machines::tool_poses(result) {
+        for (k, t) in pass.iter().enumerate() {
+            let m = match job.machine {
+                Machine::Belt6 => machines::belt6::wheel_frame(t.axis, t.normal).ok(),
+                Machine::Mill5 => {
+                    let z = Vector3::from(t.axis).try_normalize(1e-12);
+                    let ahead = pass.get(k + 1).map(|n| Vector3::from(n.tip) - Vector3::from(t.tip));
+                    let behind = k.checked_sub(1).and_then(|b| pass.get(b)).map(|p| Vector3::from(t.tip) - Vector3::from(p.tip));
+                    z.map(|z| {
+                        let dir = ahead.or(behind).unwrap_or(Vector3::x());
+                        let x = (dir - z * z.dot(&dir))
+                            .try_normalize(1e-12)
+                            .or_else(|| {
+                                let h = if z.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+                                (h - z * z.dot(&h)).try_normalize(1e-12)
+                            })
+                            .unwrap_or(Vector3::x());
+                        Matrix3::from_columns(&[x, z.cross(&x), z])
+                    })
+                }
+            };
+            poses.push(msgs::Pose {
+                position: msgs::Point {
+                    x: t.tip[0] * MM,
+                    y: t.tip[1] * MM,
+                    z: t.tip[2] * MM,
+                },
+                orientation: m.map(|m| quat(&m)).unwrap_or_default(),
+            });
+        }
+    }
+    msgs::PoseArray { header, poses }
+}
+
+/// The joint trajectory as a ROS message: metres and radians (REP 103).
+pub fn joint_trajectory_msg(t: &JointTrajectory, header: msgs::Header) -> msgs::JointTrajectory {
+    let scale: Vec<f64> = t.rotary.iter().map(|r| if *r { 1.0 } else { MM }).collect();
+    let points = t
+        .timed
+        .times
+        .iter()
+        .enumerate()
+        .map(|(k, time)| msgs::JointTrajectoryPoint {
+            positions: t.timed.positions[k].iter().zip(&scale).map(|(x, s)| x * s).collect(),
+            velocities: t.timed.velocities[k].iter().zip(&scale).map(|(x, s)| x * s).collect(),
+            accelerations: Vec::new(),
+            effort: Vec::new(),
+            time_from_start: msgs::Duration::from_secs_f64(*time),
+        })
+        .collect();
+    msgs::JointTrajectory {
+        header,
+        joint_names: t.joint_names.iter().map(|s| s.to_string()).collect(),
+        points,
+    }
+}
+
+/// Region colours (a qualitative palette), cycled.
+const PALETTE: [[f32; 3]; 8] = [
+    [0.12, 0.47, 0.71],
+    [1.0, 0.5, 0.05],
+    [0.17, 0.63, 0.17],
+    [0.84, 0.15, 0.16],
+    [0.58, 0.4, 0.74],
+    [0.55, 0.34, 0.29],
+    [0.89, 0.47, 0.76],
+    [0.5, 0.5, 0.5],
+];
+
+/// RViz markers: a DELETEALL, then the passes as line strips coloured by region
+/// (cl points), degenerate points as spheres, separatrices as line strips. Metres.
+pub fn markers(result: &PlanResult, header: msgs::Header) -> msgs::MarkerArray {
+    let p = |x: [f64; 3]| msgs::Point {
+        x: x[0] * MM,
+        y: x[1] * MM,
+        z: x[2] * MM,
+    };
+    let base = |ns: &str, id: i32, marker_type: i32, color: [f32; 3], width: f64| msgs::Marker {
+        header: header.clone(),
+        ns: ns.into(),
+        id,
+        marker_type,
+        action: msgs::Marker::ADD,
+        scale: msgs::Vector3 {
+            x: width,
+            y: width,
+            z: width,
+        },
+        color: msgs::ColorRGBA {
+            r: color[0],
+            g: color[1],
+            b: color[2],
+            a: 1.0,
+        },
+        ..Default::default()
+    };
+    let mut out = vec![msgs::Marker {
+        header: header.clone(),
+        action: msgs::Marker::DELETEALL,
+        ..Default::default()
+    }];
+    let mut id = 0i32;
+    for pass in machines::tool_poses(result) {
+        let region = result.passes.get(id as usize).map_or(0, |q| q.region);
+        let mut m = base("passes", id, msgs::Marker::LINE_STRIP, PALETTE[region % PALETTE.len()], 0.0005);
+        m.points = pass.iter().map(|t| p(t.tip)).collect();
+        out.push(m);
+        id += 1;
+    }
+    if let Some(d) = &result.degenerate_points {
+        let mut m = base("degenerate_points", 0, msgs::Marker::SPHERE_LIST, [0.0, 0.0, 0.0], 0.003);
+        m.points = d.iter().map(|q| p(q.xyz)).collect();
+        out.push(m);
+    }
+    for (k, s) in result.separatrices.iter().flatten().enumerate() {
+        let mut m = base("separatrices", k as i32, msgs::Marker::LINE_STRIP, [0.0, 0.0, 0.0], 0.001);
+        m.points = s.iter().map(|q| p(*q)).collect();
+        out.push(m);
+    }
+    msgs::MarkerArray { markers: out }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn surface_msg() -> msgs::Surface {
+        surface_to_msg("plane", &crate::samples::plane(), msgs::Header::default())
+    }
+
+    #[test]
+    fn surface_round_trips_through_its_message() {
+        let s = crate::samples::plane();
+        assert_eq!(surface_from_msg(&surface_msg()).unwrap(), s);
+    }
+
+    #[test]
+    fn bad_surfaces_name_the_field() {
+        let mut m = surface_msg();
+        m.control_points[5].y = f64::NAN;
+        let e = surface_from_msg(&m).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "invalid input: surface \"plane\".control_points[1][1]: has a coordinate that is not a finite number"
+        );
+        let mut m = surface_msg();
+        m.control_points.pop();
+        let e = surface_from_msg(&m).unwrap_err().to_string();
+        assert!(e.contains("has 15 points, but count_u x count_v = 4 x 4 needs 16"), "{e}");
+        let mut m = surface_msg();
+        m.weights = vec![1.0; 3];
+        assert!(surface_from_msg(&m).unwrap_err().to_string().contains("weights"));
+    }
+
+    fn job_msg() -> msgs::Job {
+        msgs::Job {
+            job_id: "j".into(),
+            surface_id: "plane".into(),
+            strategy: "iso_parametric".into(),
+            tool: msgs::Tool {
+                kind: "flat_end".into(),
+                radius: 2.5,
+                ..Default::default()
+            },
+            scallop: 0.05,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn job_messages_are_checked_like_job_files() {
+        prevalidate_job(&job_msg()).unwrap();
+        let mut m = job_msg();
+        m.strategy = "spiral".into();
+        let e = prevalidate_job(&m).unwrap_err().to_string();
+        assert!(e.starts_with("invalid input: strategy: unknown strategy \"spiral\""), "{e}");
+        let mut m = job_msg();
+        m.tool.radius = -1.0;
+        assert_eq!(prevalidate_job(&m).unwrap_err().to_string(), "invalid input: tool.radius: must be positive, got -1");
+        let mut m = job_msg();
+        m.tool.kind = "belt".into();
+        m.tool.width = 10.0;
+        assert!(prevalidate_job(&m).unwrap_err().to_string().contains("cannot use a belt tool"));
+        let mut m = job_msg();
+        m.scallop = f64::NAN;
+        assert!(prevalidate_job(&m).unwrap_err().to_string().contains("scallop: NaN is not a finite number"));
+        let mut m = job_msg();
+        m.machine = "lathe".into();
+        assert!(prevalidate_job(&m).unwrap_err().to_string().contains("unknown machine \"lathe\""));
+    }
+
+    #[test]
+    fn job_round_trips_through_its_message() {
+        let job = crate::samples::job("plane").unwrap();
+        let m = job_to_msg(&job, "plane", msgs::Header::default());
+        let back = Job::new(job_file_from_msg(&m).unwrap(), job.shape.clone()).unwrap();
+        assert_eq!(back, job);
+    }
+}

@@ -1,0 +1,493 @@
+//! The `toolpath_planner` node: subscribes to surfaces, pockets and jobs,
+//! plans each job on a worker thread through [`crate::pipeline::run`] and
+//! publishes the toolpath, tool poses, joint trajectory, markers and status.
+//!
+//! Threads: the tokio runtime receives messages and never plans; `workers`
+//! planning threads take jobs from one queue. A job whose surface has not
+//! arrived yet stays queued (other jobs overtake it) until the surface
+//! arrives or `surface_timeout_s` passes. Every job gets exactly one final
+//! status; a panic inside a planner becomes FAILED, never a dead node.
+
+use super::config::NodeConfig;
+use super::convert;
+use super::msgs::{self, RosMessage};
+use crate::error::{Error, Result};
+use crate::formats::{Job, Machine, Shape};
+use crate::machines::Machines;
+use crate::pipeline::{self, RunOptions};
+use crate::planners::Progress;
+use futures::StreamExt;
+use ros2_client::ros2::QosProfile;
+use ros2_client::{
+    qos::{Durability, History, WhenFull},
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, Subscription,
+};
+use std::collections::{BTreeMap, VecDeque};
+use std::sync::{Arc, Condvar, Mutex};
+use std::time::{Duration, Instant};
+
+/// Topic names, relative to the node namespace.
+pub mod topics {
+    pub const SURFACE: &str = "surface";
+    pub const POCKET: &str = "pocket";
+    pub const JOB: &str = "job";
+    pub const TOOLPATH: &str = "toolpath";
+    pub const TOOL_POSES: &str = "tool_poses";
+    pub const MILL5_TRAJECTORY: &str = "mill5/joint_trajectory";
+    pub const BELT6_TRAJECTORY: &str = "belt6/joint_trajectory";
+    pub const JOB_STATUS: &str = "job_status";
+    pub const MARKERS: &str = "markers";
+}
+
+/// QoS of the topics (all reliable).
+pub mod qos {
+    use super::*;
+    fn reliable(durability: Durability, history: History) -> QosProfile {
+        QosProfile::subscription_default()
+            .reliability_reliable(WhenFull::Wait(Duration::from_secs(5)))
+            .durability(durability)
+            .history(history)
+    }
+    /// `surface`, `pocket`: transient-local, depth 100 (late-joining node still gets them).
+    pub fn shapes() -> QosProfile {
+        reliable(Durability::TransientLocal, History::KeepLast { depth: 100 })
+    }
+    /// `job`: volatile, depth 100.
+    pub fn job() -> QosProfile {
+        reliable(Durability::Volatile, History::KeepLast { depth: 100 })
+    }
+    /// `job_status`: transient-local, depth 1000 (a burst's statuses are not overwritten).
+    pub fn status() -> QosProfile {
+        reliable(Durability::TransientLocal, History::KeepLast { depth: 1000 })
+    }
+    /// Results (toolpath, tool_poses, trajectories, markers): transient-local, depth 10.
+    pub fn results() -> QosProfile {
+        reliable(Durability::TransientLocal, History::KeepLast { depth: 10 })
+    }
+}
+
+/// Absolute ROS name of a relative topic in `namespace`.
+pub fn topic_name(namespace: &str, relative: &str) -> Result<Name> {
+    let ns = namespace.trim_end_matches('/');
+    let full = format!("{ns}/{relative}");
+    Name::parse(&full).map_err(|e| Error::invalid("node.namespace", format!("topic name \"{full}\" is not valid: {e}")))
+}
+
+fn ros_err(what: &str, e: impl std::fmt::Debug) -> Error {
+    Error::planning(format!("ROS 2: {what}: {e:?}"))
+}
+
+/// A ROS 2 context + node on the configured domain and interfaces, with the
+/// spinner running (without it matching never completes).
+pub struct RosNode {
+    pub node: Node,
+    pub namespace: String,
+    _context: Context,
+}
+
+impl RosNode {
+    pub fn new(name: &str, namespace: &str, domain_id: u16, interfaces: Option<Vec<std::net::IpAddr>>) -> Result<Self> {
+        let mut builder = rustdds::DomainParticipantBuilder::new(domain_id);
+        if let Some(ips) = interfaces {
+            builder = builder.with_only_networks(ips);
+        }
+        let dp = builder.build().map_err(|e| ros_err("cannot create the DDS participant", e))?;
+        let context = Context::from_domain_participant(dp).map_err(|e| ros_err("cannot create the context", e))?;
+        let node_name =
+            NodeName::new(namespace, name).map_err(|e| Error::invalid("node.name", format!("\"{namespace}\" \"{name}\": {e}")))?;
+        let mut node = context
+            .new_node(node_name, NodeOptions::new().enable_rosout(false))
+            .map_err(|e| ros_err("cannot create the node", e))?;
+        let spinner = node.spinner().map_err(|e| ros_err("cannot start the spinner", e))?;
+        tokio::spawn(async move {
+            if let Err(e) = spinner.spin().await {
+                log::error!("ROS 2 spinner stopped: {e:?}");
+            }
+        });
+        Ok(Self {
+            node,
+            namespace: namespace.to_string(),
+            _context: context,
+        })
+    }
+
+    fn topic<M: RosMessage>(&mut self, relative: &str, qos: &QosProfile) -> Result<rustdds::Topic> {
+        let name = topic_name(&self.namespace, relative)?;
+        self.node
+            .create_topic(&name, MessageTypeName::new(M::PACKAGE, M::NAME), qos)
+            .map_err(|e| ros_err(&format!("cannot create topic {relative}"), e))
+    }
+
+    pub fn publisher<M: RosMessage>(&mut self, relative: &str, qos: QosProfile) -> Result<Publisher<M>> {
+        let topic = self.topic::<M>(relative, &qos)?;
+        self.node
+            .create_publisher(&topic, Some(qos))
+            .map_err(|e| ros_err(&format!("cannot publish on {relative}"), e))
+    }
+
+    pub fn subscription<M: RosMessage>(&mut self, relative: &str, qos: QosProfile) -> Result<Subscription<M>> {
+        let topic = self.topic::<M>(relative, &qos)?;
+        self.node
+            .create_subscription(&topic, Some(qos))
+            .map_err(|e| ros_err(&format!("cannot subscribe to {relative}"), e))
+    }
+}
+
+/// The node's publishers, shared with the workers.
+struct Outputs {
+    status: Mutex<Publisher<msgs::JobStatus>>,
+    toolpath: Mutex<Publisher<msgs::Toolpath>>,
+    poses: Mutex<Publisher<msgs::PoseArray>>,
+    mill5: Mutex<Publisher<msgs::JointTrajectory>>,
+    belt6: Mutex<Publisher<msgs::JointTrajectory>>,
+    markers: Mutex<Publisher<msgs::MarkerArray>>,
+    frame_id: String,
+}
+
+fn publish<M: RosMessage>(p: &Mutex<Publisher<M>>, topic: &str, m: M) {
+    let guard = match p.lock() {
+        Ok(g) => g,
+        Err(poisoned) => poisoned.into_inner(),
+    };
+    if let Err(e) = guard.publish(m) {
+        log::error!("cannot publish on {topic}: {e:?}");
+    }
+}
+
+impl Outputs {
+    fn header(&self) -> msgs::Header {
+        msgs::Header {
+            stamp: msgs::Time::now(),
+            frame_id: self.frame_id.clone(),
+        }
+    }
+    fn status(&self, job_id: &str, state: u8, progress: f32, message: String) {
+        match state {
+            msgs::JobStatus::FAILED | msgs::JobStatus::REJECTED => {
+                log::warn!("job {job_id}: {}: {message}", msgs::JobStatus::state_name(state))
+            }
+            _ => log::info!("job {job_id}: {} {progress:.2} {message}", msgs::JobStatus::state_name(state)),
+        }
+        let m = msgs::JobStatus {
+            header: self.header(),
+            job_id: job_id.to_string(),
+            state,
+            progress,
+            message,
+        };
+        publish(&self.status, topics::JOB_STATUS, m);
+    }
+}
+
+/// What the node knows about a shape id.
+enum ShapeEntry {
+    Ready(Arc<Shape>),
+    Rejected(String),
+}
+
+struct Pending {
+    msg: msgs::Job,
+    received: Instant,
+    deadline: Instant,
+}
+
+#[derive(Default)]
+struct State {
+    shapes: BTreeMap<String, ShapeEntry>,
+    queue: VecDeque<Pending>,
+    shutdown: bool,
+}
+
+struct Shared {
+    state: Mutex<State>,
+    wake: Condvar,
+}
+
+impl Shared {
+    fn lock(&self) -> std::sync::MutexGuard<'_, State> {
+        match self.state.lock() {
+            Ok(g) => g,
+            Err(p) => p.into_inner(),
+        }
+    }
+}
+
+/// What a worker takes from the queue.
+enum Work {
+    Plan(Pending, Arc<Shape>),
+    Reject(Pending, String),
+    TimedOut(Pending),
+}
+
+/// Blocks until a job can be handled: the first queued job whose shape has
+/// arrived (or been rejected), or whose wait has timed out.
+fn next_work(shared: &Shared) -> Option<Work> {
+    let mut st = shared.lock();
+    loop {
+        if st.shutdown {
+            return None;
+        }
+        let now = Instant::now();
+        let mut pick = None;
+        let mut earliest: Option<Instant> = None;
+        for (k, p) in st.queue.iter().enumerate() {
+            match st.shapes.get(&p.msg.surface_id) {
+                Some(_) => {
+                    pick = Some(k);
+                    break;
+                }
+                None if p.deadline <= now => {
+                    pick = Some(k);
+                    break;
+                }
+                None => earliest = Some(earliest.map_or(p.deadline, |e: Instant| e.min(p.deadline))),
+            }
+        }
+        if let Some(k) = pick {
+            let p = st.queue.remove(k)?;
+            return Some(match st.shapes.get(&p.msg.surface_id) {
+                Some(ShapeEntry::Ready(s)) => Work::Plan(p, Arc::clone(s)),
+                Some(ShapeEntry::Rejected(why)) => Work::Reject(p, why.clone()),
+                None => Work::TimedOut(p),
+            });
+        }
+        st = match earliest {
+            Some(t) => match shared.wake.wait_timeout(st, t.saturating_duration_since(now)) {
+                Ok((g, _)) => g,
+                Err(p) => p.into_inner().0,
+            },
+            None => match shared.wake.wait(st) {
+                Ok(g) => g,
+                Err(p) => p.into_inner(),
+            },
+        };
+    }
+}
+
+/// RUNNING statuses from planner progress, at most every 100 ms or 10 %.
+struct StatusProgress<'a> {
+    outputs: &'a Outputs,
+    job_id: &'a str,
+    last: Mutex<(Instant, f32)>,
+}
+
+impl Progress for StatusProgress<'_> {
+    fn set(&self, fraction: f32) {
+        let f = if fraction.is_finite() { fraction.clamp(0.0, 1.0) } else { 0.0 };
+        let mut last = match self.last.lock() {
+            Ok(g) => g,
+            Err(p) => p.into_inner(),
+        };
+        if f > last.1 && (f - last.1 >= 0.1 || last.0.elapsed() >= Duration::from_millis(100)) && f < 1.0 {
+            *last = (Instant::now(), f);
+            self.outputs.status(self.job_id, msgs::JobStatus::RUNNING, f, String::new());
+        }
+    }
+}
+
+fn final_state(e: &Error) -> u8 {
+    match e {
+        Error::Invalid { .. } => msgs::JobStatus::REJECTED,
+        _ => msgs::JobStatus::FAILED,
+    }
+}
+
+/// Plans one job and publishes its outputs; returns the success summary.
+fn plan_and_publish(
+    p: &Pending,
+    shape: &Shape,
+    outputs: &Outputs,
+    machines: &Machines,
+    options: RunOptions,
+) -> Result<String> {
+    let file = convert::job_file_from_msg(&p.msg)?;
+    let job = Job::new(file, shape.clone()).map_err(|e| match (e, shape) {
+        (Error::Invalid { field, message }, _) if field == "surface" => {
+            Error::invalid("surface_id", format!("\"{}\": {message}", p.msg.surface_id))
+        }
+        (e, _) => e,
+    })?;
+    outputs.status(&job.job_id, msgs::JobStatus::RUNNING, 0.0, String::new());
+    let progress = StatusProgress {
+        outputs,
+        job_id: &job.job_id,
+        last: Mutex::new((Instant::now(), 0.0)),
+    };
+    let result = pipeline::run(&job, &progress, options)?;
+    let trajectory = crate::machines::trajectory(&job, &result, machines)?;
+    let header = outputs.header();
+    let toolpath = convert::toolpath_msg(&job, &p.msg.surface_id, &result, trajectory.duration(), header.clone());
+    let summary = format!(
+        "{} passes, {} points, {:.1} mm, trajectory {:.1} s, planned in {:.1} ms",
+        toolpath.stats.passes,
+        toolpath.stats.points,
+        toolpath.stats.path_length_mm,
+        trajectory.duration(),
+        result.stats.compute_ms
+    );
+    publish(&outputs.toolpath, topics::TOOLPATH, toolpath);
+    publish(&outputs.poses, topics::TOOL_POSES, convert::pose_array(&job, &result, header.clone()));
+    let traj = convert::joint_trajectory_msg(&trajectory, header.clone());
+    match job.machine {
+        Machine::Mill5 => publish(&outputs.mill5, topics::MILL5_TRAJECTORY, traj),
+        Machine::Belt6 => publish(&outputs.belt6, topics::BELT6_TRAJECTORY, traj),
+    }
+    publish(&outputs.markers, topics::MARKERS, convert::markers(&result, header));
+    log::debug!("job {} handled {:.1} ms after it arrived", job.job_id, p.received.elapsed().as_secs_f64() * 1e3);
+    Ok(summary)
+}
+
+fn worker(shared: Arc<Shared>, outputs: Arc<Outputs>, machines: Machines, options: RunOptions, timeout_s: f64) {
+    while let Some(work) = next_work(&shared) {
+        match work {
+            Work::Reject(p, why) => outputs.status(&p.msg.job_id, msgs::JobStatus::REJECTED, 0.0, why),
+            Work::TimedOut(p) => outputs.status(
+                &p.msg.job_id,
+                msgs::JobStatus::FAILED,
+                0.0,
+                format!(
+                    "surface \"{}\" has not arrived within {timeout_s} s: publish it on topic surface (or pocket)",
+                    p.msg.surface_id
+                ),
+            ),
+            Work::Plan(p, shape) => {
+                let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    plan_and_publish(&p, &shape, &outputs, &machines, options)
+                }));
+                match run {
+                    Ok(Ok(summary)) => outputs.status(&p.msg.job_id, msgs::JobStatus::SUCCEEDED, 1.0, summary),
+                    Ok(Err(e)) => outputs.status(&p.msg.job_id, final_state(&e), 0.0, e.to_string()),
+                    Err(panic) => {
+                        let what = panic
+                            .downcast_ref::<String>()
+                            .cloned()
+                            .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                            .unwrap_or_default();
+                        outputs.status(
+                            &p.msg.job_id,
+                            msgs::JobStatus::FAILED,
+                            0.0,
+                            format!("internal error while planning (please report): {what}"),
+                        )
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Handles a received job message: REJECTED at once when the message itself is
+/// bad, else ACCEPTED and queued.
+fn receive_job(shared: &Shared, outputs: &Outputs, msg: msgs::Job, timeout: Duration) {
+    if let Err(e) = convert::prevalidate_job(&msg) {
+        outputs.status(&msg.job_id, final_state(&e), 0.0, e.to_string());
+        return;
+    }
+    outputs.status(&msg.job_id, msgs::JobStatus::ACCEPTED, 0.0, String::new());
+    let now = Instant::now();
+    shared.lock().queue.push_back(Pending {
+        msg,
+        received: now,
+        deadline: now + timeout,
+    });
+    shared.wake.notify_all();
+}
+
+fn receive_shape(shared: &Shared, id: String, shape: Result<Shape>) {
+    let entry = match shape {
+        Ok(s) => {
+            log::info!("received {id}");
+            ShapeEntry::Ready(Arc::new(s))
+        }
+        Err(e) => {
+            log::warn!("rejected {id}: {e}");
+            ShapeEntry::Rejected(e.to_string())
+        }
+    };
+    shared.lock().shapes.insert(id, entry);
+    shared.wake.notify_all();
+}
+
+/// Runs the node until SIGINT/SIGTERM. Prints one line "ready ..." on stdout
+/// once every topic exists (tests and the demo wait for it).
+pub async fn run(config: NodeConfig) -> Result<()> {
+    config.validate()?;
+    let domain = config.domain_id()?;
+    let settings = config.node.clone();
+    let mut ros = RosNode::new(&settings.name, &settings.namespace, domain, config.interfaces()?)?;
+    let surfaces = ros.subscription::<msgs::Surface>(topics::SURFACE, qos::shapes())?;
+    let pockets = ros.subscription::<msgs::Pocket>(topics::POCKET, qos::shapes())?;
+    let jobs = ros.subscription::<msgs::Job>(topics::JOB, qos::job())?;
+    let outputs = Arc::new(Outputs {
+        status: Mutex::new(ros.publisher(topics::JOB_STATUS, qos::status())?),
+        toolpath: Mutex::new(ros.publisher(topics::TOOLPATH, qos::results())?),
+        poses: Mutex::new(ros.publisher(topics::TOOL_POSES, qos::results())?),
+        mill5: Mutex::new(ros.publisher(topics::MILL5_TRAJECTORY, qos::results())?),
+        belt6: Mutex::new(ros.publisher(topics::BELT6_TRAJECTORY, qos::results())?),
+        markers: Mutex::new(ros.publisher(topics::MARKERS, qos::results())?),
+        frame_id: settings.frame_id.clone(),
+    });
+    let shared = Arc::new(Shared {
+        state: Mutex::new(State::default()),
+        wake: Condvar::new(),
+    });
+    let options = RunOptions {
+        skip_verify: !settings.verify,
+        no_timing: false,
+    };
+    let mut handles = Vec::new();
+    for k in 0..settings.workers {
+        let (s, o, m) = (Arc::clone(&shared), Arc::clone(&outputs), config.machines());
+        let timeout_s = settings.surface_timeout_s;
+        let h = std::thread::Builder::new()
+            .name(format!("planner-{k}"))
+            .spawn(move || worker(s, o, m, options, timeout_s))
+            .map_err(|e| Error::planning(format!("cannot start a planning thread: {e}")))?;
+        handles.push(h);
+    }
+    let timeout = Duration::from_secs_f64(settings.surface_timeout_s);
+    println!(
+        "ready: node {} on ROS domain {domain}, interfaces {}",
+        ros.node.fully_qualified_name(),
+        settings.interfaces.join(",")
+    );
+    use std::io::Write;
+    let _ = std::io::stdout().flush();
+
+    let mut surface_stream = Box::pin(surfaces.async_stream());
+    let mut pocket_stream = Box::pin(pockets.async_stream());
+    let mut job_stream = Box::pin(jobs.async_stream());
+    let mut sigterm = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+        .map_err(|e| Error::planning(format!("cannot watch SIGTERM: {e}")))?;
+    loop {
+        tokio::select! {
+            Some(r) = job_stream.next() => match r {
+                Ok((msg, _)) => receive_job(&shared, &outputs, msg, timeout),
+                Err(e) => log::error!("undecodable message on topic job: {e:?}"),
+            },
+            Some(r) = surface_stream.next() => match r {
+                Ok((msg, _)) => {
+                    let shape = convert::surface_from_msg(&msg).map(Shape::Surface);
+                    receive_shape(&shared, msg.surface_id, shape);
+                }
+                Err(e) => log::error!("undecodable message on topic surface: {e:?}"),
+            },
+            Some(r) = pocket_stream.next() => match r {
+                Ok((msg, _)) => {
+                    let shape = convert::pocket_from_msg(&msg).map(Shape::Pocket);
+                    receive_shape(&shared, msg.pocket_id, shape);
+                }
+                Err(e) => log::error!("undecodable message on topic pocket: {e:?}"),
+            },
+            _ = tokio::signal::ctrl_c() => break,
+            _ = sigterm.recv() => break,
+        }
+    }
+    shared.lock().shutdown = true;
+    shared.wake.notify_all();
+    // Workers finish their current job; the process exits after them.
+    for h in handles {
+        let _ = h.join();
+    }
+    Ok(())
+}
