@@ -19,6 +19,10 @@ pub fn run(config: Option<&Path>) -> Result<()> {
 
 /// Logs to stderr; RUST_LOG overrides (ros2-client warns through `log`).
 pub fn init_logging() {
-    let env = env_logger::Env::default().default_filter_or("warn,toolpath_planner=info");
-    let _ = env_logger::Builder::from_env(env).format_timestamp_millis().try_init();
+    let env = env_logger::Env::default().default_filter_or(
+        "warn,rustdds=off,ros2_client::distributions=error,toolpath_planner=info",
+    );
+    let _ = env_logger::Builder::from_env(env)
+        .format_timestamp_millis()
+        .try_init();
 }

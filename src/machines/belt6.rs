@@ -22,7 +22,9 @@ pub fn wheel_frame(axis: [f64; 3], normal: [f64; 3]) -> Result<Matrix3<f64>> {
     let n = Vector3::from(normal);
     let xn = x.norm();
     if !xn.is_finite() || xn < 1e-12 {
-        return Err(Error::planning(format!("belt6: wheel axis {axis:?} is not a finite non-zero vector")));
+        return Err(Error::planning(format!(
+            "belt6: wheel axis {axis:?} is not a finite non-zero vector"
+        )));
     }
     let x = x / xn;
     let z = n - x * x.dot(&n);
@@ -59,7 +61,9 @@ pub fn inverse(
     prev: Option<&[f64; 6]>,
 ) -> Result<[f64; 6]> {
     if centre.iter().any(|x| !x.is_finite()) {
-        return Err(Error::planning(format!("belt6: wheel centre {centre:?} is not finite")));
+        return Err(Error::planning(format!(
+            "belt6: wheel centre {centre:?} is not finite"
+        )));
     }
     let m = wheel_frame(axis, normal)?;
     let o = cfg.workpiece_origin_mm;
@@ -88,8 +92,16 @@ pub fn inverse(
         let a1 = m[(2, 1)].atan2(m[(2, 2)]);
         let c1 = m[(1, 0)].atan2(m[(0, 0)]);
         let b2 = PI - b1;
-        let first = (unwrap_near(a1, pa), unwrap_near(b1, pb), unwrap_near(c1, pc));
-        let second = (unwrap_near(a1 + PI, pa), unwrap_near(b2, pb), unwrap_near(c1 + PI, pc));
+        let first = (
+            unwrap_near(a1, pa),
+            unwrap_near(b1, pb),
+            unwrap_near(c1, pc),
+        );
+        let second = (
+            unwrap_near(a1 + PI, pa),
+            unwrap_near(b2, pb),
+            unwrap_near(c1 + PI, pc),
+        );
         let lim_b = cfg.b.limit("B");
         let fits = |s: &(f64, f64, f64)| s.1 >= lim_b.min - 1e-12 && s.1 <= lim_b.max + 1e-12;
         let dist = |s: &(f64, f64, f64)| (s.0 - pa).abs() + (s.1 - pb).abs() + (s.2 - pc).abs();
@@ -105,7 +117,10 @@ pub fn inverse(
 }
 
 /// Joint values of a whole path of wheel poses (centre, axis, normal).
-pub fn inverse_path(cfg: &Belt6Config, poses: &[([f64; 3], [f64; 3], [f64; 3])]) -> Result<Vec<[f64; 6]>> {
+pub fn inverse_path(
+    cfg: &Belt6Config,
+    poses: &[([f64; 3], [f64; 3], [f64; 3])],
+) -> Result<Vec<[f64; 6]>> {
     let mut out: Vec<[f64; 6]> = Vec::with_capacity(poses.len());
     for (c, a, n) in poses {
         let q = inverse(cfg, *c, *a, *n, out.last())?;
@@ -121,12 +136,34 @@ mod tests {
     /// Independent FK: rotate the wheel-frame basis vectors one elementary
     /// rotation at a time (x first, then y, then z, all about fixed axes).
     fn fk_elementary(cfg: &Belt6Config, q: &[f64; 6]) -> ([f64; 3], [f64; 3], [f64; 3]) {
-        let rx = |v: [f64; 3], t: f64| [v[0], t.cos() * v[1] - t.sin() * v[2], t.sin() * v[1] + t.cos() * v[2]];
-        let ry = |v: [f64; 3], t: f64| [t.cos() * v[0] + t.sin() * v[2], v[1], -t.sin() * v[0] + t.cos() * v[2]];
-        let rz = |v: [f64; 3], t: f64| [t.cos() * v[0] - t.sin() * v[1], t.sin() * v[0] + t.cos() * v[1], v[2]];
+        let rx = |v: [f64; 3], t: f64| {
+            [
+                v[0],
+                t.cos() * v[1] - t.sin() * v[2],
+                t.sin() * v[1] + t.cos() * v[2],
+            ]
+        };
+        let ry = |v: [f64; 3], t: f64| {
+            [
+                t.cos() * v[0] + t.sin() * v[2],
+                v[1],
+                -t.sin() * v[0] + t.cos() * v[2],
+            ]
+        };
+        let rz = |v: [f64; 3], t: f64| {
+            [
+                t.cos() * v[0] - t.sin() * v[1],
+                t.sin() * v[0] + t.cos() * v[1],
+                v[2],
+            ]
+        };
         let rot = |v: [f64; 3]| rz(ry(rx(v, q[3]), q[4]), q[5]);
         let o = cfg.workpiece_origin_mm;
-        ([q[0] - o[0], q[1] - o[1], q[2] - o[2]], rot([1.0, 0.0, 0.0]), rot([0.0, 0.0, 1.0]))
+        (
+            [q[0] - o[0], q[1] - o[1], q[2] - o[2]],
+            rot([1.0, 0.0, 0.0]),
+            rot([0.0, 0.0, 1.0]),
+        )
     }
 
     fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
@@ -149,7 +186,11 @@ mod tests {
         for k in 0..400 {
             let t = k as f64 * 0.07;
             // Random-ish orthonormal frame from three angles.
-            let r = Rotation3::from_euler_angles(1.3 * t.sin(), 1.2 * (0.7 * t).cos(), 2.9 * (0.3 * t).sin());
+            let r = Rotation3::from_euler_angles(
+                1.3 * t.sin(),
+                1.2 * (0.7 * t).cos(),
+                2.9 * (0.3 * t).sin(),
+            );
             let m = r.matrix();
             let axis = [m[(0, 0)], m[(1, 0)], m[(2, 0)]];
             let normal = [m[(0, 2)], m[(1, 2)], m[(2, 2)]];
@@ -161,7 +202,12 @@ mod tests {
             assert!(close(normal, n2, 1e-9), "{normal:?} {n2:?} {q:?}");
             if let Some(p) = prev {
                 for j in 3..6 {
-                    assert!((q[j] - p[j]).abs() < 0.5, "joint {j} jumps {} -> {}", p[j], q[j]);
+                    assert!(
+                        (q[j] - p[j]).abs() < 0.5,
+                        "joint {j} jumps {} -> {}",
+                        p[j],
+                        q[j]
+                    );
                 }
             }
             prev = Some(q);
@@ -173,13 +219,33 @@ mod tests {
         let cfg = Belt6Config::default();
         // Wheel axis pointing straight down (B = 90 deg), normal along x.
         let prev = [0.0, 0.0, 0.0, 0.3, 1.5, 0.1];
-        let q = inverse(&cfg, [0.0; 3], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0], Some(&prev)).unwrap();
+        let q = inverse(
+            &cfg,
+            [0.0; 3],
+            [0.0, 0.0, -1.0],
+            [1.0, 0.0, 0.0],
+            Some(&prev),
+        )
+        .unwrap();
         assert_eq!(q[3], 0.3);
         let (_, a, n) = fk_elementary(&cfg, &q);
-        assert!(close(a, [0.0, 0.0, -1.0], 1e-9) && close(n, [1.0, 0.0, 0.0], 1e-9), "{q:?} {a:?} {n:?}");
-        let q = inverse(&cfg, [0.0; 3], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], Some(&prev)).unwrap();
+        assert!(
+            close(a, [0.0, 0.0, -1.0], 1e-9) && close(n, [1.0, 0.0, 0.0], 1e-9),
+            "{q:?} {a:?} {n:?}"
+        );
+        let q = inverse(
+            &cfg,
+            [0.0; 3],
+            [0.0, 0.0, 1.0],
+            [0.0, 1.0, 0.0],
+            Some(&prev),
+        )
+        .unwrap();
         let (_, a, n) = fk_elementary(&cfg, &q);
-        assert!(close(a, [0.0, 0.0, 1.0], 1e-9) && close(n, [0.0, 1.0, 0.0], 1e-9), "{q:?} {a:?} {n:?}");
+        assert!(
+            close(a, [0.0, 0.0, 1.0], 1e-9) && close(n, [0.0, 1.0, 0.0], 1e-9),
+            "{q:?} {a:?} {n:?}"
+        );
     }
 
     #[test]

@@ -37,7 +37,12 @@ pub struct JointLimit {
 }
 
 impl LinearAxis {
-    pub const fn new(min_mm: f64, max_mm: f64, max_velocity_mm_s: f64, max_acceleration_mm_s2: f64) -> Self {
+    pub const fn new(
+        min_mm: f64,
+        max_mm: f64,
+        max_velocity_mm_s: f64,
+        max_acceleration_mm_s2: f64,
+    ) -> Self {
         Self {
             min_mm,
             max_mm,
@@ -57,13 +62,24 @@ impl LinearAxis {
     }
     fn validate(&self, field: &str) -> Result<()> {
         check_range(field, "min_mm", self.min_mm, "max_mm", self.max_mm)?;
-        positive(&format!("{field}.max_velocity_mm_s"), self.max_velocity_mm_s)?;
-        positive(&format!("{field}.max_acceleration_mm_s2"), self.max_acceleration_mm_s2)
+        positive(
+            &format!("{field}.max_velocity_mm_s"),
+            self.max_velocity_mm_s,
+        )?;
+        positive(
+            &format!("{field}.max_acceleration_mm_s2"),
+            self.max_acceleration_mm_s2,
+        )
     }
 }
 
 impl RotaryAxis {
-    pub const fn new(min_deg: f64, max_deg: f64, max_velocity_deg_s: f64, max_acceleration_deg_s2: f64) -> Self {
+    pub const fn new(
+        min_deg: f64,
+        max_deg: f64,
+        max_velocity_deg_s: f64,
+        max_acceleration_deg_s2: f64,
+    ) -> Self {
         Self {
             min_deg,
             max_deg,
@@ -83,14 +99,23 @@ impl RotaryAxis {
     }
     fn validate(&self, field: &str) -> Result<()> {
         check_range(field, "min_deg", self.min_deg, "max_deg", self.max_deg)?;
-        positive(&format!("{field}.max_velocity_deg_s"), self.max_velocity_deg_s)?;
-        positive(&format!("{field}.max_acceleration_deg_s2"), self.max_acceleration_deg_s2)
+        positive(
+            &format!("{field}.max_velocity_deg_s"),
+            self.max_velocity_deg_s,
+        )?;
+        positive(
+            &format!("{field}.max_acceleration_deg_s2"),
+            self.max_acceleration_deg_s2,
+        )
     }
 }
 
 fn positive(field: &str, x: f64) -> Result<()> {
     if !x.is_finite() || x <= 0.0 {
-        return Err(Error::invalid(field, format!("must be a positive finite number, got {x}")));
+        return Err(Error::invalid(
+            field,
+            format!("must be a positive finite number, got {x}"),
+        ));
     }
     Ok(())
 }
@@ -159,7 +184,10 @@ impl Mill5Config {
         }
         positive("mill5.max_feed_rate_mm_min", self.max_feed_rate_mm_min)?;
         if !self.retract_mm.is_finite() || self.retract_mm < 0.0 {
-            return Err(Error::invalid("mill5.retract_mm", "must be a finite number >= 0"));
+            return Err(Error::invalid(
+                "mill5.retract_mm",
+                "must be a finite number >= 0",
+            ));
         }
         self.x.validate("mill5.x")?;
         self.y.validate("mill5.y")?;
@@ -219,7 +247,10 @@ impl Belt6Config {
         }
         positive("belt6.max_feed_rate_mm_min", self.max_feed_rate_mm_min)?;
         if !self.retract_mm.is_finite() || self.retract_mm < 0.0 {
-            return Err(Error::invalid("belt6.retract_mm", "must be a finite number >= 0"));
+            return Err(Error::invalid(
+                "belt6.retract_mm",
+                "must be a finite number >= 0",
+            ));
         }
         self.x.validate("belt6.x")?;
         self.y.validate("belt6.y")?;

@@ -87,12 +87,18 @@ pub fn inverse(
 /// that starts vertical does not spin C when it first tilts).
 pub fn c_hint(axes: &[[f64; 3]]) -> f64 {
     axes.iter()
-        .find(|a| a[0].hypot(a[1]) >= SINGULAR_SIN_A * (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt())
+        .find(|a| {
+            a[0].hypot(a[1]) >= SINGULAR_SIN_A * (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+        })
         .map_or(0.0, |a| a[0].atan2(-a[1]))
 }
 
 /// Joint values of a whole path (consecutive tool poses), continuous in A and C.
-pub fn inverse_path(cfg: &Mill5Config, pivot_length: f64, poses: &[([f64; 3], [f64; 3])]) -> Result<Vec<[f64; 5]>> {
+pub fn inverse_path(
+    cfg: &Mill5Config,
+    pivot_length: f64,
+    poses: &[([f64; 3], [f64; 3])],
+) -> Result<Vec<[f64; 5]>> {
     let axes: Vec<[f64; 3]> = poses.iter().map(|p| p.1).collect();
     let hint = c_hint(&axes);
     let mut out: Vec<[f64; 5]> = Vec::with_capacity(poses.len());
@@ -114,8 +120,10 @@ mod tests {
         use nalgebra::{Matrix4, Rotation3, Translation3, Vector3, Vector4};
         let o = cfg.workpiece_origin_mm;
         let to_pivot = Translation3::new(q[0] - o[0], q[1] - o[1], q[2] - o[2]).to_homogeneous();
-        let rc: Matrix4<f64> = Rotation3::from_axis_angle(&Vector3::z_axis(), q[4]).to_homogeneous();
-        let ra: Matrix4<f64> = Rotation3::from_axis_angle(&Vector3::x_axis(), q[3]).to_homogeneous();
+        let rc: Matrix4<f64> =
+            Rotation3::from_axis_angle(&Vector3::z_axis(), q[4]).to_homogeneous();
+        let ra: Matrix4<f64> =
+            Rotation3::from_axis_angle(&Vector3::x_axis(), q[3]).to_homogeneous();
         let down = Translation3::new(0.0, 0.0, -l).to_homogeneous();
         let m = to_pivot * rc * ra * down;
         let tip = m * Vector4::new(0.0, 0.0, 0.0, 1.0);
@@ -134,7 +142,10 @@ mod tests {
             let q = [100.0, 200.0, 300.0, a, c];
             let (t1, a1) = forward(&cfg, 280.0, &q);
             let (t2, a2) = fk_matrices(&cfg, 280.0, &q);
-            assert!(close(t1, t2, 1e-9) && close(a1, a2, 1e-12), "{t1:?} {t2:?} {a1:?} {a2:?}");
+            assert!(
+                close(t1, t2, 1e-9) && close(a1, a2, 1e-12),
+                "{t1:?} {t2:?} {a1:?} {a2:?}"
+            );
         }
     }
 
@@ -157,7 +168,10 @@ mod tests {
             let q = inverse(&cfg, l, tip, axis, prev.as_ref(), 0.0).unwrap();
             let (tip2, axis2) = fk_matrices(&cfg, l, &q);
             assert!(close(tip, tip2, 1e-9), "tip {tip:?} -> {q:?} -> {tip2:?}");
-            assert!(close(axis, axis2, 1e-9), "axis {axis:?} -> {q:?} -> {axis2:?}");
+            assert!(
+                close(axis, axis2, 1e-9),
+                "axis {axis:?} -> {q:?} -> {axis2:?}"
+            );
             prev = Some(q);
         }
     }
@@ -167,19 +181,30 @@ mod tests {
         let cfg = Mill5Config::default();
         // Tilted towards +x (C = -90 deg), through vertical, then tilted towards -x.
         let tilt = |s: f64| [s.sin(), 0.0, s.cos()];
-        let poses: Vec<([f64; 3], [f64; 3])> =
-            (-10..=10).map(|k| ([k as f64, 0.0, 0.0], tilt(k as f64 * 0.02))).collect();
+        let poses: Vec<([f64; 3], [f64; 3])> = (-10..=10)
+            .map(|k| ([k as f64, 0.0, 0.0], tilt(k as f64 * 0.02)))
+            .collect();
         let q = inverse_path(&cfg, 250.0, &poses).unwrap();
         let c0 = q[0][4];
         for (k, j) in q.iter().enumerate() {
-            assert!((j[4] - c0).abs() < 1e-12, "C moved at {k}: {} vs {c0}", j[4]);
+            assert!(
+                (j[4] - c0).abs() < 1e-12,
+                "C moved at {k}: {} vs {c0}",
+                j[4]
+            );
         }
         // A passes through 0 and changes sign rather than C flipping 180 deg.
         assert!(q[0][3] * q[20][3] < 0.0);
         assert_eq!(q[10][3], 0.0);
         // A path that starts vertical takes C from its first tilted pose.
-        let poses: Vec<([f64; 3], [f64; 3])> =
-            (0..5).map(|k| ([0.0; 3], [0.0, -(k as f64 * 0.1).sin(), (k as f64 * 0.1).cos()])).collect();
+        let poses: Vec<([f64; 3], [f64; 3])> = (0..5)
+            .map(|k| {
+                (
+                    [0.0; 3],
+                    [0.0, -(k as f64 * 0.1).sin(), (k as f64 * 0.1).cos()],
+                )
+            })
+            .collect();
         let q = inverse_path(&cfg, 250.0, &poses).unwrap();
         assert!(q.iter().all(|j| j[4].abs() < 1e-12), "{q:?}");
     }
@@ -197,7 +222,12 @@ mod tests {
             .collect();
         let q = inverse_path(&cfg, 250.0, &poses).unwrap();
         for w in q.windows(2) {
-            assert!((w[1][4] - w[0][4]).abs() < 2f64.to_radians(), "C jumps {} -> {}", w[0][4], w[1][4]);
+            assert!(
+                (w[1][4] - w[0][4]).abs() < 2f64.to_radians(),
+                "C jumps {} -> {}",
+                w[0][4],
+                w[1][4]
+            );
             assert!((w[1][3] - w[0][3]).abs() < 1e-9);
         }
         let span = (q[300][4] - q[0][4]).to_degrees();

@@ -96,7 +96,9 @@ pub fn tool_poses(result: &PlanResult) -> Vec<Vec<ToolPose>> {
                     let normal = p
                         .normal
                         .and_then(normalise)
-                        .or_else(|| normalise([p.cl[0] - p.cc[0], p.cl[1] - p.cc[1], p.cl[2] - p.cc[2]]))
+                        .or_else(|| {
+                            normalise([p.cl[0] - p.cc[0], p.cl[1] - p.cc[1], p.cl[2] - p.cc[2]])
+                        })
                         .unwrap_or([0.0, 0.0, 1.0]);
                     ToolPose {
                         tip: p.cl,
@@ -119,7 +121,12 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 /// Shifts each rotary joint by whole turns so the path fits its travel, then
 /// checks every joint against its limits.
-fn fit_limits(machine: &str, q: &mut [Vec<f64>], limits: &[JointLimit], origins: &[Origin]) -> Result<()> {
+fn fit_limits(
+    machine: &str,
+    q: &mut [Vec<f64>],
+    limits: &[JointLimit],
+    origins: &[Origin],
+) -> Result<()> {
     for (j, l) in limits.iter().enumerate() {
         if !l.rotary || q.is_empty() {
             continue;
@@ -157,7 +164,12 @@ fn fit_limits(machine: &str, q: &mut [Vec<f64>], limits: &[JointLimit], origins:
             let x = row[j];
             if x < l.min - 1e-9 || x > l.max + 1e-9 {
                 let (val, lo, hi, unit) = if l.rotary {
-                    (x.to_degrees(), l.min.to_degrees(), l.max.to_degrees(), "deg")
+                    (
+                        x.to_degrees(),
+                        l.min.to_degrees(),
+                        l.max.to_degrees(),
+                        "deg",
+                    )
                 } else {
                     (x, l.min, l.max, "mm")
                 };
@@ -171,22 +183,32 @@ fn fit_limits(machine: &str, q: &mut [Vec<f64>], limits: &[JointLimit], origins:
     Ok(())
 }
 
-/// Builds the timed joint trajectory of a planned job on its machine.
-pub fn trajectory(job: &Job, result: &PlanResult, machines: &Machines) -> Result<JointTrajectory> {
-    let passes = tool_poses(result);
-    let (max_feed, retract, machine_name) = match job.machine {
-        Machine::Mill5 => (machines.mill5.max_feed_rate_mm_min, machines.mill5.retract_mm, "mill5"),
-        Machine::Belt6 => (machines.belt6.max_feed_rate_mm_min, machines.belt6.retract_mm, "belt6"),
+/// Rejects a feed rate (mm/min) above the machine's maximum.
+pub fn check_feed_rate(machine: Machine, feed_rate: f64, machines: &Machines) -> Result<()> {
+    let max_feed = match machine {
+        Machine::Mill5 => machines.mill5.max_feed_rate_mm_min,
+        Machine::Belt6 => machines.belt6.max_feed_rate_mm_min,
     };
-    if job.feed_rate > max_feed {
+    if feed_rate > max_feed {
         return Err(Error::invalid(
             "feed_rate",
             format!(
-                "{} mm/min exceeds {machine_name}'s maximum feed rate {max_feed} mm/min",
-                job.feed_rate
+                "{feed_rate} mm/min exceeds {}'s maximum feed rate {max_feed} mm/min",
+                machine.name()
             ),
         ));
     }
+    Ok(())
+}
+
+/// Builds the timed joint trajectory of a planned job on its machine.
+pub fn trajectory(job: &Job, result: &PlanResult, machines: &Machines) -> Result<JointTrajectory> {
+    let passes = tool_poses(result);
+    check_feed_rate(job.machine, job.feed_rate, machines)?;
+    let (retract, machine_name) = match job.machine {
+        Machine::Mill5 => (machines.mill5.retract_mm, "mill5"),
+        Machine::Belt6 => (machines.belt6.retract_mm, "belt6"),
+    };
     let feed = job.feed_rate / 60.0;
     // Waypoints: (pose, origin, stop) and the segments between them.
     let mut poses: Vec<ToolPose> = Vec::new();
@@ -194,7 +216,9 @@ pub fn trajectory(job: &Job, result: &PlanResult, machines: &Machines) -> Result
     let mut stops: Vec<bool> = Vec::new();
     let mut rapid_before: Vec<bool> = Vec::new();
     for (p, pass) in passes.iter().enumerate() {
-        let (Some(first), Some(last)) = (pass.first(), pass.last()) else { continue };
+        let (Some(first), Some(last)) = (pass.first(), pass.last()) else {
+            continue;
+        };
         let lift = |t: &ToolPose| match job.machine {
             Machine::Mill5 => normalise(t.axis).unwrap_or([0.0, 0.0, 1.0]),
             Machine::Belt6 => t.normal,
@@ -222,29 +246,32 @@ pub fn trajectory(job: &Job, result: &PlanResult, machines: &Machines) -> Result
         stops.push(true);
         rapid_before.push(false);
     }
-    let (joint_names, limits, mut q): (Vec<&'static str>, Vec<JointLimit>, Vec<Vec<f64>>) = match job.machine {
-        Machine::Mill5 => {
-            let cfg = &machines.mill5;
-            let l = cfg.pivot_length_mm + job.tool.length();
-            let input: Vec<([f64; 3], [f64; 3])> = poses.iter().map(|t| (t.tip, t.axis)).collect();
-            let q = mill5::inverse_path(cfg, l, &input)?;
-            (
-                vec!["X", "Y", "Z", "A", "C"],
-                cfg.limits(),
-                q.into_iter().map(|r| r.to_vec()).collect(),
-            )
-        }
-        Machine::Belt6 => {
-            let cfg = &machines.belt6;
-            let input: Vec<([f64; 3], [f64; 3], [f64; 3])> = poses.iter().map(|t| (t.tip, t.axis, t.normal)).collect();
-            let q = belt6::inverse_path(cfg, &input)?;
-            (
-                vec!["X", "Y", "Z", "A", "B", "C"],
-                cfg.limits(),
-                q.into_iter().map(|r| r.to_vec()).collect(),
-            )
-        }
-    };
+    let (joint_names, limits, mut q): (Vec<&'static str>, Vec<JointLimit>, Vec<Vec<f64>>) =
+        match job.machine {
+            Machine::Mill5 => {
+                let cfg = &machines.mill5;
+                let l = cfg.pivot_length_mm + job.tool.length();
+                let input: Vec<([f64; 3], [f64; 3])> =
+                    poses.iter().map(|t| (t.tip, t.axis)).collect();
+                let q = mill5::inverse_path(cfg, l, &input)?;
+                (
+                    vec!["X", "Y", "Z", "A", "C"],
+                    cfg.limits(),
+                    q.into_iter().map(|r| r.to_vec()).collect(),
+                )
+            }
+            Machine::Belt6 => {
+                let cfg = &machines.belt6;
+                let input: Vec<([f64; 3], [f64; 3], [f64; 3])> =
+                    poses.iter().map(|t| (t.tip, t.axis, t.normal)).collect();
+                let q = belt6::inverse_path(cfg, &input)?;
+                (
+                    vec!["X", "Y", "Z", "A", "B", "C"],
+                    cfg.limits(),
+                    q.into_iter().map(|r| r.to_vec()).collect(),
+                )
+            }
+        };
     fit_limits(machine_name, &mut q, &limits, &origins)?;
     let segments: Vec<Segment> = (1..poses.len())
         .map(|k| Segment {
@@ -265,7 +292,7 @@ pub fn trajectory(job: &Job, result: &PlanResult, machines: &Machines) -> Result
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::formats::{JobFile, PathPoint, Pass, Shape, Strategy};
+    use crate::formats::{JobFile, Pass, PathPoint, Shape, Strategy};
     use crate::tools::Tool;
 
     fn job(strategy: Strategy, tool: Tool, feed: f64) -> Job {
@@ -286,7 +313,7 @@ mod tests {
             simulation_resolution: None,
             grinding: None,
         };
-        Job::new(file, Shape::Surface(crate::samples::plane())).unwrap()
+        Job::new(file, Shape::Surface(crate::samples::surfaces::plane())).unwrap()
     }
 
     fn straight_pass(n: usize, axis: [f64; 3]) -> PlanResult {
@@ -311,7 +338,14 @@ mod tests {
 
     #[test]
     fn mill_trajectory_runs_at_feed_with_retracts() {
-        let j = job(Strategy::IsoParametric, Tool::FlatEnd { radius: 2.5, length: Some(30.0) }, 600.0);
+        let j = job(
+            Strategy::IsoParametric,
+            Tool::FlatEnd {
+                radius: 2.5,
+                length: Some(30.0),
+            },
+            600.0,
+        );
         let r = straight_pass(101, [0.0, 0.0, 1.0]);
         let m = Machines::default();
         let t = trajectory(&j, &r, &m).unwrap();
@@ -329,21 +363,45 @@ mod tests {
 
     #[test]
     fn joint_out_of_range_fails_with_the_place() {
-        let j = job(Strategy::IsoParametric, Tool::Ball { radius: 3.0, length: None }, 1000.0);
+        let j = job(
+            Strategy::IsoParametric,
+            Tool::Ball {
+                radius: 3.0,
+                length: None,
+            },
+            1000.0,
+        );
         // Axis tilted 100 deg from vertical: beyond A +-95.
         let t = 100f64.to_radians();
         let r = straight_pass(5, [t.sin(), 0.0, t.cos()]);
-        let e = trajectory(&j, &r, &Machines::default()).unwrap_err().to_string();
-        assert!(e.contains("joint A") && e.contains("outside its range -95..95 deg"), "{e}");
+        let e = trajectory(&j, &r, &Machines::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("joint A") && e.contains("outside its range -95..95 deg"),
+            "{e}"
+        );
         assert!(e.contains("approach to pass 0"), "{e}");
     }
 
     #[test]
     fn feed_above_the_machine_maximum_is_rejected() {
-        let j = job(Strategy::IsoParametric, Tool::Ball { radius: 3.0, length: None }, 5000.0);
-        let e = trajectory(&j, &straight_pass(3, [0.0, 0.0, 1.0]), &Machines::default()).unwrap_err();
+        let j = job(
+            Strategy::IsoParametric,
+            Tool::Ball {
+                radius: 3.0,
+                length: None,
+            },
+            5000.0,
+        );
+        let e =
+            trajectory(&j, &straight_pass(3, [0.0, 0.0, 1.0]), &Machines::default()).unwrap_err();
         assert!(matches!(e, Error::Invalid { .. }));
-        assert!(e.to_string().contains("exceeds mill5's maximum feed rate 4000"), "{e}");
+        assert!(
+            e.to_string()
+                .contains("exceeds mill5's maximum feed rate 4000"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -354,7 +412,9 @@ mod tests {
         fit_limits("mill5", &mut q, &limits, &o).unwrap();
         assert!((q[0][4] - (5.0 - 2.0 * PI)).abs() < 1e-12);
         let mut q = vec![vec![0.0, 0.0, 0.0, 0.3, 0.0], vec![0.0, 0.0, 0.0, 0.3, 8.0]];
-        let e = fit_limits("mill5", &mut q, &limits, &o).unwrap_err().to_string();
+        let e = fit_limits("mill5", &mut q, &limits, &o)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("turns joint C through 458.4 deg"), "{e}");
     }
 }

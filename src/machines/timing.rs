@@ -70,7 +70,12 @@ fn worst_acceleration(v: &[Vec<f64>], dt: &[f64], limits: &[JointLimit]) -> (f64
 
 /// Times the path `q` (one row of joint values per waypoint). `segments[k]`
 /// joins waypoints k and k + 1; `stops[k]` forces zero velocity at waypoint k.
-pub fn parameterise(q: Vec<Vec<f64>>, segments: &[Segment], stops: &[bool], limits: &[JointLimit]) -> Timed {
+pub fn parameterise(
+    q: Vec<Vec<f64>>,
+    segments: &[Segment],
+    stops: &[bool],
+    limits: &[JointLimit],
+) -> Timed {
     let n = q.len();
     if n == 0 {
         return Timed::default();
@@ -161,7 +166,9 @@ mod tests {
     #[test]
     fn joint_limits_hold_and_time_increases() {
         // A zig-zag with sharp reversals in Y: acceleration-limited.
-        let q: Vec<Vec<f64>> = (0..200).map(|k| vec![k as f64 * 0.5, if k % 2 == 0 { 0.0 } else { 3.0 }]).collect();
+        let q: Vec<Vec<f64>> = (0..200)
+            .map(|k| vec![k as f64 * 0.5, if k % 2 == 0 { 0.0 } else { 3.0 }])
+            .collect();
         let segs: Vec<Segment> = q
             .windows(2)
             .map(|w| Segment {
@@ -183,7 +190,10 @@ mod tests {
                 assert!(mean_v.abs() <= l.max_velocity * (1.0 + 1e-9));
                 assert!(t.velocities[k][j].abs() <= l.max_velocity * (1.0 + 1e-9));
                 let acc = (t.velocities[k][j] - t.velocities[k - 1][j]) / dt;
-                assert!(acc.abs() <= l.max_acceleration * (1.0 + 1e-6), "k {k} j {j} acc {acc}");
+                assert!(
+                    acc.abs() <= l.max_acceleration * (1.0 + 1e-6),
+                    "k {k} j {j} acc {acc}"
+                );
             }
             let speed = segs[k - 1].length / dt;
             assert!(speed <= 50.0 * (1.0 + 1e-9));

@@ -56,7 +56,8 @@ pub struct NodeConfig {
 impl NodeConfig {
     /// Reads and validates a YAML config; errors name the file and the field.
     pub fn read(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path.display().to_string(), e))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| Error::io(path.display().to_string(), e))?;
         Self::parse(&text).map_err(|e| match e {
             Error::Invalid { field, message } => Error::Invalid {
                 field: if field.is_empty() {
@@ -87,14 +88,20 @@ impl NodeConfig {
             return Err(Error::invalid("node.name", "must not be empty"));
         }
         if !n.surface_timeout_s.is_finite() || n.surface_timeout_s < 0.0 {
-            return Err(Error::invalid("node.surface_timeout_s", "must be a finite number >= 0"));
+            return Err(Error::invalid(
+                "node.surface_timeout_s",
+                "must be a finite number >= 0",
+            ));
         }
         if n.workers == 0 {
             return Err(Error::invalid("node.workers", "must be at least 1"));
         }
         if let Some(d) = n.domain_id {
             if d > 232 {
-                return Err(Error::invalid("node.domain_id", format!("{d} is above the ROS 2 maximum 232")));
+                return Err(Error::invalid(
+                    "node.domain_id",
+                    format!("{d} is above the ROS 2 maximum 232"),
+                ));
             }
         }
         self.interfaces()?;
@@ -124,7 +131,10 @@ impl NodeConfig {
             .enumerate()
             .map(|(k, s)| {
                 s.parse::<IpAddr>().map_err(|_| {
-                    Error::invalid(format!("node.interfaces[{k}]"), format!("\"{s}\" is not an IP address (or \"all\")"))
+                    Error::invalid(
+                        format!("node.interfaces[{k}]"),
+                        format!("\"{s}\" is not an IP address (or \"all\")"),
+                    )
                 })
             })
             .collect::<Result<Vec<_>>>()
@@ -142,7 +152,12 @@ impl NodeConfig {
                 .parse::<u16>()
                 .ok()
                 .filter(|d| *d <= 232)
-                .ok_or_else(|| Error::invalid("ROS_DOMAIN_ID", format!("\"{s}\" is not a domain id 0..232"))),
+                .ok_or_else(|| {
+                    Error::invalid(
+                        "ROS_DOMAIN_ID",
+                        format!("\"{s}\" is not a domain id 0..232"),
+                    )
+                }),
             _ => Ok(0),
         }
     }
@@ -178,9 +193,16 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("mill5.a.max_deg"), "{e}");
-        let e = NodeConfig::parse("node:\n  interfaces: [eth0]\n").unwrap_err().to_string();
-        assert!(e.contains("node.interfaces[0]") && e.contains("not an IP address"), "{e}");
-        let e = NodeConfig::parse("mill5:\n  pivot_lenght_mm: 3\n").unwrap_err().to_string();
+        let e = NodeConfig::parse("node:\n  interfaces: [eth0]\n")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("node.interfaces[0]") && e.contains("not an IP address"),
+            "{e}"
+        );
+        let e = NodeConfig::parse("mill5:\n  pivot_lenght_mm: 3\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("pivot_lenght_mm"), "{e}");
     }
 }

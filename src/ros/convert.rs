@@ -31,7 +31,10 @@ pub fn surface_from_msg(m: &msgs::Surface) -> Result<NurbsSurface> {
             ));
         }
         if cu == 0 || cv == 0 {
-            return Err(Error::invalid("count_u", "count_u and count_v must be at least 1"));
+            return Err(Error::invalid(
+                "count_u",
+                "count_u and count_v must be at least 1",
+            ));
         }
         if !m.weights.is_empty() && m.weights.len() != m.control_points.len() {
             return Err(Error::invalid(
@@ -74,8 +77,15 @@ pub fn surface_to_msg(id: &str, s: &NurbsSurface, header: msgs::Header) -> msgs:
         knots_v: s.knots_v().to_vec(),
         count_u: s.count_u() as u32,
         count_v: s.count_v() as u32,
-        control_points: grid.iter().flatten().map(|p| msgs::Point::from_array(*p)).collect(),
-        weights: s.weight_grid().map(|w| w.into_iter().flatten().collect()).unwrap_or_default(),
+        control_points: grid
+            .iter()
+            .flatten()
+            .map(|p| msgs::Point::from_array(*p))
+            .collect(),
+        weights: s
+            .weight_grid()
+            .map(|w| w.into_iter().flatten().collect())
+            .unwrap_or_default(),
     }
 }
 
@@ -85,14 +95,26 @@ pub fn pocket_from_msg(m: &msgs::Pocket) -> Result<Pocket> {
     if m.pocket_id.trim().is_empty() {
         return Err(Error::invalid("pocket_id", "must not be empty").within(&ctx));
     }
-    let xy = |l: &msgs::PocketLoop| l.points.iter().map(|p| [p.x, p.y]).collect::<Vec<[f64; 2]>>();
+    let xy = |l: &msgs::PocketLoop| {
+        l.points
+            .iter()
+            .map(|p| [p.x, p.y])
+            .collect::<Vec<[f64; 2]>>()
+    };
     let holes: Vec<Vec<[f64; 2]>> = m.holes.iter().map(xy).collect();
     Pocket::new(&xy(&m.outer), &holes).map_err(|e| e.within(&ctx))
 }
 
 pub fn pocket_to_msg(id: &str, p: &Pocket, header: msgs::Header) -> msgs::Pocket {
     let lp = |l: &[[f64; 2]]| msgs::PocketLoop {
-        points: l.iter().map(|q| msgs::Point { x: q[0], y: q[1], z: 0.0 }).collect(),
+        points: l
+            .iter()
+            .map(|q| msgs::Point {
+                x: q[0],
+                y: q[1],
+                z: 0.0,
+            })
+            .collect(),
     };
     msgs::Pocket {
         header,
@@ -113,14 +135,23 @@ pub fn job_file_from_msg(m: &msgs::Job) -> Result<JobFile> {
         return Err(Error::invalid("job_id", "must not be empty"));
     }
     if m.surface_id.trim().is_empty() {
-        return Err(Error::invalid("surface_id", "must name a surface or pocket"));
+        return Err(Error::invalid(
+            "surface_id",
+            "must name a surface or pocket",
+        ));
     }
     let strategy = Strategy::parse(&m.strategy)?;
     let t = &m.tool;
     let length = opt_nonzero(t.length);
     let tool = match t.kind.as_str() {
-        "flat_end" => Tool::FlatEnd { radius: t.radius, length },
-        "ball" => Tool::Ball { radius: t.radius, length },
+        "flat_end" => Tool::FlatEnd {
+            radius: t.radius,
+            length,
+        },
+        "ball" => Tool::Ball {
+            radius: t.radius,
+            length,
+        },
         "torus" => Tool::Torus {
             radius: t.radius,
             corner_radius: t.corner_radius,
@@ -133,7 +164,9 @@ pub fn job_file_from_msg(m: &msgs::Job) -> Result<JobFile> {
         other => {
             return Err(Error::invalid(
                 "tool.kind",
-                format!("unknown tool kind \"{other}\": expected one of flat_end, ball, torus, belt"),
+                format!(
+                    "unknown tool kind \"{other}\": expected one of flat_end, ball, torus, belt"
+                ),
             ))
         }
     };
@@ -183,9 +216,12 @@ pub fn job_file_from_msg(m: &msgs::Job) -> Result<JobFile> {
 pub fn prevalidate_job(m: &msgs::Job) -> Result<JobFile> {
     let file = job_file_from_msg(m)?;
     let stand_in = if file.strategy.needs_pocket() {
-        Shape::Pocket(Pocket::new(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], &[])?)
+        Shape::Pocket(Pocket::new(
+            &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+            &[],
+        )?)
     } else {
-        Shape::Surface(crate::samples::plane())
+        Shape::Surface(crate::samples::surfaces::plane())
     };
     Job::new(file.clone(), stand_in)?;
     Ok(file)
@@ -232,7 +268,10 @@ pub fn tool_to_msg(t: &Tool) -> msgs::Tool {
             length: length(l),
             ..Default::default()
         },
-        Tool::Belt { width, wheel_radius } => msgs::Tool {
+        Tool::Belt {
+            width,
+            wheel_radius,
+        } => msgs::Tool {
             kind: t.kind().into(),
             radius: *wheel_radius,
             width: *width,
@@ -292,10 +331,26 @@ pub fn toolpath_msg(
                     points: pass
                         .iter()
                         .map(|q| msgs::ToolpathPoint {
-                            cc: msgs::Point { x: q[0], y: q[1], z: 0.0 },
-                            cl: msgs::Point { x: q[0], y: q[1], z: 0.0 },
-                            axis: msgs::Vector3 { x: 0.0, y: 0.0, z: 1.0 },
-                            normal: msgs::Vector3 { x: 0.0, y: 0.0, z: 1.0 },
+                            cc: msgs::Point {
+                                x: q[0],
+                                y: q[1],
+                                z: 0.0,
+                            },
+                            cl: msgs::Point {
+                                x: q[0],
+                                y: q[1],
+                                z: 0.0,
+                            },
+                            axis: msgs::Vector3 {
+                                x: 0.0,
+                                y: 0.0,
+                                z: 1.0,
+                            },
+                            normal: msgs::Vector3 {
+                                x: 0.0,
+                                y: 0.0,
+                                z: 1.0,
+                            },
                             feed_rate: feed,
                             strip_width: f64::NAN,
                             lead_angle_deg: f64::NAN,
@@ -319,7 +374,8 @@ pub fn toolpath_msg(
         stats: msgs::ToolpathStats {
             path_length_mm: s.path_length_mm,
             passes: u32::try_from(s.passes).unwrap_or(u32::MAX),
-            points: u32::try_from(passes.iter().map(|p| p.points.len()).sum::<usize>()).unwrap_or(u32::MAX),
+            points: u32::try_from(passes.iter().map(|p| p.points.len()).sum::<usize>())
+                .unwrap_or(u32::MAX),
             max_scallop_mm: nan(s.max_scallop_mm),
             compute_ms: s.compute_ms,
             machining_time_min: nan(s.machining_time_min),
@@ -363,14 +419,23 @@ pub fn pose_array(job: &Job, result: &PlanResult, header: msgs::Header) -> msgs:
                 Machine::Belt6 => machines::belt6::wheel_frame(t.axis, t.normal).ok(),
                 Machine::Mill5 => {
                     let z = Vector3::from(t.axis).try_normalize(1e-12);
-                    let ahead = pass.get(k + 1).map(|n| Vector3::from(n.tip) - Vector3::from(t.tip));
-                    let behind = k.checked_sub(1).and_then(|b| pass.get(b)).map(|p| Vector3::from(t.tip) - Vector3::from(p.tip));
+                    let ahead = pass
+                        .get(k + 1)
+                        .map(|n| Vector3::from(n.tip) - Vector3::from(t.tip));
+                    let behind = k
+                        .checked_sub(1)
+                        .and_then(|b| pass.get(b))
+                        .map(|p| Vector3::from(t.tip) - Vector3::from(p.tip));
                     z.map(|z| {
                         let dir = ahead.or(behind).unwrap_or(Vector3::x());
                         let x = (dir - z * z.dot(&dir))
                             .try_normalize(1e-12)
                             .or_else(|| {
-                                let h = if z.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+                                let h = if z.x.abs() < 0.9 {
+                                    Vector3::x()
+                                } else {
+                                    Vector3::y()
+                                };
                                 (h - z * z.dot(&h)).try_normalize(1e-12)
                             })
                             .unwrap_or(Vector3::x());
@@ -400,8 +465,16 @@ pub fn joint_trajectory_msg(t: &JointTrajectory, header: msgs::Header) -> msgs::
         .iter()
         .enumerate()
         .map(|(k, time)| msgs::JointTrajectoryPoint {
-            positions: t.timed.positions[k].iter().zip(&scale).map(|(x, s)| x * s).collect(),
-            velocities: t.timed.velocities[k].iter().zip(&scale).map(|(x, s)| x * s).collect(),
+            positions: t.timed.positions[k]
+                .iter()
+                .zip(&scale)
+                .map(|(x, s)| x * s)
+                .collect(),
+            velocities: t.timed.velocities[k]
+                .iter()
+                .zip(&scale)
+                .map(|(x, s)| x * s)
+                .collect(),
             accelerations: Vec::new(),
             effort: Vec::new(),
             time_from_start: msgs::Duration::from_secs_f64(*time),
@@ -458,21 +531,37 @@ pub fn markers(result: &PlanResult, header: msgs::Header) -> msgs::MarkerArray {
         action: msgs::Marker::DELETEALL,
         ..Default::default()
     }];
-    let mut id = 0i32;
-    for pass in machines::tool_poses(result) {
-        let region = result.passes.get(id as usize).map_or(0, |q| q.region);
-        let mut m = base("passes", id, msgs::Marker::LINE_STRIP, PALETTE[region % PALETTE.len()], 0.0005);
+    for (id, pass) in machines::tool_poses(result).into_iter().enumerate() {
+        let region = result.passes.get(id).map_or(0, |q| q.region);
+        let mut m = base(
+            "passes",
+            i32::try_from(id).unwrap_or(i32::MAX),
+            msgs::Marker::LINE_STRIP,
+            PALETTE[region % PALETTE.len()],
+            0.0005,
+        );
         m.points = pass.iter().map(|t| p(t.tip)).collect();
         out.push(m);
-        id += 1;
     }
     if let Some(d) = &result.degenerate_points {
-        let mut m = base("degenerate_points", 0, msgs::Marker::SPHERE_LIST, [0.0, 0.0, 0.0], 0.003);
+        let mut m = base(
+            "degenerate_points",
+            0,
+            msgs::Marker::SPHERE_LIST,
+            [0.0, 0.0, 0.0],
+            0.003,
+        );
         m.points = d.iter().map(|q| p(q.xyz)).collect();
         out.push(m);
     }
     for (k, s) in result.separatrices.iter().flatten().enumerate() {
-        let mut m = base("separatrices", k as i32, msgs::Marker::LINE_STRIP, [0.0, 0.0, 0.0], 0.001);
+        let mut m = base(
+            "separatrices",
+            k as i32,
+            msgs::Marker::LINE_STRIP,
+            [0.0, 0.0, 0.0],
+            0.001,
+        );
         m.points = s.iter().map(|q| p(*q)).collect();
         out.push(m);
     }
@@ -484,12 +573,16 @@ mod tests {
     use super::*;
 
     fn surface_msg() -> msgs::Surface {
-        surface_to_msg("plane", &crate::samples::plane(), msgs::Header::default())
+        surface_to_msg(
+            "plane",
+            &crate::samples::surfaces::plane(),
+            msgs::Header::default(),
+        )
     }
 
     #[test]
     fn surface_round_trips_through_its_message() {
-        let s = crate::samples::plane();
+        let s = crate::samples::surfaces::plane();
         assert_eq!(surface_from_msg(&surface_msg()).unwrap(), s);
     }
 
@@ -505,10 +598,16 @@ mod tests {
         let mut m = surface_msg();
         m.control_points.pop();
         let e = surface_from_msg(&m).unwrap_err().to_string();
-        assert!(e.contains("has 15 points, but count_u x count_v = 4 x 4 needs 16"), "{e}");
+        assert!(
+            e.contains("has 15 points, but count_u x count_v = 4 x 4 needs 16"),
+            "{e}"
+        );
         let mut m = surface_msg();
         m.weights = vec![1.0; 3];
-        assert!(surface_from_msg(&m).unwrap_err().to_string().contains("weights"));
+        assert!(surface_from_msg(&m)
+            .unwrap_err()
+            .to_string()
+            .contains("weights"));
     }
 
     fn job_msg() -> msgs::Job {
@@ -532,20 +631,35 @@ mod tests {
         let mut m = job_msg();
         m.strategy = "spiral".into();
         let e = prevalidate_job(&m).unwrap_err().to_string();
-        assert!(e.starts_with("invalid input: strategy: unknown strategy \"spiral\""), "{e}");
+        assert!(
+            e.starts_with("invalid input: strategy: unknown strategy \"spiral\""),
+            "{e}"
+        );
         let mut m = job_msg();
         m.tool.radius = -1.0;
-        assert_eq!(prevalidate_job(&m).unwrap_err().to_string(), "invalid input: tool.radius: must be positive, got -1");
+        assert_eq!(
+            prevalidate_job(&m).unwrap_err().to_string(),
+            "invalid input: tool.radius: must be positive, got -1"
+        );
         let mut m = job_msg();
         m.tool.kind = "belt".into();
         m.tool.width = 10.0;
-        assert!(prevalidate_job(&m).unwrap_err().to_string().contains("cannot use a belt tool"));
+        assert!(prevalidate_job(&m)
+            .unwrap_err()
+            .to_string()
+            .contains("cannot use a belt tool"));
         let mut m = job_msg();
         m.scallop = f64::NAN;
-        assert!(prevalidate_job(&m).unwrap_err().to_string().contains("scallop: NaN is not a finite number"));
+        assert!(prevalidate_job(&m)
+            .unwrap_err()
+            .to_string()
+            .contains("scallop: NaN is not a finite number"));
         let mut m = job_msg();
         m.machine = "lathe".into();
-        assert!(prevalidate_job(&m).unwrap_err().to_string().contains("unknown machine \"lathe\""));
+        assert!(prevalidate_job(&m)
+            .unwrap_err()
+            .to_string()
+            .contains("unknown machine \"lathe\""));
     }
 
     #[test]

@@ -14,7 +14,9 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
 /// A ROS 2 message type: its `pkg/msg/Type` name and .msg text.
-pub trait RosMessage: Serialize + DeserializeOwned + Clone + std::fmt::Debug + Send + Sync + 'static {
+pub trait RosMessage:
+    Serialize + DeserializeOwned + Clone + std::fmt::Debug + Send + Sync + 'static
+{
     const PACKAGE: &'static str;
     const NAME: &'static str;
     /// `pkg/Type`, the name used in schemas and `MSG:` lines.
@@ -42,42 +44,114 @@ macro_rules! ros_message {
 
 /// Every .msg text this crate knows, by `pkg/Type`, sorted by name.
 pub const DEFINITIONS: &[(&str, &str)] = &[
-    ("builtin_interfaces/Duration", include_str!("defs/builtin_interfaces/Duration.msg")),
-    ("builtin_interfaces/Time", include_str!("defs/builtin_interfaces/Time.msg")),
-    ("geometry_msgs/Point", include_str!("defs/geometry_msgs/Point.msg")),
-    ("geometry_msgs/Pose", include_str!("defs/geometry_msgs/Pose.msg")),
-    ("geometry_msgs/PoseArray", include_str!("defs/geometry_msgs/PoseArray.msg")),
-    ("geometry_msgs/Quaternion", include_str!("defs/geometry_msgs/Quaternion.msg")),
-    ("geometry_msgs/Vector3", include_str!("defs/geometry_msgs/Vector3.msg")),
-    ("sensor_msgs/CompressedImage", include_str!("defs/sensor_msgs/CompressedImage.msg")),
-    ("std_msgs/ColorRGBA", include_str!("defs/std_msgs/ColorRGBA.msg")),
+    (
+        "builtin_interfaces/Duration",
+        include_str!("defs/builtin_interfaces/Duration.msg"),
+    ),
+    (
+        "builtin_interfaces/Time",
+        include_str!("defs/builtin_interfaces/Time.msg"),
+    ),
+    (
+        "geometry_msgs/Point",
+        include_str!("defs/geometry_msgs/Point.msg"),
+    ),
+    (
+        "geometry_msgs/Pose",
+        include_str!("defs/geometry_msgs/Pose.msg"),
+    ),
+    (
+        "geometry_msgs/PoseArray",
+        include_str!("defs/geometry_msgs/PoseArray.msg"),
+    ),
+    (
+        "geometry_msgs/Quaternion",
+        include_str!("defs/geometry_msgs/Quaternion.msg"),
+    ),
+    (
+        "geometry_msgs/Vector3",
+        include_str!("defs/geometry_msgs/Vector3.msg"),
+    ),
+    (
+        "sensor_msgs/CompressedImage",
+        include_str!("defs/sensor_msgs/CompressedImage.msg"),
+    ),
+    (
+        "std_msgs/ColorRGBA",
+        include_str!("defs/std_msgs/ColorRGBA.msg"),
+    ),
     ("std_msgs/Header", include_str!("defs/std_msgs/Header.msg")),
     ("toolpath_msgs/Job", include_str!("../../msg/msg/Job.msg")),
-    ("toolpath_msgs/JobStatus", include_str!("../../msg/msg/JobStatus.msg")),
-    ("toolpath_msgs/Pocket", include_str!("../../msg/msg/Pocket.msg")),
-    ("toolpath_msgs/PocketLoop", include_str!("../../msg/msg/PocketLoop.msg")),
-    ("toolpath_msgs/Surface", include_str!("../../msg/msg/Surface.msg")),
+    (
+        "toolpath_msgs/JobStatus",
+        include_str!("../../msg/msg/JobStatus.msg"),
+    ),
+    (
+        "toolpath_msgs/Pocket",
+        include_str!("../../msg/msg/Pocket.msg"),
+    ),
+    (
+        "toolpath_msgs/PocketLoop",
+        include_str!("../../msg/msg/PocketLoop.msg"),
+    ),
+    (
+        "toolpath_msgs/Surface",
+        include_str!("../../msg/msg/Surface.msg"),
+    ),
     ("toolpath_msgs/Tool", include_str!("../../msg/msg/Tool.msg")),
-    ("toolpath_msgs/Toolpath", include_str!("../../msg/msg/Toolpath.msg")),
-    ("toolpath_msgs/ToolpathPass", include_str!("../../msg/msg/ToolpathPass.msg")),
-    ("toolpath_msgs/ToolpathPoint", include_str!("../../msg/msg/ToolpathPoint.msg")),
-    ("toolpath_msgs/ToolpathStats", include_str!("../../msg/msg/ToolpathStats.msg")),
-    ("trajectory_msgs/JointTrajectory", include_str!("defs/trajectory_msgs/JointTrajectory.msg")),
-    ("trajectory_msgs/JointTrajectoryPoint", include_str!("defs/trajectory_msgs/JointTrajectoryPoint.msg")),
-    ("visualization_msgs/Marker", include_str!("defs/visualization_msgs/Marker.msg")),
-    ("visualization_msgs/MarkerArray", include_str!("defs/visualization_msgs/MarkerArray.msg")),
-    ("visualization_msgs/MeshFile", include_str!("defs/visualization_msgs/MeshFile.msg")),
-    ("visualization_msgs/UVCoordinate", include_str!("defs/visualization_msgs/UVCoordinate.msg")),
+    (
+        "toolpath_msgs/Toolpath",
+        include_str!("../../msg/msg/Toolpath.msg"),
+    ),
+    (
+        "toolpath_msgs/ToolpathPass",
+        include_str!("../../msg/msg/ToolpathPass.msg"),
+    ),
+    (
+        "toolpath_msgs/ToolpathPoint",
+        include_str!("../../msg/msg/ToolpathPoint.msg"),
+    ),
+    (
+        "toolpath_msgs/ToolpathStats",
+        include_str!("../../msg/msg/ToolpathStats.msg"),
+    ),
+    (
+        "trajectory_msgs/JointTrajectory",
+        include_str!("defs/trajectory_msgs/JointTrajectory.msg"),
+    ),
+    (
+        "trajectory_msgs/JointTrajectoryPoint",
+        include_str!("defs/trajectory_msgs/JointTrajectoryPoint.msg"),
+    ),
+    (
+        "visualization_msgs/Marker",
+        include_str!("defs/visualization_msgs/Marker.msg"),
+    ),
+    (
+        "visualization_msgs/MarkerArray",
+        include_str!("defs/visualization_msgs/MarkerArray.msg"),
+    ),
+    (
+        "visualization_msgs/MeshFile",
+        include_str!("defs/visualization_msgs/MeshFile.msg"),
+    ),
+    (
+        "visualization_msgs/UVCoordinate",
+        include_str!("defs/visualization_msgs/UVCoordinate.msg"),
+    ),
 ];
 
 /// The .msg text of `pkg/Type`.
 pub fn definition(full_name: &str) -> Option<&'static str> {
-    DEFINITIONS.iter().find(|(n, _)| *n == full_name).map(|(_, d)| *d)
+    DEFINITIONS
+        .iter()
+        .find(|(n, _)| *n == full_name)
+        .map(|(_, d)| *d)
 }
 
 const PRIMITIVES: &[&str] = &[
-    "bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64",
-    "uint64", "string", "wstring",
+    "bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16", "int32",
+    "uint32", "int64", "uint64", "string", "wstring",
 ];
 
 /// The nested message types a definition uses directly (`pkg/Type`), in field order.
@@ -86,7 +160,9 @@ pub fn nested_types(full_name: &str) -> Vec<String> {
     let mut out = Vec::new();
     for line in definition(full_name).unwrap_or("").lines() {
         let line = line.split('#').next().unwrap_or("").trim();
-        let Some(ty) = line.split_whitespace().next() else { continue };
+        let Some(ty) = line.split_whitespace().next() else {
+            continue;
+        };
         if line.contains('=') && !line.contains(' ') {
             continue;
         }
@@ -205,7 +281,11 @@ ros_message!(Point, "geometry_msgs", "Point");
 
 impl Point {
     pub fn from_array(p: [f64; 3]) -> Self {
-        Self { x: p[0], y: p[1], z: p[2] }
+        Self {
+            x: p[0],
+            y: p[1],
+            z: p[2],
+        }
     }
     pub fn to_array(self) -> [f64; 3] {
         [self.x, self.y, self.z]
@@ -222,7 +302,11 @@ ros_message!(Vector3, "geometry_msgs", "Vector3");
 
 impl Vector3 {
     pub fn from_array(p: [f64; 3]) -> Self {
-        Self { x: p[0], y: p[1], z: p[2] }
+        Self {
+            x: p[0],
+            y: p[1],
+            z: p[2],
+        }
     }
     pub fn to_array(self) -> [f64; 3] {
         [self.x, self.y, self.z]
@@ -271,7 +355,11 @@ pub struct JointTrajectoryPoint {
     pub effort: Vec<f64>,
     pub time_from_start: Duration,
 }
-ros_message!(JointTrajectoryPoint, "trajectory_msgs", "JointTrajectoryPoint");
+ros_message!(
+    JointTrajectoryPoint,
+    "trajectory_msgs",
+    "JointTrajectoryPoint"
+);
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct JointTrajectory {
@@ -519,7 +607,12 @@ mod tests {
     #[test]
     fn struct_field_order_matches_msg_files() {
         fn check<T: RosMessage + Default>() {
-            assert_eq!(struct_fields(&T::default()), fields(&T::full_name()), "{}", T::full_name());
+            assert_eq!(
+                struct_fields(&T::default()),
+                fields(&T::full_name()),
+                "{}",
+                T::full_name()
+            );
         }
         check::<Tool>();
         check::<Surface>();
@@ -561,7 +654,11 @@ mod tests {
             "MSG: geometry_msgs/Vector3",
             "MSG: toolpath_msgs/ToolpathStats",
         ] {
-            assert_eq!(msgs.iter().filter(|m| **m == want).count(), 1, "{want} in\n{s}");
+            assert_eq!(
+                msgs.iter().filter(|m| **m == want).count(),
+                1,
+                "{want} in\n{s}"
+            );
         }
         assert_eq!(msgs.len(), 8);
         assert!(s.contains(&format!("{}\nMSG: std_msgs/Header\n", "=".repeat(80))));
@@ -599,7 +696,9 @@ mod tests {
         want.extend(3u32.to_le_bytes());
         want.extend(b"ok\0");
         assert_eq!(bytes, want);
-        let back: JobStatus = cdr_encoding::from_bytes::<_, byteorder::LittleEndian>(&bytes).unwrap().0;
+        let back: JobStatus = cdr_encoding::from_bytes::<_, byteorder::LittleEndian>(&bytes)
+            .unwrap()
+            .0;
         assert_eq!(back, msg);
     }
 }

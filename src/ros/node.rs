@@ -12,6 +12,7 @@ use super::config::NodeConfig;
 use super::convert;
 use super::msgs::{self, RosMessage};
 use crate::error::{Error, Result};
+use crate::formats::job::DEFAULT_FEED_RATE;
 use crate::formats::{Job, Machine, Shape};
 use crate::machines::Machines;
 use crate::pipeline::{self, RunOptions};
@@ -58,7 +59,10 @@ pub mod qos {
     }
     /// `job_status`: transient-local, depth 1000 (a burst's statuses are not overwritten).
     pub fn status() -> QosProfile {
-        reliable(Durability::TransientLocal, History::KeepLast { depth: 1000 })
+        reliable(
+            Durability::TransientLocal,
+            History::KeepLast { depth: 1000 },
+        )
     }
     /// Results (toolpath, tool_poses, trajectories, markers): transient-local, depth 10.
     pub fn results() -> QosProfile {
@@ -70,7 +74,12 @@ pub mod qos {
 pub fn topic_name(namespace: &str, relative: &str) -> Result<Name> {
     let ns = namespace.trim_end_matches('/');
     let full = format!("{ns}/{relative}");
-    Name::parse(&full).map_err(|e| Error::invalid("node.namespace", format!("topic name \"{full}\" is not valid: {e}")))
+    Name::parse(&full).map_err(|e| {
+        Error::invalid(
+            "node.namespace",
+            format!("topic name \"{full}\" is not valid: {e}"),
+        )
+    })
 }
 
 fn ros_err(what: &str, e: impl std::fmt::Debug) -> Error {
@@ -86,19 +95,29 @@ pub struct RosNode {
 }
 
 impl RosNode {
-    pub fn new(name: &str, namespace: &str, domain_id: u16, interfaces: Option<Vec<std::net::IpAddr>>) -> Result<Self> {
+    pub fn new(
+        name: &str,
+        namespace: &str,
+        domain_id: u16,
+        interfaces: Option<Vec<std::net::IpAddr>>,
+    ) -> Result<Self> {
         let mut builder = rustdds::DomainParticipantBuilder::new(domain_id);
         if let Some(ips) = interfaces {
             builder = builder.with_only_networks(ips);
         }
-        let dp = builder.build().map_err(|e| ros_err("cannot create the DDS participant", e))?;
-        let context = Context::from_domain_participant(dp).map_err(|e| ros_err("cannot create the context", e))?;
-        let node_name =
-            NodeName::new(namespace, name).map_err(|e| Error::invalid("node.name", format!("\"{namespace}\" \"{name}\": {e}")))?;
+        let dp = builder
+            .build()
+            .map_err(|e| ros_err("cannot create the DDS participant", e))?;
+        let context = Context::from_domain_participant(dp)
+            .map_err(|e| ros_err("cannot create the context", e))?;
+        let node_name = NodeName::new(namespace, name)
+            .map_err(|e| Error::invalid("node.name", format!("\"{namespace}\" \"{name}\": {e}")))?;
         let mut node = context
             .new_node(node_name, NodeOptions::new().enable_rosout(false))
             .map_err(|e| ros_err("cannot create the node", e))?;
-        let spinner = node.spinner().map_err(|e| ros_err("cannot start the spinner", e))?;
+        let spinner = node
+            .spinner()
+            .map_err(|e| ros_err("cannot start the spinner", e))?;
         tokio::spawn(async move {
             if let Err(e) = spinner.spin().await {
                 log::error!("ROS 2 spinner stopped: {e:?}");
@@ -118,14 +137,22 @@ impl RosNode {
             .map_err(|e| ros_err(&format!("cannot create topic {relative}"), e))
     }
 
-    pub fn publisher<M: RosMessage>(&mut self, relative: &str, qos: QosProfile) -> Result<Publisher<M>> {
+    pub fn publisher<M: RosMessage>(
+        &mut self,
+        relative: &str,
+        qos: QosProfile,
+    ) -> Result<Publisher<M>> {
         let topic = self.topic::<M>(relative, &qos)?;
         self.node
             .create_publisher(&topic, Some(qos))
             .map_err(|e| ros_err(&format!("cannot publish on {relative}"), e))
     }
 
-    pub fn subscription<M: RosMessage>(&mut self, relative: &str, qos: QosProfile) -> Result<Subscription<M>> {
+    pub fn subscription<M: RosMessage>(
+        &mut self,
+        relative: &str,
+        qos: QosProfile,
+    ) -> Result<Subscription<M>> {
         let topic = self.topic::<M>(relative, &qos)?;
         self.node
             .create_subscription(&topic, Some(qos))
@@ -164,9 +191,15 @@ impl Outputs {
     fn status(&self, job_id: &str, state: u8, progress: f32, message: String) {
         match state {
             msgs::JobStatus::FAILED | msgs::JobStatus::REJECTED => {
-                log::warn!("job {job_id}: {}: {message}", msgs::JobStatus::state_name(state))
+                log::warn!(
+                    "job {job_id}: {}: {message}",
+                    msgs::JobStatus::state_name(state)
+                )
             }
-            _ => log::info!("job {job_id}: {} {progress:.2} {message}", msgs::JobStatus::state_name(state)),
+            _ => log::info!(
+                "job {job_id}: {} {progress:.2} {message}",
+                msgs::JobStatus::state_name(state)
+            ),
         }
         let m = msgs::JobStatus {
             header: self.header(),
@@ -240,7 +273,9 @@ fn next_work(shared: &Shared) -> Option<Work> {
                     pick = Some(k);
                     break;
                 }
-                None => earliest = Some(earliest.map_or(p.deadline, |e: Instant| e.min(p.deadline))),
+                None => {
+                    earliest = Some(earliest.map_or(p.deadline, |e: Instant| e.min(p.deadline)))
+                }
             }
         }
         if let Some(k) = pick {
@@ -252,7 +287,10 @@ fn next_work(shared: &Shared) -> Option<Work> {
             });
         }
         st = match earliest {
-            Some(t) => match shared.wake.wait_timeout(st, t.saturating_duration_since(now)) {
+            Some(t) => match shared
+                .wake
+                .wait_timeout(st, t.saturating_duration_since(now))
+            {
                 Ok((g, _)) => g,
                 Err(p) => p.into_inner().0,
             },
@@ -273,14 +311,22 @@ struct StatusProgress<'a> {
 
 impl Progress for StatusProgress<'_> {
     fn set(&self, fraction: f32) {
-        let f = if fraction.is_finite() { fraction.clamp(0.0, 1.0) } else { 0.0 };
+        let f = if fraction.is_finite() {
+            fraction.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         let mut last = match self.last.lock() {
             Ok(g) => g,
             Err(p) => p.into_inner(),
         };
-        if f > last.1 && (f - last.1 >= 0.1 || last.0.elapsed() >= Duration::from_millis(100)) && f < 1.0 {
+        if f > last.1
+            && (f - last.1 >= 0.1 || last.0.elapsed() >= Duration::from_millis(100))
+            && f < 1.0
+        {
             *last = (Instant::now(), f);
-            self.outputs.status(self.job_id, msgs::JobStatus::RUNNING, f, String::new());
+            self.outputs
+                .status(self.job_id, msgs::JobStatus::RUNNING, f, String::new());
         }
     }
 }
@@ -316,7 +362,13 @@ fn plan_and_publish(
     let result = pipeline::run(&job, &progress, options)?;
     let trajectory = crate::machines::trajectory(&job, &result, machines)?;
     let header = outputs.header();
-    let toolpath = convert::toolpath_msg(&job, &p.msg.surface_id, &result, trajectory.duration(), header.clone());
+    let toolpath = convert::toolpath_msg(
+        &job,
+        &p.msg.surface_id,
+        &result,
+        trajectory.duration(),
+        header.clone(),
+    );
     let summary = format!(
         "{} passes, {} points, {:.1} mm, trajectory {:.1} s, planned in {:.1} ms",
         toolpath.stats.passes,
@@ -326,18 +378,36 @@ fn plan_and_publish(
         result.stats.compute_ms
     );
     publish(&outputs.toolpath, topics::TOOLPATH, toolpath);
-    publish(&outputs.poses, topics::TOOL_POSES, convert::pose_array(&job, &result, header.clone()));
+    publish(
+        &outputs.poses,
+        topics::TOOL_POSES,
+        convert::pose_array(&job, &result, header.clone()),
+    );
     let traj = convert::joint_trajectory_msg(&trajectory, header.clone());
     match job.machine {
         Machine::Mill5 => publish(&outputs.mill5, topics::MILL5_TRAJECTORY, traj),
         Machine::Belt6 => publish(&outputs.belt6, topics::BELT6_TRAJECTORY, traj),
     }
-    publish(&outputs.markers, topics::MARKERS, convert::markers(&result, header));
-    log::debug!("job {} handled {:.1} ms after it arrived", job.job_id, p.received.elapsed().as_secs_f64() * 1e3);
+    publish(
+        &outputs.markers,
+        topics::MARKERS,
+        convert::markers(&result, header),
+    );
+    log::debug!(
+        "job {} handled {:.1} ms after it arrived",
+        job.job_id,
+        p.received.elapsed().as_secs_f64() * 1e3
+    );
     Ok(summary)
 }
 
-fn worker(shared: Arc<Shared>, outputs: Arc<Outputs>, machines: Machines, options: RunOptions, timeout_s: f64) {
+fn worker(
+    shared: Arc<Shared>,
+    outputs: Arc<Outputs>,
+    machines: Machines,
+    options: RunOptions,
+    timeout_s: f64,
+) {
     while let Some(work) = next_work(&shared) {
         match work {
             Work::Reject(p, why) => outputs.status(&p.msg.job_id, msgs::JobStatus::REJECTED, 0.0, why),
@@ -378,8 +448,22 @@ fn worker(shared: Arc<Shared>, outputs: Arc<Outputs>, machines: Machines, option
 
 /// Handles a received job message: REJECTED at once when the message itself is
 /// bad, else ACCEPTED and queued.
-fn receive_job(shared: &Shared, outputs: &Outputs, msg: msgs::Job, timeout: Duration) {
-    if let Err(e) = convert::prevalidate_job(&msg) {
+fn receive_job(
+    shared: &Shared,
+    outputs: &Outputs,
+    machines: &Machines,
+    msg: msgs::Job,
+    timeout: Duration,
+) {
+    let checked = convert::prevalidate_job(&msg).and_then(|file| {
+        let machine = file.machine.unwrap_or(file.strategy.default_machine());
+        crate::machines::check_feed_rate(
+            machine,
+            file.feed_rate.unwrap_or(DEFAULT_FEED_RATE),
+            machines,
+        )
+    });
+    if let Err(e) = checked {
         outputs.status(&msg.job_id, final_state(&e), 0.0, e.to_string());
         return;
     }
@@ -414,7 +498,12 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     config.validate()?;
     let domain = config.domain_id()?;
     let settings = config.node.clone();
-    let mut ros = RosNode::new(&settings.name, &settings.namespace, domain, config.interfaces()?)?;
+    let mut ros = RosNode::new(
+        &settings.name,
+        &settings.namespace,
+        domain,
+        config.interfaces()?,
+    )?;
     let surfaces = ros.subscription::<msgs::Surface>(topics::SURFACE, qos::shapes())?;
     let pockets = ros.subscription::<msgs::Pocket>(topics::POCKET, qos::shapes())?;
     let jobs = ros.subscription::<msgs::Job>(topics::JOB, qos::job())?;
@@ -446,6 +535,7 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         handles.push(h);
     }
     let timeout = Duration::from_secs_f64(settings.surface_timeout_s);
+    let machines = config.machines();
     println!(
         "ready: node {} on ROS domain {domain}, interfaces {}",
         ros.node.fully_qualified_name(),
@@ -462,7 +552,7 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     loop {
         tokio::select! {
             Some(r) = job_stream.next() => match r {
-                Ok((msg, _)) => receive_job(&shared, &outputs, msg, timeout),
+                Ok((msg, _)) => receive_job(&shared, &outputs, &machines, msg, timeout),
                 Err(e) => log::error!("undecodable message on topic job: {e:?}"),
             },
             Some(r) = surface_stream.next() => match r {
