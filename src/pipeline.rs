@@ -35,8 +35,38 @@ pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<Pl
         let report = verify_milling(job, &result)?;
         fill_scallop_stats(&mut result, &report);
     }
+    if !options.skip_verify && is_belt(job.strategy) {
+        verify_belt(job, &mut result)?;
+    }
     progress.set(1.0);
     Ok(result)
+}
+
+/// Belt strategies, checked by the material-removal simulation.
+pub fn is_belt(strategy: Strategy) -> bool {
+    matches!(
+        strategy,
+        Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar
+    )
+}
+
+/// Belt results: the material-removal simulation gives `max_scallop_mm` and,
+/// in `extra`, the removal figures (the planner's rigid-belt `max_gouge_mm`
+/// stays as planned).
+pub fn verify_belt(job: &Job, result: &mut PlanResult) -> Result<()> {
+    let sim = crate::simulation::removal::simulate_job(job, result)?;
+    let s = &sim.stats;
+    result.stats.max_scallop_mm = Some(s.max_scallop_mm);
+    for (key, value) in [
+        ("removal_mean_mm", s.mean_mm),
+        ("removal_min_mm", s.min_mm),
+        ("removal_max_mm", s.max_mm),
+        ("removal_uniformity", s.uniformity),
+        ("simulated_gouge_mm", s.max_gouge_mm),
+    ] {
+        result.stats.extra.insert(key.into(), value);
+    }
+    Ok(())
 }
 
 /// Path length, pass and point counts and machining time at `feed_rate` (mm/min).

@@ -85,7 +85,8 @@ fn jobs_use_the_planner_each_sample_is_for() {
             job.tool,
             Tool::Belt {
                 width: 10.0,
-                wheel_radius: 50.0
+                // The egg crate's dips (radius ~32 mm) need a smaller wheel.
+                wheel_radius: if name == "egg_crate" { 25.0 } else { 50.0 }
             }
         );
         assert_eq!(job.scallop, Some(0.01));

@@ -1,11 +1,493 @@
-//! Strategy `belt_iso_planar`: not implemented yet.
+//! Strategy `belt_iso_planar` (paper, algorithm 2, with methods.md D):
+//! contact paths are the intersections of parallel planes with the surface.
+//!
+//! Section-plane normal: the minimum-curvature directions have no sign, so they
+//! are averaged with the orientation tensor M = sum d_i d_i^T over a grid of
+//! surface points and the normal is the eigenvector of M's largest eigenvalue
+//! (the paper's "least squares"). "Minimum curvature" is the principal
+//! direction of smallest |kappa|: on a ruled surface the ruling, along which
+//! the belt lies flat (zero scallop). Points where both curvatures are equal
+//! in size (planar or umbilic points) have no direction and are left out.
+//! `job.section_normal` overrides the automatic normal.
+//!
+//! Planes start through the middle of the surface's extent along the normal
+//! and step to both sides; each step is the smallest offset (along the
+//! normal) of the next contact points found from every point of the current
+//! section by the belt contact model. A last plane touches each far edge.
 
+use super::belt_contact::{self, BeltSpec, ContactPoint};
 use super::Progress;
 use crate::error::{Error, Result};
 use crate::formats::{Job, PlanResult};
+use crate::geometry::{LocalGeometry, NurbsSurface};
+use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector2, Vector3};
 
-pub fn plan(_job: &Job, _progress: &dyn Progress) -> Result<PlanResult> {
-    Err(Error::planning(
-        "strategy belt_iso_planar is not available in this build yet",
-    ))
+/// Grid of surface samples for the automatic section normal, per direction.
+const NORMAL_SAMPLES: usize = 48;
+/// Passes per side beyond this mean the step collapsed.
+const MAX_PASSES: usize = 20_000;
+
+/// The automatic section normal and how well it is defined.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SectionNormal {
+    /// Unit normal; sign fixed so that its largest component is positive.
+    pub normal: Vector3<f64>,
+    /// Second-largest over largest eigenvalue of M: near 0 = well defined,
+    /// near 1 = ill-defined (directions spread evenly).
+    pub eigen_ratio: f64,
+    /// Largest eigenvalue over the trace of M (fraction of the directions'
+    /// spread explained by the normal; 1 = all directions parallel).
+    pub eigen_fraction: f64,
+    /// Number of directions used.
+    pub samples: usize,
+}
+
+/// Minimum-|curvature| principal directions on a grid of `n x n` cell centres
+/// in parameter space, leaving out points without a defined direction.
+pub fn min_curvature_directions(surface: &NurbsSurface, n: usize) -> Vec<Vector3<f64>> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let mut dirs = Vec::with_capacity(n * n);
+    for i in 0..n {
+        for j in 0..n {
+            let u = u0 + (u1 - u0) * (i as f64 + 0.5) / n as f64;
+            let v = v0 + (v1 - v0) * (j as f64 + 0.5) / n as f64;
+            let Some(g) = LocalGeometry::at(surface, u, v) else {
+                continue;
+            };
+            let (kmin, kmax) = (g.k_min.abs(), g.k_max.abs());
+            // Equal |kappa| (plane, umbilic): the direction is undefined.
+            if (kmin - kmax).abs() <= 1e-9 * (kmin + kmax) + 1e-12 {
+                continue;
+            }
+            dirs.push(if kmin < kmax { g.dir_min } else { g.dir_max });
+        }
+    }
+    dirs
+}
+
+/// Orientation-tensor average of sign-free directions: eigenvector of the
+/// largest eigenvalue of M = sum d d^T. `None` when there are no directions.
+pub fn section_normal_from_directions(dirs: &[Vector3<f64>]) -> Option<SectionNormal> {
+    if dirs.is_empty() {
+        return None;
+    }
+    let mut m = Matrix3::zeros();
+    for d in dirs {
+        m += d * d.transpose();
+    }
+    let eig = SymmetricEigen::new(m);
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+    let (l1, l2) = (eig.eigenvalues[order[0]], eig.eigenvalues[order[1]]);
+    let trace = m.trace();
+    let mut normal: Vector3<f64> = eig.eigenvectors.column(order[0]).into_owned();
+    normal = normal.try_normalize(1e-300)?;
+    // Deterministic sign: the largest component positive.
+    let imax = (0..3)
+        .max_by(|&a, &b| normal[a].abs().total_cmp(&normal[b].abs()))
+        .unwrap_or(0);
+    if normal[imax] < 0.0 {
+        normal = -normal;
+    }
+    Some(SectionNormal {
+        normal,
+        eigen_ratio: if l1 > 0.0 { (l2 / l1).max(0.0) } else { 1.0 },
+        eigen_fraction: if trace > 0.0 { l1 / trace } else { 0.0 },
+        samples: dirs.len(),
+    })
+}
+
+/// The automatic section normal of a surface.
+pub fn automatic_section_normal(surface: &NurbsSurface) -> Option<SectionNormal> {
+    section_normal_from_directions(&min_curvature_directions(surface, NORMAL_SAMPLES))
+}
+
+pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+    let surface = job.surface()?;
+    let spec = BeltSpec::from_job(job)?;
+    let mut result = PlanResult::new(&job.job_id, job.strategy.name());
+    let normal = match job.section_normal {
+        Some(n) => Vector3::new(n[0], n[1], n[2])
+            .try_normalize(1e-12)
+            .ok_or_else(|| Error::invalid("section_normal", "must be a finite non-zero vector"))?,
+        None => match automatic_section_normal(surface) {
+            Some(sn) => {
+                result.section_normal_eigen_ratio = Some(sn.eigen_ratio);
+                result
+                    .stats
+                    .extra
+                    .insert("section_normal_eigen_fraction".into(), sn.eigen_fraction);
+                if sn.eigen_ratio > 0.8 {
+                    result.warnings.push(format!(
+                        "section normal is ill-defined (eigenvalue ratio {:.3}): the minimum-curvature directions spread evenly",
+                        sn.eigen_ratio
+                    ));
+                }
+                sn.normal
+            }
+            None => {
+                // No curvature anisotropy anywhere (a plane): any normal is as
+                // good; take the u-direction at the centre.
+                let ((u0, u1), (v0, v1)) = surface.domain();
+                let g = LocalGeometry::at(surface, 0.5 * (u0 + u1), 0.5 * (v0 + v1)).ok_or_else(|| {
+                    Error::planning("the belt cannot reach the surface: its normal is undefined at the centre")
+                })?;
+                result.warnings.push(
+                    "no minimum-curvature direction defined anywhere: section normal along u"
+                        .into(),
+                );
+                g.derivs.su.normalize()
+            }
+        },
+    };
+    result.section_normal = Some([normal.x, normal.y, normal.z]);
+    let (paths, diag) = plan_paths(surface, &spec, normal, progress)?;
+    belt_contact::assemble(paths, &spec, &mut result, &diag)?;
+    Ok(result)
+}
+
+/// Surface points on a uv grid, cached once for all planes.
+struct Grid {
+    nu: usize,
+    nv: usize,
+    uv0: Vector2<f64>,
+    duv: Vector2<f64>,
+    points: Vec<Point3<f64>>,
+}
+
+impl Grid {
+    fn new(surface: &NurbsSurface, spacing: f64) -> Self {
+        let ((u0, u1), (v0, v1)) = surface.domain();
+        // Grid counts from the longest iso-curve in each direction.
+        let length = |along_u: bool| -> f64 {
+            let mut best: f64 = 0.0;
+            for k in 0..5 {
+                let c = k as f64 / 4.0;
+                let mut len = 0.0;
+                let mut prev: Option<Point3<f64>> = None;
+                for i in 0..=32 {
+                    let s = i as f64 / 32.0;
+                    let (u, v) = if along_u {
+                        (u0 + (u1 - u0) * s, v0 + (v1 - v0) * c)
+                    } else {
+                        (u0 + (u1 - u0) * c, v0 + (v1 - v0) * s)
+                    };
+                    let p = surface.point(u, v);
+                    if let Some(q) = prev {
+                        len += (p - q).norm();
+                    }
+                    prev = Some(p);
+                }
+                best = best.max(len);
+            }
+            best
+        };
+        let nu = ((length(true) / spacing).ceil() as usize).clamp(16, 600) + 1;
+        let nv = ((length(false) / spacing).ceil() as usize).clamp(16, 600) + 1;
+        let duv = Vector2::new((u1 - u0) / (nu - 1) as f64, (v1 - v0) / (nv - 1) as f64);
+        let mut points = Vec::with_capacity(nu * nv);
+        for i in 0..nu {
+            for j in 0..nv {
+                let u = if i + 1 == nu {
+                    u1
+                } else {
+                    u0 + duv.x * i as f64
+                };
+                let v = if j + 1 == nv {
+                    v1
+                } else {
+                    v0 + duv.y * j as f64
+                };
+                points.push(surface.point(u, v));
+            }
+        }
+        Self {
+            nu,
+            nv,
+            uv0: Vector2::new(u0, v0),
+            duv,
+            points,
+        }
+    }
+
+    fn uv(&self, i: usize, j: usize) -> Vector2<f64> {
+        self.uv0 + Vector2::new(self.duv.x * i as f64, self.duv.y * j as f64)
+    }
+
+    /// Polylines (in uv) where the plane `x . normal = offset` cuts the
+    /// surface: marching squares on the cached grid, each crossing refined onto
+    /// the plane by Newton steps along its grid edge.
+    fn section(
+        &self,
+        surface: &NurbsSurface,
+        normal: Vector3<f64>,
+        offset: f64,
+    ) -> Vec<Vec<Vector2<f64>>> {
+        let (nu, nv) = (self.nu, self.nv);
+        let f: Vec<f64> = self
+            .points
+            .iter()
+            .map(|p| p.coords.dot(&normal) - offset)
+            .collect();
+        let val = |i: usize, j: usize| f[i * nv + j];
+        // Edge ids: along u (i,j)-(i+1,j): i*nv + j; along v (i,j)-(i,j+1): nh + i*(nv-1) + j.
+        let nh = (nu - 1) * nv;
+        let eu = |i: usize, j: usize| i * nv + j;
+        let ev = |i: usize, j: usize| nh + i * (nv - 1) + j;
+        let n_edges = nh + nu * (nv - 1);
+        // Segments as pairs of edge ids; adjacency edge -> up to two segments.
+        let mut segs: Vec<[usize; 2]> = Vec::new();
+        let mut adj: Vec<[u32; 2]> = Vec::new();
+        let mut slot: Vec<u32> = vec![u32::MAX; n_edges];
+        let mut link = |segs: &mut Vec<[usize; 2]>, adj: &mut Vec<[u32; 2]>, a: usize, b: usize| {
+            let s = segs.len() as u32;
+            segs.push([a, b]);
+            for e in [a, b] {
+                if slot[e] == u32::MAX {
+                    slot[e] = adj.len() as u32;
+                    adj.push([s, u32::MAX]);
+                } else {
+                    adj[slot[e] as usize][1] = s;
+                }
+            }
+        };
+        for i in 0..nu - 1 {
+            for j in 0..nv - 1 {
+                let (f00, f10, f11, f01) =
+                    (val(i, j), val(i + 1, j), val(i + 1, j + 1), val(i, j + 1));
+                let pos = |x: f64| x >= 0.0;
+                let case = (pos(f00) as u8)
+                    | ((pos(f10) as u8) << 1)
+                    | ((pos(f11) as u8) << 2)
+                    | ((pos(f01) as u8) << 3);
+                let (bottom, right, top, left) = (eu(i, j), ev(i + 1, j), eu(i, j + 1), ev(i, j));
+                match case {
+                    0 | 15 => {}
+                    1 | 14 => link(&mut segs, &mut adj, left, bottom),
+                    2 | 13 => link(&mut segs, &mut adj, bottom, right),
+                    3 | 12 => link(&mut segs, &mut adj, left, right),
+                    4 | 11 => link(&mut segs, &mut adj, right, top),
+                    6 | 9 => link(&mut segs, &mut adj, bottom, top),
+                    7 | 8 => link(&mut segs, &mut adj, left, top),
+                    5 | 10 => {
+                        // Saddle cell: decide by the centre value.
+                        let centre_pos = pos(0.25 * (f00 + f10 + f11 + f01));
+                        let corner00_pos = pos(f00);
+                        if centre_pos == corner00_pos {
+                            link(&mut segs, &mut adj, left, top);
+                            link(&mut segs, &mut adj, bottom, right);
+                        } else {
+                            link(&mut segs, &mut adj, left, bottom);
+                            link(&mut segs, &mut adj, right, top);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let other_seg = |e: usize, s: u32| -> Option<u32> {
+            let a = adj[slot[e] as usize];
+            let o = if a[0] == s { a[1] } else { a[0] };
+            (o != u32::MAX && o != s).then_some(o)
+        };
+        let degree = |e: usize| -> usize {
+            adj[slot[e] as usize]
+                .iter()
+                .filter(|&&s| s != u32::MAX)
+                .count()
+        };
+        let mut used = vec![false; segs.len()];
+        let mut chains: Vec<Vec<usize>> = Vec::new();
+        // Open chains first (from edges with one segment, in id order), then loops.
+        let mut starts: Vec<(usize, u32)> = Vec::new();
+        for (s, seg) in segs.iter().enumerate() {
+            for &e in seg {
+                if degree(e) == 1 {
+                    starts.push((e, s as u32));
+                }
+            }
+        }
+        starts.sort_unstable();
+        let loops: Vec<(usize, u32)> = segs
+            .iter()
+            .enumerate()
+            .map(|(s, seg)| (seg[0], s as u32))
+            .collect();
+        for (start_edge, start_seg) in starts.into_iter().chain(loops) {
+            if used[start_seg as usize] {
+                continue;
+            }
+            let mut chain = vec![start_edge];
+            let (mut e, mut s) = (start_edge, start_seg);
+            loop {
+                used[s as usize] = true;
+                let seg = segs[s as usize];
+                let e_next = if seg[0] == e { seg[1] } else { seg[0] };
+                chain.push(e_next);
+                match other_seg(e_next, s) {
+                    Some(o) if !used[o as usize] => {
+                        e = e_next;
+                        s = o;
+                    }
+                    _ => break,
+                }
+            }
+            chains.push(chain);
+        }
+        // Edge crossings refined onto the plane.
+        let crossing = |e: usize| -> Vector2<f64> {
+            let (a, b) = if e < nh {
+                let (i, j) = (e / nv, e % nv);
+                ((i, j), (i + 1, j))
+            } else {
+                let k = e - nh;
+                let (i, j) = (k / (nv - 1), k % (nv - 1));
+                ((i, j), (i, j + 1))
+            };
+            let (fa, fb) = (val(a.0, a.1), val(b.0, b.1));
+            let (ua, ub) = (self.uv(a.0, a.1), self.uv(b.0, b.1));
+            let mut s = if fa != fb {
+                (fa / (fa - fb)).clamp(0.0, 1.0)
+            } else {
+                0.5
+            };
+            for _ in 0..3 {
+                let uv = ua + (ub - ua) * s;
+                let d = surface.derivs(uv.x, uv.y);
+                let g = d.p.coords.dot(&normal) - offset;
+                let dg = (d.su * (ub.x - ua.x) + d.sv * (ub.y - ua.y)).dot(&normal);
+                if dg.abs() < 1e-300 {
+                    break;
+                }
+                s = (s - g / dg).clamp(0.0, 1.0);
+            }
+            let (u, v) = surface.clamp_uv(ua.x + (ub.x - ua.x) * s, ua.y + (ub.y - ua.y) * s);
+            Vector2::new(u, v)
+        };
+        chains
+            .into_iter()
+            .map(|c| {
+                let mut pts: Vec<Vector2<f64>> = c.into_iter().map(crossing).collect();
+                pts.dedup_by(|a, b| (*a - *b).norm() < 1e-12);
+                pts
+            })
+            .filter(|p| p.len() >= 2)
+            .collect()
+    }
+}
+
+/// The contact paths in machining order (plane offsets increasing along the
+/// normal), and what was noticed on the way.
+pub fn plan_paths(
+    surface: &NurbsSurface,
+    spec: &BeltSpec,
+    normal: Vector3<f64>,
+    progress: &dyn Progress,
+) -> Result<(Vec<Vec<ContactPoint>>, belt_contact::Diagnostics)> {
+    let grid = Grid::new(surface, belt_contact::point_spacing(spec));
+    let (lo, hi) = grid
+        .points
+        .iter()
+        .map(|p| p.coords.dot(&normal))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(x), b.max(x))
+        });
+    let extent = hi - lo;
+    if extent.is_nan() || extent <= 1e-9 {
+        return Err(Error::planning(format!(
+            "the belt cannot reach the surface along section normal ({:.4}, {:.4}, {:.4}): the surface lies in one section plane (the planes are tangent to it); choose a section_normal across the surface",
+            normal.x, normal.y, normal.z
+        )));
+    }
+    // Keep the end planes a hair inside so that they still cut the surface.
+    let margin = 1e-6 * extent;
+    let (lo, hi) = (lo + margin, hi - margin);
+    let start = 0.5 * (lo + hi);
+    let feed = move |g: &LocalGeometry| -> Vector3<f64> { normal.cross(&g.n) };
+    let mut diag = belt_contact::Diagnostics::default();
+    let mut sides: Vec<Vec<Vec<ContactPoint>>> = Vec::new();
+    for (side, sign) in [(0usize, 1.0), (1, -1.0)] {
+        let dir = normal * sign;
+        let hint = move |_: &LocalGeometry| -> Vector3<f64> { dir };
+        let limit = if sign > 0.0 { hi } else { lo };
+        let mut paths_side = Vec::new();
+        // The start plane is planned on the + side only; the - side steps from it.
+        let mut offset = start;
+        let mut first = true;
+        loop {
+            let last = (limit - offset) * sign <= 0.0;
+            let curves = grid.section(surface, normal, offset);
+            let mut step = f64::INFINITY;
+            let mut any_curve = false;
+            let mut analysed = Vec::new();
+            for uvs in &curves {
+                let path =
+                    belt_contact::analyse_path(surface, uvs, &feed, &hint, spec, !last, &mut diag);
+                for cp in &path {
+                    let Some(nc) = cp.next else { continue };
+                    let q = surface.point(nc.uv.x, nc.uv.y);
+                    let d = (q - cp.geom.point()).dot(&dir);
+                    if nc.at_boundary && nc.sigma <= 0.5 * spec.width {
+                        // The edge is within this belt's half width: covered already.
+                        continue;
+                    }
+                    // Cross-sections that barely advance along the normal run
+                    // nearly inside the plane (plane tangent to the surface there).
+                    if d <= 1e-9 * extent {
+                        continue;
+                    }
+                    step = step.min(d);
+                }
+                any_curve |= !path.is_empty();
+                analysed.push(path);
+            }
+            if !(side == 1 && first) {
+                paths_side.extend(analysed);
+            }
+            progress.set(
+                0.45 * side as f32
+                    + 0.45 * (((offset - start) * sign) / (0.5 * extent)).clamp(0.0, 1.0) as f32,
+            );
+            if last {
+                break;
+            }
+            if !any_curve && !first {
+                break;
+            }
+            if !step.is_finite() {
+                // No usable candidate: the remaining strip is reached from here.
+                offset = limit;
+                first = false;
+                continue;
+            }
+            if step <= 1e-9 * extent {
+                return Err(Error::planning(format!(
+                    "belt step collapsed at section offset {offset:.6} mm: the next-path search made no progress"
+                )));
+            }
+            if paths_side.len() >= MAX_PASSES {
+                return Err(Error::planning(format!(
+                    "more than {MAX_PASSES} belt passes needed: scallop {} mm is too small for this surface",
+                    spec.scallop
+                )));
+            }
+            offset += sign * step;
+            if (limit - offset) * sign <= 0.0 {
+                offset = limit;
+            }
+            first = false;
+        }
+        sides.push(paths_side);
+    }
+    // Machining order: the - side from its far end, then the + side.
+    let mut minus = sides.pop().unwrap_or_default();
+    let plus = sides.pop().unwrap_or_default();
+    minus.reverse();
+    minus.extend(plus);
+    if minus.iter().all(|p| p.is_empty()) {
+        return Err(Error::planning(
+            "the belt cannot reach the surface: the section planes give no contact path",
+        ));
+    }
+    Ok((minus, diag))
 }

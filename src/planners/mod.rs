@@ -3,6 +3,7 @@
 //! [`PlanResult`]. Shared pieces (direction fields, offsetting passes) live
 //! once, in their own modules here.
 
+pub mod belt_contact;
 pub mod belt_iso_parametric;
 pub mod belt_iso_planar;
 pub mod degenerate_points;

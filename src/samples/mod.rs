@@ -160,7 +160,9 @@ pub fn job(name: &str) -> Result<Job> {
                 Strategy::BeltIsoPlanar,
                 Tool::Belt {
                     width: 10.0,
-                    wheel_radius: 50.0,
+                    // The wheel must fit the egg crate's concave dips (radius
+                    // about 32 mm along the feed) without gouging.
+                    wheel_radius: if name == "egg_crate" { 25.0 } else { 50.0 },
                 },
             )
         },
