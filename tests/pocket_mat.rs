@@ -368,3 +368,130 @@ fn result_fields_and_determinism() {
     let total: f64 = per_tool.iter().sum();
     assert!((a.stats.path_length_mm - total).abs() < 1e-3 * total);
 }
+
+#[test]
+fn compare_cli_reports_sequence_against_root_tool() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = dir.path().join("rect.json");
+    let exe = env!("CARGO_BIN_EXE_toolpath");
+    let st = std::process::Command::new(exe)
+        .args(["sample", "rect_pocket", "--job", "-o"])
+        .arg(&job)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let out = std::process::Command::new(exe)
+        .arg("compare")
+        .arg(&job)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("medial-axis tools") && text.contains("root tool alone"),
+        "{text}"
+    );
+    // The two cutting lengths in the table agree with the planner's own figures.
+    let p = rectangle(100.0, 60.0);
+    let seq = plan_pocket(&p, &DEFAULT_TOOL_CATALOGUE, None, &NoProgress).unwrap();
+    let single = plan_single_tool(&p, seq.stages.last().unwrap().diameter, None).unwrap();
+    for (label, plan) in [("medial-axis tools", &seq), ("root tool alone", &single)] {
+        let line = text.lines().find(|l| l.starts_with(label)).unwrap();
+        let want = format!("{:.1}", plan.path_length());
+        assert!(line.contains(&want), "{line} lacks {want}");
+    }
+    // The root tool alone: contour passes every 0.9 D cover a 100 x 60 rectangle with
+    // total length about area / stepover; the sequence must be far shorter.
+    let d = seq.stages.last().unwrap().diameter;
+    let estimate = 100.0 * 60.0 / (0.9 * d);
+    assert!(
+        (single.path_length() - estimate).abs() < 0.15 * estimate,
+        "{} vs {estimate}",
+        single.path_length()
+    );
+    assert!(single.path_length() > 3.0 * seq.path_length());
+}
+
+/// Random star-shaped pockets with a hole: the plan never panics, never gouges,
+/// and leaves uncut only corner material the root tool cannot reach.
+#[test]
+fn random_star_pockets_plan_without_gouge() {
+    let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mut rnd = move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for case in 0..3 {
+        let n = 12 + (rnd() * 40.0) as usize;
+        let outer: Vec<P2> = (0..n)
+            .map(|i| {
+                let t = 2.0 * PI * (i as f64 + 0.3 * rnd()) / n as f64;
+                let r = 30.0 + 25.0 * rnd();
+                [r * t.cos(), r * t.sin()]
+            })
+            .collect();
+        let hole: Vec<P2> = (0..16)
+            .map(|i| {
+                let t = -2.0 * PI * i as f64 / 16.0;
+                [5.0 * t.cos(), 5.0 * t.sin()]
+            })
+            .collect();
+        let p = Pocket::new(&outer, &[hole]).unwrap();
+        let plan = match plan_pocket(&p, &DEFAULT_TOOL_CATALOGUE, None, &NoProgress) {
+            Ok(plan) => plan,
+            Err(e) => panic!("case {case}: {e}"),
+        };
+        let clearance = worst_clearance(&p, &plan);
+        assert!(clearance > -1e-3, "case {case}: gouge {clearance}");
+        for w in plan.stages.windows(2) {
+            assert!(w[1].diameter < w[0].diameter, "case {case}");
+        }
+        let r_root = 0.5 * plan.stages.last().unwrap().diameter;
+        let h = 0.2;
+        let walls: Vec<(P2, P2)> = loops(&p)
+            .iter()
+            .flat_map(|l| (0..l.len()).map(move |i| (l[i], l[(i + 1) % l.len()])))
+            .collect();
+        for q in uncovered_points(&p, &plan, h) {
+            let (d, alpha) = nearest_sharp_vertex(&p, q);
+            let wall = walls
+                .iter()
+                .map(|&(a, b)| seg_dist(a, b, q))
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                d <= r_root / (alpha / 2.0).sin() + 2.0 * h || wall <= WALL_TOL + 1e-9,
+                "case {case}: uncovered {q:?}, {d} from a corner of {alpha}, {wall} from the wall"
+            );
+        }
+    }
+}
+
+/// Dmax / D > 2: several contour passes; the islands they leave at the corners of
+/// the contours are cleared along the medial axis, so only the four wall corners
+/// stay uncut.
+#[test]
+fn multi_pass_roughing_clears_islands_along_the_axis() {
+    let p = rectangle(100.0, 60.0);
+    let plan = plan_pocket(&p, &[8.0], Some(0.02), &NoProgress).unwrap();
+    assert_eq!(plan.stages.len(), 1);
+    let s = &plan.stages[0];
+    assert!(s.passes.len() > 4, "{} passes", s.passes.len());
+    let want = 4.0 * corner_area(4.0, PI / 2.0);
+    assert!(
+        (plan.uncut_area() - want).abs() < 0.02 * want,
+        "{} vs {want}",
+        plan.uncut_area()
+    );
+    assert!(worst_clearance(&p, &plan) > -1e-3);
+    // Independent raster: nothing uncovered farther than R / sin 45 from a corner.
+    for q in uncovered_points(&p, &plan, 0.1) {
+        let (d, _) = nearest_sharp_vertex(&p, q);
+        assert!(d <= 4.0 * 2f64.sqrt() + 0.2, "{q:?}");
+    }
+}
