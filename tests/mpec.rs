@@ -153,6 +153,24 @@ fn bad_input_gives_clear_errors() {
         Err(Error::Invalid { field, .. }) => assert_eq!(field, "tolerance"),
         other => panic!("{other:?}"),
     }
+    // A twisted surface (the curvature across the feed swings along it): the
+    // W collapses on one side, named in the error instead of looping.
+    let f =
+        |x: f64, y: f64| (1.0 + 0.4 * (y / 45.0).sin()) * x * x / 1800.0 + 2.0 * (y / 70.0).cos();
+    let twisted = toolpath_planner::geometry::interpolation::interpolate_height_field(
+        f,
+        (-90.0, 90.0),
+        (0.0, 200.0),
+        (3, 12),
+        (3, 16),
+    )
+    .unwrap();
+    match plan(twisted, FeedDirection::V) {
+        Err(Error::Planning { message }) => {
+            assert!(message.contains("forms no \"W\""), "{message}")
+        }
+        other => panic!("{other:?}"),
+    }
     // Curvature radius 4 mm across the feed: smaller than the corner radius.
     // Radius 20 mm: no lead up to 60 degrees keeps the dips above -delta.
     for k in [1.0 / 4.0, 1.0 / 20.0] {
@@ -388,4 +406,57 @@ fn die_saddle_plan() {
         let budget = 0.5 * (w[0].min_strip_width.unwrap() + w[1].min_strip_width.unwrap());
         assert!(gap <= budget + 0.05, "gap {gap} > {budget}");
     }
+}
+
+fn assert_simulated_within_band(job: &Job, r: &PlanResult) {
+    let report = toolpath_planner::simulation::scallop::simulate(
+        job.surface().unwrap(),
+        &job.tool,
+        r,
+        &toolpath_planner::simulation::scallop::ScallopSettings::default(),
+    )
+    .unwrap();
+    assert!(
+        report.max_scallop_mm <= DELTA + 0.002,
+        "scallop {}",
+        report.max_scallop_mm
+    );
+    assert!(
+        report.max_gouge_mm <= DELTA + 0.002,
+        "gouge {}",
+        report.max_gouge_mm
+    );
+    assert_eq!(report.uncovered_area_mm2, 0.0);
+}
+
+#[test]
+fn die_saddle_simulated_within_the_band() {
+    let job = toolpath_planner::samples::job("die_saddle").unwrap();
+    let r = planners::plan(&job, &NoProgress).unwrap();
+    assert_simulated_within_band(&job, &r);
+}
+
+/// A bicubic surface whose curvatures vary along and across the feed (v):
+/// heights from the real surface, strips of varying width.
+#[test]
+fn varying_curvature_feed_along_v_simulated_within_the_band() {
+    let f = |x: f64, y: f64| x * x / (1800.0 + 6.0 * x) + 2.0 * (y / 70.0).cos();
+    let s = toolpath_planner::geometry::interpolation::interpolate_height_field(
+        f,
+        (-90.0, 90.0),
+        (0.0, 200.0),
+        (3, 12),
+        (3, 16),
+    )
+    .unwrap();
+    let job = Job::new(job_file(FeedDirection::V), Shape::Surface(s)).unwrap();
+    let r = planners::plan(&job, &NoProgress).unwrap();
+    assert!(r.passes.len() >= 4, "{}", r.passes.len());
+    let widths: Vec<f64> = r
+        .passes
+        .iter()
+        .map(|p| p.min_strip_width.unwrap())
+        .collect();
+    assert!(widths.iter().all(|w| *w > 20.0), "{widths:?}");
+    assert_simulated_within_band(&job, &r);
 }

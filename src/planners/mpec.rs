@@ -29,6 +29,9 @@ use nalgebra::{Point3, SMatrix, SVector, Vector2, Vector3};
 /// Drive-point spacing along a pass, mm (the paper: 400 points on ~600 mm).
 pub const POINT_SPACING: f64 = 1.5;
 
+/// Narrowest usable half strip, mm: below it the passes could not advance.
+const MIN_HALF_WIDTH: f64 = 0.05;
+
 /// Positions and derivatives of the surface, continued past its boundary by
 /// the second-order Taylor expansion at the nearest boundary point, so that
 /// tools overhanging the edge see a smooth continuation.
@@ -311,6 +314,8 @@ pub struct Planner<'a> {
     pub delta: f64,
     pub feed: FeedDirection,
     pub theta_min: f64,
+    /// Side tilt: fixed rotation of the tool about the normal before the lead (0 by default).
+    pub phi: f64,
     /// Force exact point inversion for every height (tests; slow).
     pub exact_heights: bool,
 }
@@ -351,10 +356,14 @@ impl<'a> Planner<'a> {
                 format!("{delta} mm is not small against the corner radius {corner_radius} mm; MPEC needs delta << r"),
             ));
         }
-        if job.side_tilt() != 0.0 {
+        let phi = job.side_tilt();
+        if phi.abs() > 45f64.to_radians() {
             return Err(Error::invalid(
                 "side_tilt_deg",
-                "mpec keeps the side tilt at 0 (as the paper does); remove side_tilt_deg",
+                format!(
+                    "the rotation about the normal must be within +-45 degrees, got {}",
+                    phi.to_degrees()
+                ),
             ));
         }
         let theta_min = job.lead_angle();
@@ -373,6 +382,7 @@ impl<'a> Planner<'a> {
             delta,
             feed: job.feed_direction.unwrap_or(FeedDirection::U),
             theta_min,
+            phi,
             exact_heights: false,
         })
     }
@@ -447,6 +457,7 @@ impl<'a> Planner<'a> {
         }
         let search = LeadSearch {
             theta_min: self.theta_min,
+            phi: self.phi,
             hint,
             ..LeadSearch::default()
         };
@@ -541,6 +552,33 @@ impl<'a> Planner<'a> {
             })
     }
 
+    /// The error for a pass whose strip is (almost) nothing on one side,
+    /// naming its narrowest point.
+    fn too_narrow(&self, pass: &[DrivePoint], towards_plus: bool) -> Error {
+        let sign = self.cross_sign();
+        let side = |p: &DrivePoint| {
+            let (a, b) = p.half_widths(sign);
+            if towards_plus {
+                a
+            } else {
+                b
+            }
+        };
+        let worst = pass
+            .iter()
+            .filter(|p| p.inside)
+            .min_by(|a, b| side(a).total_cmp(&side(b)));
+        match worst {
+            Some(p) => Error::planning(format!(
+                "at (u, v) = ({:.6}, {:.6}) the strip is only {:.4} mm wide on one side of the drive curve: the error curve forms no \"W\" there (the surface twists across the feed); plan with the other feed_direction or a side_tilt_deg",
+                p.uv[0],
+                p.uv[1],
+                side(p).max(0.0)
+            )),
+            None => Error::planning("a pass has no drive points inside the surface"),
+        }
+    }
+
     /// Largest distance between the drive curves at `from` and `to`, over the feed samples.
     pub fn gap(&self, samples: &[(f64, bool)], from: f64, to: f64) -> f64 {
         samples
@@ -600,6 +638,9 @@ impl<'a> Planner<'a> {
         };
         let mut guess = guess;
         for _ in 0..6 {
+            if guess < MIN_HALF_WIDTH {
+                break;
+            }
             let mut accepted: Option<(f64, f64)> = None;
             for _ in 0..8 {
                 let t = self.advance(samples, from, end, fixed + guess);
@@ -626,6 +667,9 @@ impl<'a> Planner<'a> {
             if facing >= used - 1e-9 {
                 return Ok((t, full));
             }
+            if facing < MIN_HALF_WIDTH {
+                return Err(self.too_narrow(&full, end < from));
+            }
             guess = facing * 0.999;
         }
         Err(Error::planning(format!(
@@ -648,9 +692,15 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
     // First pass: its lower strip edge on the boundary t0.
     let probe = planner.pass(t0, &samples)?;
     let (_, minus0) = planner.narrowest(&probe);
+    if minus0 < MIN_HALF_WIDTH {
+        return Err(planner.too_narrow(&probe, false));
+    }
     let (mut t, mut pass) = planner.place_next(&samples, t0, t1, 0.0, minus0)?;
     loop {
         let (plus, _) = planner.narrowest(&pass);
+        if plus < MIN_HALF_WIDTH && t < t1 {
+            return Err(planner.too_narrow(&pass, true));
+        }
         passes.push(pass);
         progress.set(((t - t0) / (t1 - t0)).clamp(0.0, 1.0) as f32 * 0.99);
         if t >= t1 || planner.gap(&samples, t, t1) <= plus {

@@ -62,33 +62,39 @@ impl TorusCutter {
 pub struct Position {
     pub theta: f64,
     pub middle: f64,
+    /// Rotation phi about e3 before the lead (the paper's first angle; 0 by default).
+    pub phi: f64,
 }
 
-/// Sphere centre c(psi) in the local frame.
+/// Sphere centre c(psi) in the local frame (rotated by phi about e3).
 #[inline]
 pub fn sphere_centre(tool: TorusCutter, pos: Position, psi: f64) -> [f64; 3] {
     let (s, c) = psi.sin_cos();
     let (st, ct) = pos.theta.sin_cos();
-    [
-        -tool.r0 * ct * (1.0 - c),
-        tool.r0 * s,
-        tool.r + pos.middle + tool.r0 * st * (1.0 - c),
-    ]
+    let (x, y) = (-tool.r0 * ct * (1.0 - c), tool.r0 * s);
+    let z = tool.r + pos.middle + tool.r0 * st * (1.0 - c);
+    if pos.phi == 0.0 {
+        return [x, y, z];
+    }
+    let (sp, cp) = pos.phi.sin_cos();
+    [x * cp - y * sp, x * sp + y * cp, z]
 }
 
 /// Tool tip (centre of the bottom face) and axis in the local frame.
 pub fn tip_and_axis(tool: TorusCutter, pos: Position) -> ([f64; 3], [f64; 3]) {
     let (st, ct) = pos.theta.sin_cos();
+    let (sp, cp) = pos.phi.sin_cos();
     // Tube-centre circle centre = C2 - R0 o', o' = (cos, 0, -sin); tip = centre - r axis.
     let centre = [-tool.r0 * ct, 0.0, tool.r + pos.middle + tool.r0 * st];
     let axis = [st, 0.0, ct];
+    let tip = [
+        centre[0] - tool.r * axis[0],
+        0.0,
+        centre[2] - tool.r * axis[2],
+    ];
     (
-        [
-            centre[0] - tool.r * axis[0],
-            0.0,
-            centre[2] - tool.r * axis[2],
-        ],
-        axis,
+        [tip[0] * cp, tip[0] * sp, tip[2]],
+        [axis[0] * cp, axis[0] * sp, axis[2]],
     )
 }
 
@@ -343,6 +349,8 @@ pub struct LeadSearch {
     pub theta_tol: f64,
     /// Previous point's lead, to start from a narrow bracket.
     pub hint: Option<f64>,
+    /// Fixed rotation about e3 (radians).
+    pub phi: f64,
 }
 
 impl Default for LeadSearch {
@@ -352,6 +360,7 @@ impl Default for LeadSearch {
             theta_max: 60f64.to_radians(),
             theta_tol: 2e-6,
             hint: None,
+            phi: 0.0,
         }
     }
 }
@@ -368,7 +377,11 @@ fn bisect_lead(
     floor: f64,
     s: &LeadSearch,
 ) -> Result<f64, SolveError> {
-    let at = |theta: f64| Position { theta, middle };
+    let at = |theta: f64| Position {
+        theta,
+        middle,
+        phi: s.phi,
+    };
     let start = s
         .hint
         .unwrap_or(s.theta_min)
@@ -464,7 +477,11 @@ pub fn solve(
         (Status::NotApplicable, 0.0)
     };
     let theta = bisect_lead(tool, h, middle, -delta, search)?;
-    let pos = Position { theta, middle };
+    let pos = Position {
+        theta,
+        middle,
+        phi: search.phi,
+    };
     let (y_left, y_right) = outer_crossings(tool, pos, h, delta).ok_or(SolveError::NoStrip)?;
     Ok(Solution {
         status,
