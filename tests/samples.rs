@@ -411,3 +411,42 @@ fn cli_lists_and_writes_samples() {
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("sample"));
 }
+
+#[test]
+fn cli_inspect_reports_exact_curvatures() {
+    let bin = env!("CARGO_BIN_EXE_toolpath");
+    let dir = tempfile::tempdir().unwrap();
+    let inspect = |name: &str, u: &str, v: &str| {
+        let path = dir.path().join(format!("{name}.json"));
+        std::fs::write(&path, samples::shape(name).unwrap().to_json().to_string()).unwrap();
+        let out = Command::new(bin)
+            .arg("inspect")
+            .arg(&path)
+            .args(["--uv", u, v])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let num = |v: &serde_json::Value, k: &str| v[k].as_f64().unwrap();
+    // Concave cylinder trough: k1 = 1/100 across the axis, k2 = 0 along it; lowest line z = 0.
+    let c = inspect("concave_cylinder", "0.25", "0.5");
+    assert!((num(&c, "k1") - 0.01).abs() < 1e-12 && num(&c, "k2").abs() < 1e-12);
+    assert!((c["point"][2].as_f64().unwrap()).abs() < 1e-12);
+    assert!((c["normal"][2].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    assert!((c["dir_k2"][0].as_f64().unwrap().abs() - 1.0).abs() < 1e-9);
+    assert_eq!(c["umbilic"], serde_json::Value::Bool(false));
+    // Monkey saddle centre: flat umbilic.
+    let m = inspect("monkey_saddle", "0.5", "0.5");
+    assert_eq!(m["umbilic"], serde_json::Value::Bool(true));
+    // Die saddle centre: radii 1198 and -19000.
+    let d = inspect("die_saddle", "0.5", "0.5");
+    assert!(
+        (1.0 / num(&d, "k1") - 1198.0).abs() < 1e-6 && (1.0 / num(&d, "k2") + 19000.0).abs() < 1e-3
+    );
+    assert!((num(&d, "gaussian_curvature") + 1.0 / (1198.0 * 19000.0)).abs() < 1e-15);
+}
