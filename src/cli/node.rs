@@ -19,9 +19,12 @@ pub fn run(config: Option<&Path>) -> Result<()> {
 
 /// Logs to stderr; RUST_LOG overrides (ros2-client warns through `log`).
 pub fn init_logging() {
-    let env = env_logger::Env::default().default_filter_or(
-        "warn,rustdds=off,ros2_client::distributions=error,toolpath_planner=info",
-    );
+    init_logging_with("warn,rustdds=off,ros2_client::distributions=error,toolpath_planner=info");
+}
+
+/// Logs to stderr with `default` as the filter unless RUST_LOG is set.
+pub fn init_logging_with(default: &str) {
+    let env = env_logger::Env::default().default_filter_or(default);
     let _ = env_logger::Builder::from_env(env)
         .format_timestamp_millis()
         .try_init();

@@ -119,43 +119,66 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
-/// Shifts each rotary joint by whole turns so the path fits its travel, then
-/// checks every joint against its limits.
+/// The shift (`offset` plus whole turns, smallest) that brings joint `j` of
+/// every row into its travel, if one does.
+fn turn_shift(rows: &[Vec<f64>], j: usize, l: &JointLimit, offset: f64) -> Option<f64> {
+    let lo = rows.iter().map(|r| r[j]).fold(f64::INFINITY, f64::min) + offset;
+    let hi = rows.iter().map(|r| r[j]).fold(f64::NEG_INFINITY, f64::max) + offset;
+    let turn = 2.0 * PI;
+    let k_lo = ((l.min - lo) / turn - 1e-12).ceil();
+    let k_hi = ((l.max - hi) / turn + 1e-12).floor();
+    (k_lo <= k_hi).then(|| offset + turn * k_lo.max(0.0).min(k_hi))
+}
+
+/// Shifts the rotary joints of each pass (with its approach and retract) by
+/// whole turns into their travel: the machine may rewind between passes, but
+/// never inside one. `flip` = (A, C) indices of a head whose other branch
+/// (-A, C + pi) may be taken for a whole pass when no whole-turn shift fits.
+/// Then checks every joint against its limits.
 fn fit_limits(
     machine: &str,
     q: &mut [Vec<f64>],
     limits: &[JointLimit],
     origins: &[Origin],
+    flip: Option<(usize, usize)>,
 ) -> Result<()> {
-    for (j, l) in limits.iter().enumerate() {
-        if !l.rotary || q.is_empty() {
-            continue;
-        }
-        let lo = q.iter().map(|r| r[j]).fold(f64::INFINITY, f64::min);
-        let hi = q.iter().map(|r| r[j]).fold(f64::NEG_INFINITY, f64::max);
-        if hi - lo > l.max - l.min + 1e-9 {
-            return Err(Error::planning(format!(
-                "{machine}: the toolpath turns joint {} through {:.1} deg, more than its travel {:.1}..{:.1} deg",
-                l.name,
-                (hi - lo).to_degrees(),
-                l.min.to_degrees(),
-                l.max.to_degrees()
-            )));
-        }
-        // Smallest whole-turn shift that brings [lo, hi] inside [min, max].
-        let turn = 2.0 * PI;
-        let k_lo = ((l.min - lo) / turn - 1e-12).ceil();
-        let k_hi = ((l.max - hi) / turn + 1e-12).floor();
-        if k_lo <= k_hi {
-            let k = if k_lo > 0.0 {
-                k_lo
-            } else if k_hi < 0.0 {
-                k_hi
-            } else {
-                0.0
-            };
-            if k != 0.0 {
-                q.iter_mut().for_each(|r| r[j] += k * turn);
+    let mut starts: Vec<usize> = origins
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| matches!(o, Origin::Approach(_)))
+        .map(|(k, _)| k)
+        .collect();
+    if starts.first() != Some(&0) {
+        starts.insert(0, 0);
+    }
+    for (b, &start) in starts.iter().enumerate() {
+        let end = starts.get(b + 1).copied().unwrap_or(q.len());
+        let block = &mut q[start..end];
+        for (j, l) in limits.iter().enumerate() {
+            if !l.rotary || block.is_empty() {
+                continue;
+            }
+            let lo = block.iter().map(|r| r[j]).fold(f64::INFINITY, f64::min);
+            let hi = block.iter().map(|r| r[j]).fold(f64::NEG_INFINITY, f64::max);
+            if hi - lo > l.max - l.min + 1e-9 {
+                return Err(Error::planning(format!(
+                    "{machine}: {} turns joint {} through {:.1} deg, more than its travel {:.1}..{:.1} deg",
+                    origins.get(start).map_or("the toolpath".to_string(), |o| format!("{o} onwards")),
+                    l.name,
+                    (hi - lo).to_degrees(),
+                    l.min.to_degrees(),
+                    l.max.to_degrees()
+                )));
+            }
+            if let Some(shift) = turn_shift(block, j, l, 0.0) {
+                block.iter_mut().for_each(|r| r[j] += shift);
+            } else if let Some((a, _)) = flip.filter(|f| f.1 == j) {
+                if let Some(shift) = turn_shift(block, j, l, PI) {
+                    block.iter_mut().for_each(|r| {
+                        r[j] += shift;
+                        r[a] = -r[a];
+                    });
+                }
             }
         }
     }
@@ -272,7 +295,8 @@ pub fn trajectory(job: &Job, result: &PlanResult, machines: &Machines) -> Result
                 )
             }
         };
-    fit_limits(machine_name, &mut q, &limits, &origins)?;
+    let flip = (job.machine == Machine::Mill5).then_some((3, 4));
+    fit_limits(machine_name, &mut q, &limits, &origins, flip)?;
     let segments: Vec<Segment> = (1..poses.len())
         .map(|k| Segment {
             length: dist(poses[k - 1].tip, poses[k].tip),
@@ -409,12 +433,55 @@ mod tests {
         let mut q = vec![vec![0.0, 0.0, 0.0, 0.3, 5.0], vec![0.0, 0.0, 0.0, 0.3, 5.2]];
         let limits = Mill5Config::default().limits();
         let o = [Origin::Point(0, 0), Origin::Point(0, 1)];
-        fit_limits("mill5", &mut q, &limits, &o).unwrap();
+        fit_limits("mill5", &mut q, &limits, &o, Some((3, 4))).unwrap();
         assert!((q[0][4] - (5.0 - 2.0 * PI)).abs() < 1e-12);
         let mut q = vec![vec![0.0, 0.0, 0.0, 0.3, 0.0], vec![0.0, 0.0, 0.0, 0.3, 8.0]];
-        let e = fit_limits("mill5", &mut q, &limits, &o)
+        let e = fit_limits("mill5", &mut q, &limits, &o, Some((3, 4)))
             .unwrap_err()
             .to_string();
-        assert!(e.contains("turns joint C through 458.4 deg"), "{e}");
+        assert!(
+            e.contains("pass 0 point 0 onwards turns joint C through 458.4 deg"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_pass_takes_the_other_head_branch_when_no_whole_turn_fits() {
+        // C from -10 to 320 deg: no whole-turn shift fits -220..220, (-A, C - 180) does.
+        let c = |d: f64| d.to_radians();
+        let mut q = vec![
+            vec![0.0, 0.0, 0.0, 0.3, c(-10.0)],
+            vec![0.0, 0.0, 0.0, 0.3, c(320.0)],
+        ];
+        let limits = Mill5Config::default().limits();
+        let o = [Origin::Approach(0), Origin::Point(0, 0)];
+        fit_limits("mill5", &mut q, &limits, &o, Some((3, 4))).unwrap();
+        assert!(
+            (q[0][4] - c(-190.0)).abs() < 1e-12 && (q[1][4] - c(140.0)).abs() < 1e-12,
+            "{q:?}"
+        );
+        assert_eq!((q[0][3], q[1][3]), (-0.3, -0.3));
+        // Same axis: (sin A sin C, -sin A cos C, cos A) is unchanged by the flip.
+        let axis = |a: f64, cc: f64| [a.sin() * cc.sin(), -a.sin() * cc.cos(), a.cos()];
+        let (before, after) = (axis(0.3, c(320.0)), axis(q[1][3], q[1][4]));
+        assert!((0..3).all(|k| (before[k] - after[k]).abs() < 1e-12));
+        // Each pass is fitted on its own: the machine rewinds C between passes.
+        let mut q = vec![
+            vec![0.0, 0.0, 0.0, 0.3, c(200.0)],
+            vec![0.0, 0.0, 0.0, 0.3, c(210.0)],
+            vec![0.0, 0.0, 0.0, 0.3, c(350.0)],
+            vec![0.0, 0.0, 0.0, 0.3, c(360.0)],
+        ];
+        let o = [
+            Origin::Approach(0),
+            Origin::Retract(0),
+            Origin::Approach(1),
+            Origin::Retract(1),
+        ];
+        fit_limits("mill5", &mut q, &limits, &o, Some((3, 4))).unwrap();
+        assert!(
+            (q[0][4] - c(200.0)).abs() < 1e-12 && (q[2][4] - c(-10.0)).abs() < 1e-12,
+            "{q:?}"
+        );
     }
 }
