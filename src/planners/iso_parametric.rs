@@ -35,7 +35,10 @@ fn uv_of(feed: FeedDirection, along: f64, across: f64) -> Vector2<f64> {
     }
 }
 
-/// The passes; `forward` alternates (zig-zag) so the lead tilts along the travel.
+/// The passes; `forward` alternates (zig-zag) so the lead tilts along the
+/// travel. The classic iso-parametric method: one constant parameter step
+/// across the passes, the worst case over the surface (found by sweeping
+/// with the locally required step, then checked at the final passes).
 pub fn plan_passes(
     surface: &NurbsSurface,
     s: &PassSettings,
@@ -47,35 +50,69 @@ pub fn plan_passes(
         FeedDirection::U => ((u0, u1), (v0, v1)),
         FeedDirection::V => ((v0, v1), (u0, u1)),
     };
-    let mut passes = Vec::new();
+    let span = c1 - c0;
+    // Sweep with the locally required step to find the worst case.
     let mut across = c0;
+    let mut worst = span;
     let mut forward = true;
-    for _ in 0..MAX_PASSES {
-        let contacts = pass_contacts(surface, s, feed, (a0, a1), across, forward)?;
-        let mut pass = Pass {
-            region: 0,
-            points: Vec::with_capacity(contacts.len()),
-            min_strip_width: None,
-        };
-        for c in &contacts {
-            pass.points.push(c.path_point(s)?);
+    let mut sweeps = 0;
+    while across < c1 {
+        sweeps += 1;
+        if sweeps > MAX_PASSES {
+            return Err(too_many());
         }
-        passes.push(pass);
-        progress.set((0.95 * (across - c0) / (c1 - c0)) as f32);
-        if across >= c1 {
+        let contacts = pass_contacts(surface, s, feed, (a0, a1), across, forward)?;
+        let step = next_step(surface, s, feed, &contacts, across, span)?;
+        worst = worst.min(step);
+        across += step;
+        forward = !forward;
+        progress.set((0.45 * ((across - c0) / span).min(1.0)) as f32);
+    }
+    for _attempt in 0..4 {
+        let count = ((span / worst) * (1.0 + 1e-9)).ceil().max(1.0) as usize;
+        if count > MAX_PASSES {
+            return Err(too_many());
+        }
+        let step = span / count as f64;
+        let mut passes = Vec::with_capacity(count + 1);
+        let mut ok = true;
+        for k in 0..=count {
+            let across = if k == count { c1 } else { c0 + step * k as f64 };
+            let forward = k % 2 == 0;
+            let contacts = pass_contacts(surface, s, feed, (a0, a1), across, forward)?;
+            if k < count {
+                let need = next_step(surface, s, feed, &contacts, across, span)?;
+                if need < step * (1.0 - 1e-6) {
+                    worst = worst.min(need);
+                    ok = false;
+                    break;
+                }
+            }
+            let mut pass = Pass {
+                region: 0,
+                points: Vec::with_capacity(contacts.len() + 1),
+                min_strip_width: None,
+            };
+            for c in &contacts {
+                pass.points.push(c.path_point(s)?);
+            }
+            super::pass_points::extend_end(&mut pass.points, s);
+            passes.push(pass);
+            progress.set((0.5 + 0.45 * k as f64 / count as f64) as f32);
+        }
+        if ok {
             return Ok(passes);
         }
-        let step = next_step(surface, s, feed, &contacts, across, c1 - across)?;
-        across = if across + step >= c1 - 1e-9 * (c1 - c0) {
-            c1
-        } else {
-            across + step
-        };
-        forward = !forward;
     }
-    Err(Error::planning(format!(
+    Err(Error::planning(
+        "iso_parametric: the constant parameter step did not settle (the required step varies too fast)",
+    ))
+}
+
+fn too_many() -> Error {
+    Error::planning(format!(
         "iso_parametric needs more than {MAX_PASSES} passes: the scallop is too small for the surface"
-    )))
+    ))
 }
 
 const MAX_PASSES: usize = 20_000;

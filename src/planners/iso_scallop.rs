@@ -1,11 +1,58 @@
-//! Strategy `iso_scallop`: not implemented yet.
+//! Strategy `iso_scallop`: the whole surface as one region, Lee-style
+//! iso-scallop offsetting from the boundary curve at the start of the
+//! cross-feed parameter (feed along `feed_direction`, u by default). Same
+//! cutter model and tool axis as `tensor_regions`.
 
+use super::iso_scallop_offset::cover;
+use super::partition::{polygon_area, Region};
+use super::pass_points::{sample_curve, PassSettings};
 use super::Progress;
-use crate::error::{Error, Result};
-use crate::formats::{Job, PlanResult};
+use crate::error::Result;
+use crate::formats::{FeedDirection, Job, PlanResult};
+use crate::geometry::NurbsSurface;
+use nalgebra::Vector2;
 
-pub fn plan(_job: &Job, _progress: &dyn Progress) -> Result<PlanResult> {
-    Err(Error::planning(
-        "strategy iso_scallop is not available in this build yet",
-    ))
+pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+    let surface = job.surface()?;
+    let settings = PassSettings::from_job(job)?;
+    let feed = job.feed_direction.unwrap_or(FeedDirection::U);
+    let region = whole_domain(surface);
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let curve_uv = |t: f64| match feed {
+        FeedDirection::U => Vector2::new(u0 + (u1 - u0) * t, v0),
+        FeedDirection::V => Vector2::new(u0, v0 + (v1 - v0) * t),
+    };
+    let curve = |t: f64| {
+        let p = curve_uv(t);
+        surface.point(p.x, p.y)
+    };
+    let ts = sample_curve(&curve, settings.chord_tolerance, settings.point_step, 9);
+    let initial: Vec<Vector2<f64>> = ts.into_iter().map(curve_uv).collect();
+    progress.set(0.1);
+    let passes = cover(surface, &settings, &region, &initial)?;
+    let mut result = PlanResult::new(&job.job_id, job.strategy.name());
+    result.passes = passes;
+    result.stats.path_length_lower_bound_mm = Some(super::strip_width::path_length_lower_bound(
+        surface,
+        &settings.cutter,
+        job.scallop()?,
+        super::LOWER_BOUND_CELLS,
+    )?);
+    Ok(result)
+}
+
+/// The parameter domain as one region.
+pub fn whole_domain(surface: &NurbsSurface) -> Region {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let boundary_uv = vec![
+        Vector2::new(u0, v0),
+        Vector2::new(u1, v0),
+        Vector2::new(u1, v1),
+        Vector2::new(u0, v1),
+    ];
+    Region {
+        id: 0,
+        area_mm2: polygon_area(surface, &boundary_uv, 48),
+        boundary_uv,
+    }
 }

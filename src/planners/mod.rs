@@ -9,6 +9,7 @@ pub mod belt_iso_planar;
 pub mod degenerate_points;
 pub mod iso_parametric;
 pub mod iso_scallop;
+pub mod iso_scallop_offset;
 pub mod mpec;
 pub mod mpec_error_curve;
 pub mod partition;

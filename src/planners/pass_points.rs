@@ -18,6 +18,9 @@ pub struct PassSettings {
     pub chord_tolerance: f64,
     /// Longest step along a pass, mm.
     pub max_step: f64,
+    /// Longest step along a pass that keeps the chord error within the
+    /// tolerance on the most curved part of the surface, mm.
+    pub point_step: f64,
 }
 
 /// Share of the job's scallop the spacing is planned for: the rest absorbs
@@ -29,13 +32,43 @@ impl PassSettings {
     pub fn from_job(job: &crate::formats::Job) -> Result<Self> {
         let cutter = Cutter::from_job(job)?;
         let h = job.scallop()?;
+        let surface = job.surface()?;
+        let chord_tolerance = h * 0.05;
+        let max_step = (cutter.radius * 2.0).max(1.0);
+        // Chord error of a step s on curvature k: k s^2 / 8.
+        let k = max_curvature(surface);
+        let point_step = if k > 0.0 {
+            (8.0 * chord_tolerance / k).sqrt().clamp(0.05, max_step)
+        } else {
+            max_step
+        };
         Ok(Self {
             cutter,
             scallop: h * SCALLOP_MARGIN,
-            chord_tolerance: h * 0.05,
-            max_step: (cutter.radius * 2.0).max(1.0),
+            chord_tolerance,
+            max_step,
+            point_step,
         })
     }
+}
+
+/// Largest principal curvature magnitude over a 33 x 33 sample grid, 1/mm.
+pub fn max_curvature(surface: &NurbsSurface) -> f64 {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let n = 32;
+    let mut k = 0.0f64;
+    for i in 0..=n {
+        for j in 0..=n {
+            let (u, v) = (
+                u0 + (u1 - u0) * i as f64 / n as f64,
+                v0 + (v1 - v0) * j as f64 / n as f64,
+            );
+            if let Some(g) = LocalGeometry::at(surface, u, v) {
+                k = k.max(g.k_min.abs()).max(g.k_max.abs());
+            }
+        }
+    }
+    k
 }
 
 /// A contact on the surface with its travel direction.
@@ -168,6 +201,42 @@ pub fn sample_curve(
         }
     }
     out
+}
+
+/// Extends a pass past its last contact along the travel tangent, so that
+/// the trailing edge points (which lag R (1 - cos phi) cos(lambda) behind the
+/// contact at lateral offset R sin phi) sweep the material up to the end
+/// contact's cross-section. The extension runs in the tangent plane, which
+/// stays above the surface to second order on both concave and convex parts.
+pub fn extend_end(points: &mut Vec<PathPoint>, s: &PassSettings) {
+    let Some(last) = points.last().cloned() else {
+        return;
+    };
+    let (Some(feed), Some(normal)) = (last.feed, last.normal) else {
+        return;
+    };
+    let r = s.cutter.radius;
+    let w = last.strip_width.unwrap_or(2.0 * r).min(2.0 * r);
+    // The wider half of the strip decides; both halves are at most w.
+    let y = w.min(r);
+    let lag = if s.cutter.ball {
+        0.0
+    } else {
+        r * (1.0 - (1.0 - (y / r).powi(2)).max(0.0).sqrt()) * s.cutter.lead.cos()
+    };
+    if lag <= 0.0 {
+        return;
+    }
+    let t = Vector3::from(feed);
+    let n = Vector3::from(normal);
+    let cc = Point3::from(last.cc) + t * (lag * 1.05);
+    let (cl, axis) = s.cutter.pose(cc, n, t);
+    points.push(PathPoint {
+        cc: cc.into(),
+        cl: cl.into(),
+        axis: axis.into(),
+        ..last
+    });
 }
 
 #[cfg(test)]

@@ -1,11 +1,228 @@
-//! Strategy `tensor_regions`: not implemented yet.
+//! Strategy `tensor_regions` (Xu, Li, Liu 2016, corrected by methods.md A):
+//! the strip-width tensor field, its degenerate points, the separatrices of
+//! the trisectors, the regions they bound, and in each region an initial
+//! pass through its widest-strip point along the optimal feed, then
+//! iso-scallop passes offset to both sides.
 
+use super::degenerate_points::{self, Analysis};
+use super::iso_scallop::whole_domain;
+use super::iso_scallop_offset::cover;
+use super::partition::{partition, Region, Tracer};
+use super::pass_points::PassSettings;
+use super::strip_width::{gouge_error, max_strip_width, WidthError};
 use super::Progress;
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::formats::result::{DegeneratePoint, Region as RegionOut};
 use crate::formats::{Job, PlanResult};
+use crate::geometry::{LocalGeometry, NurbsSurface};
+use nalgebra::{Point3, Vector2, Vector3};
 
-pub fn plan(_job: &Job, _progress: &dyn Progress) -> Result<PlanResult> {
-    Err(Error::planning(
-        "strategy tensor_regions is not available in this build yet",
-    ))
+/// Grid cells per direction for the degenerate-point search.
+const DEGENERATE_GRID: usize = 48;
+/// Samples per direction when looking for a region's widest-strip point.
+const WIDEST_GRID: usize = 48;
+
+pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+    let surface = job.surface()?;
+    let settings = PassSettings::from_job(job)?;
+    let k_b = settings.cutter.k_b();
+    let analysis = degenerate_points::find(surface, DEGENERATE_GRID)?;
+    progress.set(0.1);
+    let mut result = PlanResult::new(&job.job_id, job.strategy.name());
+    let step = settings.point_step.min(settings.cutter.radius);
+    let (regions, separatrices_uv) = if analysis.everywhere {
+        result.warnings.push(
+            "the strip-width field is isotropic everywhere (every point is degenerate): one region, feed along u"
+                .into(),
+        );
+        (vec![whole_domain(surface)], Vec::new())
+    } else {
+        let p = partition(surface, k_b, &analysis.points, step);
+        (p.regions, p.separatrices_uv)
+    };
+    progress.set(0.2);
+    let mut passes = Vec::new();
+    for (k, region) in regions.iter().enumerate() {
+        let initial = initial_pass(surface, &settings, region, &analysis, step)?;
+        passes.extend(cover(surface, &settings, region, &initial)?);
+        progress.set((0.2 + 0.75 * (k + 1) as f64 / regions.len() as f64) as f32);
+    }
+    result.passes = passes;
+    result.degenerate_points = Some(
+        analysis
+            .points
+            .iter()
+            .map(|p| DegeneratePoint {
+                uv: p.uv.into(),
+                xyz: p.xyz.into(),
+                kind: p.kind.name().to_string(),
+            })
+            .collect(),
+    );
+    result.separatrices = Some(
+        separatrices_uv
+            .iter()
+            .map(|line| {
+                line.iter()
+                    .map(|uv| surface.point(uv.x, uv.y).into())
+                    .collect()
+            })
+            .collect(),
+    );
+    result.regions = Some(
+        regions
+            .iter()
+            .map(|r| RegionOut {
+                id: r.id,
+                area_mm2: r.area_mm2,
+                boundary_uv: r.boundary_uv.iter().map(|p| [p.x, p.y]).collect(),
+            })
+            .collect(),
+    );
+    result.stats.path_length_lower_bound_mm = Some(super::strip_width::path_length_lower_bound(
+        surface,
+        &settings.cutter,
+        job.scallop()?,
+        super::LOWER_BOUND_CELLS,
+    )?);
+    Ok(result)
+}
+
+/// The region's widest-strip point (sampled) and the feed field line through
+/// it, traced both ways to the region boundary. For an isotropic field the
+/// u iso-curve through the region's middle.
+fn initial_pass(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    analysis: &Analysis,
+    step: f64,
+) -> Result<Vec<Vector2<f64>>> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let mut best: Option<(f64, Vector2<f64>, Vector3<f64>)> = None;
+    for i in 0..WIDEST_GRID {
+        for j in 0..WIDEST_GRID {
+            let uv = Vector2::new(
+                u0 + (u1 - u0) * (i as f64 + 0.5) / WIDEST_GRID as f64,
+                v0 + (v1 - v0) * (j as f64 + 0.5) / WIDEST_GRID as f64,
+            );
+            if !region.contains(uv) {
+                continue;
+            }
+            let Some(g) = LocalGeometry::at(surface, uv.x, uv.y) else {
+                continue;
+            };
+            match max_strip_width(&s.cutter, s.scallop, &g) {
+                Ok((w, t)) => {
+                    if best.is_none_or(|(bw, _, _)| w > bw) {
+                        best = Some((w, uv, t));
+                    }
+                }
+                Err(WidthError::Gouge { depth }) => {
+                    return Err(gouge_error(&s.cutter, uv.into(), g.k_max, depth));
+                }
+            }
+        }
+    }
+    let Some((_, start, feed)) = best else {
+        // A sliver region no sample fell in: its neighbours' passes overlap it.
+        return Ok(Vec::new());
+    };
+    if analysis.everywhere {
+        let curve_uv = |t: f64| Vector2::new(u0 + (u1 - u0) * t, start.y);
+        let n = ((surface.point(u0, start.y) - surface.point(u1, start.y)).norm() / step)
+            .ceil()
+            .max(2.0) as usize;
+        return Ok((0..=n).map(|k| curve_uv(k as f64 / n as f64)).collect());
+    }
+    let degenerate: Vec<Point3<f64>> = analysis.points.iter().map(|p| p.xyz).collect();
+    let (lo, hi) = surface.bounding_box();
+    let tracer = Tracer {
+        surface,
+        k_b: s.cutter.k_b(),
+        step,
+        max_len: 4.0 * (hi - lo).norm(),
+        degenerate: &degenerate,
+        snap: 0.5 * step,
+    };
+    let outside = |uv: Vector2<f64>| !region.contains(uv);
+    let forward = tracer.trace(start, feed, &outside);
+    let backward = tracer.trace(start, -feed, &outside);
+    let mut line: Vec<Vector2<f64>> = backward.uv.iter().rev().copied().collect();
+    line.extend(forward.uv.iter().skip(1).copied());
+    Ok(line)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::Strategy;
+    use crate::planners::{test_surfaces, NoProgress};
+
+    #[test]
+    fn plane_is_isotropic_everywhere_and_still_planned() {
+        let job = test_surfaces::job(
+            test_surfaces::sheared_plane(),
+            Strategy::TensorRegions,
+            2.5,
+            5.0,
+            0.05,
+        );
+        let r = plan(&job, &NoProgress).unwrap();
+        assert!(r.warnings.iter().any(|w| w.contains("isotropic")));
+        assert_eq!(r.regions.as_ref().map(|x| x.len()), Some(1));
+        assert!(r.degenerate_points.as_ref().is_some_and(|d| d.is_empty()));
+        // Parallel passes spaced for the exact plane width: about 100 / 2.9 of them.
+        assert!(
+            r.passes.len() >= 30 && r.passes.len() <= 40,
+            "{}",
+            r.passes.len()
+        );
+    }
+
+    #[test]
+    fn surface_without_umbilic_is_one_region_fed_along_the_axis() {
+        let job = test_surfaces::job(
+            test_surfaces::concave_cylinder(100.0, 100.0),
+            Strategy::TensorRegions,
+            2.5,
+            5.0,
+            0.05,
+        );
+        let r = plan(&job, &NoProgress).unwrap();
+        assert_eq!(r.regions.as_ref().map(|x| x.len()), Some(1));
+        // The optimal feed on a concave cylinder is along its axis (x)
+        // (pass ends may bend where they meet the boundary).
+        let pts: Vec<_> = r.passes.iter().flat_map(|p| p.points.iter()).collect();
+        let along = pts
+            .iter()
+            .filter(|p| p.feed.unwrap()[0].abs() > 0.999)
+            .count();
+        assert!(
+            along as f64 >= 0.95 * pts.len() as f64,
+            "{along} of {}",
+            pts.len()
+        );
+    }
+
+    #[test]
+    fn monkey_saddle_result_carries_the_partition() {
+        let job = test_surfaces::job(
+            test_surfaces::monkey_saddle([0.0, 0.0], 0.0),
+            Strategy::TensorRegions,
+            2.5,
+            5.0,
+            0.05,
+        );
+        let r = plan(&job, &NoProgress).unwrap();
+        let d = r.degenerate_points.unwrap();
+        assert_eq!(d.len(), 1);
+        assert_eq!(d[0].kind, "trisector");
+        assert_eq!(r.separatrices.unwrap().len(), 3);
+        let regions = r.regions.unwrap();
+        assert_eq!(regions.len(), 3);
+        for k in 0..3 {
+            assert!(r.passes.iter().any(|p| p.region == k));
+        }
+    }
 }

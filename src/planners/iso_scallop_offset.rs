@@ -1,0 +1,464 @@
+//! Lee-style iso-scallop offsetting (Lee 1998, methods.md A), shared by
+//! `iso_scallop` (the whole surface as one region, from a boundary curve) and
+//! `tensor_regions` (per region, from the pass through its widest-strip
+//! point). Each point of the current pass is carried across the feed, on the
+//! surface, to where the current pass's half-width on that side and the next
+//! pass's half-width on the other side meet at the scallop height. Passes run
+//! zig-zag; a point of the next pass is kept while the strip edge of the
+//! current pass still leaves region material uncut.
+
+use super::partition::Region;
+use super::pass_points::{extend_end, Contact, PassSettings};
+use crate::error::{Error, Result};
+use crate::formats::Pass;
+use crate::geometry::{LocalGeometry, NurbsSurface};
+use nalgebra::{Vector2, Vector3};
+
+/// A point of a pass front: its contact and the unit tangent pointing to
+/// the side still to be covered.
+#[derive(Clone, Copy, Debug)]
+struct FrontPoint {
+    c: Contact,
+    away: Vector3<f64>,
+}
+
+/// Passes cannot exceed this count per region (a guard against runaway offsetting).
+const MAX_PASSES: usize = 5_000;
+
+/// Walks on the surface from `uv` along the 3-D tangent direction `dir`
+/// (re-projected on the tangent plane each sub-step, midpoint rule) for `dist`
+/// mm. Returns the end, the carried direction there, and whether the domain
+/// boundary stopped the walk.
+fn walk(
+    surface: &NurbsSurface,
+    uv: Vector2<f64>,
+    dir: Vector3<f64>,
+    dist: f64,
+) -> Option<(Vector2<f64>, Vector3<f64>, bool)> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let n = ((dist / 0.75).ceil() as usize).clamp(1, 64);
+    let h = dist / n as f64;
+    let mut p = uv;
+    let mut d = dir;
+    let step_at = |p: Vector2<f64>, d: Vector3<f64>| -> Option<(Vector2<f64>, Vector3<f64>)> {
+        let g = LocalGeometry::at(surface, p.x, p.y)?;
+        let t = (d - g.n * d.dot(&g.n)).try_normalize(1e-12)?;
+        Some((g.tangent_to_uv(t), t))
+    };
+    for _ in 0..n {
+        let (k1, t1) = step_at(p, d)?;
+        let mid = p + k1 * (0.5 * h);
+        let (mu, mv) = surface.clamp_uv(mid.x, mid.y);
+        let (k2, t2) = step_at(Vector2::new(mu, mv), t1)?;
+        let next = p + k2 * h;
+        d = t2;
+        if next.x < u0 || next.x > u1 || next.y < v0 || next.y > v1 {
+            // Clip the step at the boundary.
+            let delta = next - p;
+            let mut f = 1.0f64;
+            if delta.x > 0.0 {
+                f = f.min((u1 - p.x) / delta.x);
+            } else if delta.x < 0.0 {
+                f = f.min((u0 - p.x) / delta.x);
+            }
+            if delta.y > 0.0 {
+                f = f.min((v1 - p.y) / delta.y);
+            } else if delta.y < 0.0 {
+                f = f.min((v0 - p.y) / delta.y);
+            }
+            let end = p + delta * f.clamp(0.0, 1.0);
+            let (eu, ev) = surface.clamp_uv(end.x, end.y);
+            return Some((Vector2::new(eu, ev), d, true));
+        }
+        p = next;
+    }
+    Some((p, d, false))
+}
+
+/// Whether `travel` is within 30 deg of the domain edge through `uv`.
+fn runs_along_boundary(surface: &NurbsSurface, uv: Vector2<f64>, travel: Vector3<f64>) -> bool {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let d = surface.derivs(uv.x, uv.y);
+    let tol = 1e-9 * ((u1 - u0) + (v1 - v0));
+    let mut edges = Vec::new();
+    if (uv.x - u0).abs() <= tol || (uv.x - u1).abs() <= tol {
+        edges.push(d.sv);
+    }
+    if (uv.y - v0).abs() <= tol || (uv.y - v1).abs() <= tol {
+        edges.push(d.su);
+    }
+    edges.iter().any(|e| {
+        let n = e.norm() * travel.norm();
+        n > 0.0 && (e.dot(&travel) / n).abs() > 30f64.to_radians().cos()
+    })
+}
+
+fn singular(uv: Vector2<f64>) -> Error {
+    Error::planning(format!(
+        "the surface is singular at uv ({:.4}, {:.4}): no normal there",
+        uv.x, uv.y
+    ))
+}
+
+/// One offset point: where the next pass goes from `fp`, and whether it is needed.
+struct Offset {
+    uv: Vector2<f64>,
+    away: Vector3<f64>,
+    needed: bool,
+    /// The walk hit the domain boundary: the point is not a pass point (the
+    /// pass is extended to the boundary along its own direction instead).
+    clipped: bool,
+}
+
+fn offset_point(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    fp: &FrontPoint,
+) -> Result<Offset> {
+    let w_here = fp.c.half_width_towards(s, fp.away)?;
+    let mut dist = 2.0 * w_here;
+    let mut end = walk(surface, fp.c.uv(), fp.away, dist).ok_or_else(|| singular(fp.c.uv()))?;
+    for _ in 0..3 {
+        let q = Contact::new(surface, end.0, -fp.c.travel).ok_or_else(|| singular(end.0))?;
+        let w_there = q.half_width_towards(s, -end.1)?;
+        let new_dist = w_here + w_there;
+        let settled = (new_dist - dist).abs() < 1e-4;
+        dist = new_dist;
+        end = walk(surface, fp.c.uv(), fp.away, dist).ok_or_else(|| singular(fp.c.uv()))?;
+        if settled || end.2 {
+            break;
+        }
+    }
+    // Is there region material beyond this pass's strip edge?
+    let edge =
+        walk(surface, fp.c.uv(), fp.away, w_here * 0.98).ok_or_else(|| singular(fp.c.uv()))?;
+    let needed = (!edge.2 && region.contains(edge.0)) || (!end.2 && region.contains(end.0));
+    // A point stopped by the boundary is a pass point only where the pass
+    // runs along that boundary (the last pass of a side); where the pass
+    // meets the boundary at an angle, it ends there instead.
+    let clipped = end.2 && !runs_along_boundary(surface, end.0, fp.c.travel);
+    Ok(Offset {
+        uv: end.0,
+        away: end.1,
+        needed,
+        clipped,
+    })
+}
+
+/// Covers `region` with passes offset from `initial` (a uv polyline in the
+/// travel direction of the first pass), to both sides. Passes are returned
+/// in machining order (outermost of one side first) with `region` set.
+pub fn cover(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    initial: &[Vector2<f64>],
+) -> Result<Vec<Pass>> {
+    let mut initial = initial.to_vec();
+    extend_ends(surface, s, region, &mut initial);
+    let first = front_from_uv(surface, &initial, None)?;
+    if first.len() < 2 {
+        return Ok(Vec::new());
+    }
+    let mut sides: Vec<Vec<Vec<Contact>>> = Vec::new();
+    let mut total = 0usize;
+    for side in [1.0, -1.0] {
+        let mut done: Vec<Vec<Contact>> = Vec::new();
+        let start: Vec<FrontPoint> = first
+            .iter()
+            .map(|c| FrontPoint {
+                c: *c,
+                away: c.cross() * side,
+            })
+            .collect();
+        let mut queue = vec![start];
+        while let Some(front) = queue.pop() {
+            for run in offset_front(surface, s, region, &front)? {
+                total += 1;
+                if total > MAX_PASSES {
+                    return Err(Error::planning(format!(
+                        "region {} needs more than {MAX_PASSES} passes: the scallop is too small for the surface",
+                        region.id
+                    )));
+                }
+                done.push(run.iter().map(|f| f.c).collect());
+                queue.push(run);
+            }
+        }
+        sides.push(done);
+    }
+    let mut passes = Vec::new();
+    let to_pass = |contacts: &[Contact]| -> Result<Pass> {
+        let mut pass = Pass {
+            region: region.id,
+            points: Vec::with_capacity(contacts.len() + 1),
+            min_strip_width: None,
+        };
+        for c in contacts {
+            pass.points.push(c.path_point(s)?);
+        }
+        extend_end(&mut pass.points, s);
+        Ok(pass)
+    };
+    for run in sides[0].iter().rev() {
+        passes.push(to_pass(run)?);
+    }
+    passes.push(to_pass(&first)?);
+    for run in &sides[1] {
+        passes.push(to_pass(run)?);
+    }
+    Ok(passes)
+}
+
+/// Contacts along a uv polyline, travelling along it; `reference` orients
+/// the travel (None: the polyline's own order).
+fn front_from_uv(
+    surface: &NurbsSurface,
+    uv: &[Vector2<f64>],
+    reference: Option<&[Vector3<f64>]>,
+) -> Result<Vec<Contact>> {
+    let xyz: Vec<_> = uv.iter().map(|p| surface.point(p.x, p.y)).collect();
+    let n = uv.len();
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+        let mut t = xyz[b] - xyz[a];
+        if let Some(r) = reference {
+            if t.dot(&r[i]) < 0.0 {
+                t = -t;
+            }
+        }
+        if t.norm() == 0.0 {
+            continue;
+        }
+        if let Some(c) = Contact::new(surface, uv[i], t) {
+            out.push(c);
+        }
+    }
+    Ok(out)
+}
+
+/// Indices of the points of a pass polyline to keep: points where the pass
+/// turns by more than 25 deg are dropped (offsetting near corners and
+/// boundaries can leave such kinks; a smooth surface's passes turn by far
+/// less between neighbouring points).
+fn smooth_indices(surface: &NurbsSurface, uv: &[Vector2<f64>], max_chord: f64) -> Vec<usize> {
+    let xyz: Vec<_> = uv.iter().map(|p| surface.point(p.x, p.y)).collect();
+    let mut keep: Vec<usize> = (0..uv.len()).collect();
+    let limit = 25f64.to_radians().cos();
+    loop {
+        let mut worst: Option<(f64, usize)> = None;
+        for w in 1..keep.len().saturating_sub(1) {
+            let (a, b, c) = (xyz[keep[w - 1]], xyz[keep[w]], xyz[keep[w + 1]]);
+            let (d1, d2) = (b - a, c - b);
+            let n = d1.norm() * d2.norm();
+            let cos = if n > 0.0 { d1.dot(&d2) / n } else { -1.0 };
+            // A real corner (the chord across it would be long) stays.
+            if cos < limit && (c - a).norm() <= max_chord && worst.is_none_or(|(wc, _)| cos < wc) {
+                worst = Some((cos, w));
+            }
+        }
+        match worst {
+            Some((_, w)) => {
+                keep.remove(w);
+            }
+            None => return keep,
+        }
+    }
+}
+
+/// Extends a pass polyline at both ends along its own direction on the
+/// surface, to the domain boundary or until it has run the cutter radius
+/// beyond the region, so that the strip covers the region up to its
+/// boundary even where the pass meets it obliquely. Returns the number of
+/// points added at the head and the tail.
+fn extend_ends(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    uv: &mut Vec<Vector2<f64>>,
+) -> (usize, usize) {
+    let mut counts = [0usize; 2];
+    for (end, count) in counts.iter_mut().enumerate() {
+        if uv.len() < 2 {
+            break;
+        }
+        // Direction over the last few points: one short segment is not to be trusted.
+        let k = (uv.len() - 1).min(3);
+        let (p, q) = if end == 0 {
+            (uv[0], uv[k])
+        } else {
+            (uv[uv.len() - 1], uv[uv.len() - 1 - k])
+        };
+        let mut dir = surface.point(p.x, p.y) - surface.point(q.x, q.y);
+        if dir.norm() == 0.0 {
+            continue;
+        }
+        dir /= dir.norm();
+        let mut at = p;
+        let mut outside = 0.0;
+        let step = s.point_step.min(s.cutter.radius);
+        // The gap to close is at most about a strip width: never extend
+        // further (a short run's direction is not to be trusted far).
+        let mut budget = 2.0 * s.cutter.radius;
+        for _ in 0..10_000 {
+            if budget <= 0.0 {
+                break;
+            }
+            budget -= step;
+            if region.contains(at) {
+                outside = 0.0;
+            } else if outside >= s.cutter.radius {
+                break;
+            }
+            let Some((next, d, clipped)) = walk(surface, at, dir, step) else {
+                break;
+            };
+            if (next - at).norm() == 0.0 {
+                break;
+            }
+            if end == 0 {
+                uv.insert(0, next);
+            } else {
+                uv.push(next);
+            }
+            *count += 1;
+            if clipped {
+                break;
+            }
+            if !region.contains(next) {
+                outside += step;
+            }
+            at = next;
+            dir = d;
+        }
+    }
+    (counts[0], counts[1])
+}
+
+/// The next passes from one pass front: runs of needed offset points,
+/// refined where they spread apart, loops removed, travel reversed.
+fn offset_front(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    front: &[FrontPoint],
+) -> Result<Vec<Vec<FrontPoint>>> {
+    // Offsets of the front points, with midpoints inserted where the new
+    // pass would be too sparse or deviate from its chords.
+    let mut pts: Vec<(Offset, Vector3<f64>)> = Vec::with_capacity(front.len());
+    for (i, fp) in front.iter().enumerate() {
+        let o = offset_point(surface, s, region, fp)?;
+        if i > 0 {
+            if let Some((prev, _)) = pts.last() {
+                let a = surface.point(prev.uv.x, prev.uv.y);
+                let b = surface.point(o.uv.x, o.uv.y);
+                if (b - a).norm() > s.point_step {
+                    let src = &front[i - 1];
+                    let mid_uv = (src.c.uv() + fp.c.uv()) * 0.5;
+                    let travel = src.c.travel + fp.c.travel;
+                    let away = src.away + fp.away;
+                    if let Some(c) = Contact::new(surface, mid_uv, travel) {
+                        let mfp = FrontPoint { c, away };
+                        let m = offset_point(surface, s, region, &mfp)?;
+                        pts.push((m, c.travel));
+                    }
+                }
+            }
+        }
+        pts.push((o, fp.c.travel));
+    }
+    // Remove swallowtails: a point that does not advance along the travel.
+    let mut kept: Vec<(Offset, Vector3<f64>)> = Vec::with_capacity(pts.len());
+    for (o, t) in pts {
+        if let Some((last, _)) = kept.last() {
+            let a = surface.point(last.uv.x, last.uv.y);
+            let b = surface.point(o.uv.x, o.uv.y);
+            let adv = (b - a).dot(&t);
+            if adv <= 1e-3 * s.scallop.max(1e-6) {
+                // Keep the needed flag of the dropped point alive.
+                if o.needed {
+                    if let Some(l) = kept.last_mut() {
+                        l.0.needed = true;
+                    }
+                }
+                continue;
+            }
+        }
+        kept.push((o, t));
+    }
+    // Runs of needed points, each extended by one neighbour at both ends.
+    // Clipped points are not pass points; their need passes to the neighbours.
+    for k in 0..kept.len() {
+        if kept[k].0.clipped && kept[k].0.needed {
+            if k > 0 {
+                kept[k - 1].0.needed = true;
+            }
+            if k + 1 < kept.len() {
+                kept[k + 1].0.needed = true;
+            }
+        }
+    }
+    kept.retain(|(o, _)| !o.clipped);
+    let n = kept.len();
+    let mut runs = Vec::new();
+    let mut i = 0;
+    while i < n {
+        if !kept[i].0.needed {
+            i += 1;
+            continue;
+        }
+        let mut j = i;
+        while j + 1 < n && kept[j + 1].0.needed {
+            j += 1;
+        }
+        let (a, b) = (i.saturating_sub(1), (j + 1).min(n - 1));
+        if b > a {
+            let keep = smooth_indices(
+                surface,
+                &kept[a..=b].iter().map(|(o, _)| o.uv).collect::<Vec<_>>(),
+                2.0 * s.point_step,
+            );
+            let sel: Vec<&(Offset, Vector3<f64>)> = keep.iter().map(|&k| &kept[a + k]).collect();
+            let mut uv: Vec<Vector2<f64>> = sel.iter().map(|(o, _)| o.uv).collect();
+            let mut aways: Vec<Vector3<f64>> = sel.iter().map(|(o, _)| o.away).collect();
+            let (head, tail) = extend_ends(surface, s, region, &mut uv);
+            let t0 = kept[a].1;
+            let t1 = kept[b].1;
+            for _ in 0..head {
+                aways.insert(0, kept[a].0.away);
+            }
+            for _ in 0..tail {
+                aways.push(kept[b].0.away);
+            }
+            // The new pass travels against the current one (zig-zag).
+            let mut reference: Vec<Vector3<f64>> = vec![-t0; head];
+            reference.extend(sel.iter().map(|(_, t)| -t));
+            reference.extend(std::iter::repeat_n(-t1, tail));
+            let contacts = front_from_uv(surface, &uv, Some(&reference))?;
+            if contacts.len() >= 2 {
+                let mut run: Vec<FrontPoint> = Vec::with_capacity(contacts.len());
+                for c in contacts {
+                    // The carried direction of the nearest offset point, made
+                    // perpendicular to the new travel.
+                    let k = uv
+                        .iter()
+                        .enumerate()
+                        .min_by(|x, y| (x.1 - c.uv()).norm().total_cmp(&(y.1 - c.uv()).norm()))
+                        .map_or(0, |(k, _)| k);
+                    let mut away = c.cross();
+                    if away.dot(&aways[k]) < 0.0 {
+                        away = -away;
+                    }
+                    run.push(FrontPoint { c, away });
+                }
+                // Travel order: reverse so the pass runs along its travel.
+                run.reverse();
+                runs.push(run);
+            }
+        }
+        i = j + 1;
+    }
+    Ok(runs)
+}
