@@ -16,6 +16,7 @@ mod record;
 mod replay;
 mod sample;
 mod simulate;
+mod table;
 mod verify;
 
 use crate::error::Error;

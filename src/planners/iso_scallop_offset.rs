@@ -195,7 +195,10 @@ pub fn cover(
             points: Vec::with_capacity(contacts.len() + 1),
             min_strip_width: None,
         };
-        for c in contacts {
+        for (k, c) in contacts.iter().enumerate() {
+            if k > 0 {
+                pivot(&contacts[k - 1], c, s, &mut pass.points)?;
+            }
             pass.points.push(c.path_point(s)?);
         }
         extend_end(&mut pass.points, s);
@@ -209,6 +212,35 @@ pub fn cover(
         passes.push(to_pass(run)?);
     }
     Ok(passes)
+}
+
+/// Where the travel turns sharply between two contacts (a corner of an
+/// offset pass), the tool swivels about the second contact in steps of at
+/// most 5 deg: with the lead angle tied to the travel, jumping the tilt
+/// across one straight motion would drag the cutter edge off the contact.
+fn pivot(
+    a: &Contact,
+    b: &Contact,
+    s: &PassSettings,
+    out: &mut Vec<crate::formats::PathPoint>,
+) -> Result<()> {
+    let cos = a.travel.dot(&b.travel).clamp(-1.0, 1.0);
+    let angle = cos.acos();
+    let max_step = 5f64.to_radians();
+    if angle <= 2.0 * max_step {
+        return Ok(());
+    }
+    let steps = (angle / max_step).ceil() as usize;
+    for k in 1..steps {
+        let f = k as f64 / steps as f64;
+        // Rotate a's travel towards b's in b's tangent plane.
+        let t = a.travel * (1.0 - f) + b.travel * f;
+        let t = if t.norm() < 1e-9 { b.cross() } else { t };
+        if let Some(c) = Contact::from_geometry(b.g, t) {
+            out.push(c.path_point(s)?);
+        }
+    }
+    Ok(())
 }
 
 /// Contacts along a uv polyline, travelling along it; `reference` orients
