@@ -608,3 +608,58 @@ fn simulation_rejects_bad_settings() {
     let e = toolpath_planner::simulation::removal::simulate_job(&job, &bad).unwrap_err();
     assert!(e.to_string().contains("passes[0].points[0].uv"), "{e}");
 }
+
+#[test]
+fn simulate_command_writes_the_map_and_prints_the_stats() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut job = toolpath_planner::samples::job("sine_wave").unwrap();
+    job.simulation_resolution = Some(0.5);
+    let result = pipeline::run(
+        &job,
+        &NoProgress,
+        RunOptions {
+            skip_verify: true,
+            no_timing: true,
+        },
+    )
+    .unwrap();
+    let (jp, rp, mp) = (
+        dir.path().join("job.json"),
+        dir.path().join("result.json"),
+        dir.path().join("map.json"),
+    );
+    toolpath_planner::formats::write_json(&jp, &job.to_file()).unwrap();
+    toolpath_planner::formats::write_json(&rp, &result).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_toolpath"))
+        .args([
+            "simulate",
+            jp.to_str().unwrap(),
+            rp.to_str().unwrap(),
+            "--map",
+            mp.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(stats["max_scallop_mm"].as_f64().unwrap() <= 0.0101);
+    assert!(stats["uniformity"].as_f64().is_some());
+    let map: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&mp).unwrap()).unwrap();
+    let nu = map["nu"].as_u64().unwrap() as usize;
+    assert_eq!(map["depth"].as_array().unwrap().len(), nu);
+    // A milling job cannot be simulated this way: clear error, exit code 2.
+    let mut mill = toolpath_planner::samples::job("plane").unwrap();
+    mill.simulation_resolution = None;
+    toolpath_planner::formats::write_json(&jp, &mill.to_file()).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_toolpath"))
+        .args(["simulate", jp.to_str().unwrap(), rp.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("tool.kind"));
+}

@@ -19,6 +19,7 @@ use super::belt_contact::{self, BeltSpec, ContactPoint};
 use super::Progress;
 use crate::error::{Error, Result};
 use crate::formats::{Job, PlanResult};
+use crate::geometry::plane_intersection::{intersect_plane, Plane, SectionOptions};
 use crate::geometry::{LocalGeometry, NurbsSurface};
 use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector2, Vector3};
 
@@ -146,234 +147,51 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     Ok(result)
 }
 
-/// Surface points on a uv grid, cached once for all planes.
-struct Grid {
-    nu: usize,
-    nv: usize,
-    uv0: Vector2<f64>,
-    duv: Vector2<f64>,
-    points: Vec<Point3<f64>>,
+/// Grid sizes (cells along u and v) with cells of about `spacing` mm.
+fn cells(surface: &NurbsSurface, spacing: f64) -> (usize, usize) {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    // Longest iso-curve in each direction, from coarse polylines.
+    let length = |along_u: bool| -> f64 {
+        let mut best: f64 = 0.0;
+        for k in 0..5 {
+            let c = k as f64 / 4.0;
+            let mut len = 0.0;
+            let mut prev: Option<Point3<f64>> = None;
+            for i in 0..=32 {
+                let s = i as f64 / 32.0;
+                let (u, v) = if along_u {
+                    (u0 + (u1 - u0) * s, v0 + (v1 - v0) * c)
+                } else {
+                    (u0 + (u1 - u0) * c, v0 + (v1 - v0) * s)
+                };
+                let p = surface.point(u, v);
+                if let Some(q) = prev {
+                    len += (p - q).norm();
+                }
+                prev = Some(p);
+            }
+            best = best.max(len);
+        }
+        best
+    };
+    let n = |len: f64| ((len / spacing).ceil() as usize).clamp(16, 600);
+    (n(length(true)), n(length(false)))
 }
 
-impl Grid {
-    fn new(surface: &NurbsSurface, spacing: f64) -> Self {
-        let ((u0, u1), (v0, v1)) = surface.domain();
-        // Grid counts from the longest iso-curve in each direction.
-        let length = |along_u: bool| -> f64 {
-            let mut best: f64 = 0.0;
-            for k in 0..5 {
-                let c = k as f64 / 4.0;
-                let mut len = 0.0;
-                let mut prev: Option<Point3<f64>> = None;
-                for i in 0..=32 {
-                    let s = i as f64 / 32.0;
-                    let (u, v) = if along_u {
-                        (u0 + (u1 - u0) * s, v0 + (v1 - v0) * c)
-                    } else {
-                        (u0 + (u1 - u0) * c, v0 + (v1 - v0) * s)
-                    };
-                    let p = surface.point(u, v);
-                    if let Some(q) = prev {
-                        len += (p - q).norm();
-                    }
-                    prev = Some(p);
-                }
-                best = best.max(len);
-            }
-            best
-        };
-        let nu = ((length(true) / spacing).ceil() as usize).clamp(16, 600) + 1;
-        let nv = ((length(false) / spacing).ceil() as usize).clamp(16, 600) + 1;
-        let duv = Vector2::new((u1 - u0) / (nu - 1) as f64, (v1 - v0) / (nv - 1) as f64);
-        let mut points = Vec::with_capacity(nu * nv);
-        for i in 0..nu {
-            for j in 0..nv {
-                let u = if i + 1 == nu {
-                    u1
-                } else {
-                    u0 + duv.x * i as f64
-                };
-                let v = if j + 1 == nv {
-                    v1
-                } else {
-                    v0 + duv.y * j as f64
-                };
-                points.push(surface.point(u, v));
-            }
-        }
-        Self {
-            nu,
-            nv,
-            uv0: Vector2::new(u0, v0),
-            duv,
-            points,
+/// Smallest and largest `x . normal` over the surface, from a point grid.
+fn extent(surface: &NurbsSurface, normal: Vector3<f64>, (cu, cv): (usize, usize)) -> (f64, f64) {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for i in 0..=cu {
+        for j in 0..=cv {
+            let u = u0 + (u1 - u0) * i as f64 / cu as f64;
+            let v = v0 + (v1 - v0) * j as f64 / cv as f64;
+            let x = surface.point(u, v).coords.dot(&normal);
+            lo = lo.min(x);
+            hi = hi.max(x);
         }
     }
-
-    fn uv(&self, i: usize, j: usize) -> Vector2<f64> {
-        self.uv0 + Vector2::new(self.duv.x * i as f64, self.duv.y * j as f64)
-    }
-
-    /// Polylines (in uv) where the plane `x . normal = offset` cuts the
-    /// surface: marching squares on the cached grid, each crossing refined onto
-    /// the plane by Newton steps along its grid edge.
-    fn section(
-        &self,
-        surface: &NurbsSurface,
-        normal: Vector3<f64>,
-        offset: f64,
-    ) -> Vec<Vec<Vector2<f64>>> {
-        let (nu, nv) = (self.nu, self.nv);
-        let f: Vec<f64> = self
-            .points
-            .iter()
-            .map(|p| p.coords.dot(&normal) - offset)
-            .collect();
-        let val = |i: usize, j: usize| f[i * nv + j];
-        // Edge ids: along u (i,j)-(i+1,j): i*nv + j; along v (i,j)-(i,j+1): nh + i*(nv-1) + j.
-        let nh = (nu - 1) * nv;
-        let eu = |i: usize, j: usize| i * nv + j;
-        let ev = |i: usize, j: usize| nh + i * (nv - 1) + j;
-        let n_edges = nh + nu * (nv - 1);
-        // Segments as pairs of edge ids; adjacency edge -> up to two segments.
-        let mut segs: Vec<[usize; 2]> = Vec::new();
-        let mut adj: Vec<[u32; 2]> = Vec::new();
-        let mut slot: Vec<u32> = vec![u32::MAX; n_edges];
-        let mut link = |segs: &mut Vec<[usize; 2]>, adj: &mut Vec<[u32; 2]>, a: usize, b: usize| {
-            let s = segs.len() as u32;
-            segs.push([a, b]);
-            for e in [a, b] {
-                if slot[e] == u32::MAX {
-                    slot[e] = adj.len() as u32;
-                    adj.push([s, u32::MAX]);
-                } else {
-                    adj[slot[e] as usize][1] = s;
-                }
-            }
-        };
-        for i in 0..nu - 1 {
-            for j in 0..nv - 1 {
-                let (f00, f10, f11, f01) =
-                    (val(i, j), val(i + 1, j), val(i + 1, j + 1), val(i, j + 1));
-                let pos = |x: f64| x >= 0.0;
-                let case = (pos(f00) as u8)
-                    | ((pos(f10) as u8) << 1)
-                    | ((pos(f11) as u8) << 2)
-                    | ((pos(f01) as u8) << 3);
-                let (bottom, right, top, left) = (eu(i, j), ev(i + 1, j), eu(i, j + 1), ev(i, j));
-                match case {
-                    0 | 15 => {}
-                    1 | 14 => link(&mut segs, &mut adj, left, bottom),
-                    2 | 13 => link(&mut segs, &mut adj, bottom, right),
-                    3 | 12 => link(&mut segs, &mut adj, left, right),
-                    4 | 11 => link(&mut segs, &mut adj, right, top),
-                    6 | 9 => link(&mut segs, &mut adj, bottom, top),
-                    7 | 8 => link(&mut segs, &mut adj, left, top),
-                    5 | 10 => {
-                        // Saddle cell: decide by the centre value.
-                        let centre_pos = pos(0.25 * (f00 + f10 + f11 + f01));
-                        let corner00_pos = pos(f00);
-                        if centre_pos == corner00_pos {
-                            link(&mut segs, &mut adj, left, top);
-                            link(&mut segs, &mut adj, bottom, right);
-                        } else {
-                            link(&mut segs, &mut adj, left, bottom);
-                            link(&mut segs, &mut adj, right, top);
-                        }
-                    }
-                    _ => {}
-                }
-            }
-        }
-        let other_seg = |e: usize, s: u32| -> Option<u32> {
-            let a = adj[slot[e] as usize];
-            let o = if a[0] == s { a[1] } else { a[0] };
-            (o != u32::MAX && o != s).then_some(o)
-        };
-        let degree = |e: usize| -> usize {
-            adj[slot[e] as usize]
-                .iter()
-                .filter(|&&s| s != u32::MAX)
-                .count()
-        };
-        let mut used = vec![false; segs.len()];
-        let mut chains: Vec<Vec<usize>> = Vec::new();
-        // Open chains first (from edges with one segment, in id order), then loops.
-        let mut starts: Vec<(usize, u32)> = Vec::new();
-        for (s, seg) in segs.iter().enumerate() {
-            for &e in seg {
-                if degree(e) == 1 {
-                    starts.push((e, s as u32));
-                }
-            }
-        }
-        starts.sort_unstable();
-        let loops: Vec<(usize, u32)> = segs
-            .iter()
-            .enumerate()
-            .map(|(s, seg)| (seg[0], s as u32))
-            .collect();
-        for (start_edge, start_seg) in starts.into_iter().chain(loops) {
-            if used[start_seg as usize] {
-                continue;
-            }
-            let mut chain = vec![start_edge];
-            let (mut e, mut s) = (start_edge, start_seg);
-            loop {
-                used[s as usize] = true;
-                let seg = segs[s as usize];
-                let e_next = if seg[0] == e { seg[1] } else { seg[0] };
-                chain.push(e_next);
-                match other_seg(e_next, s) {
-                    Some(o) if !used[o as usize] => {
-                        e = e_next;
-                        s = o;
-                    }
-                    _ => break,
-                }
-            }
-            chains.push(chain);
-        }
-        // Edge crossings refined onto the plane.
-        let crossing = |e: usize| -> Vector2<f64> {
-            let (a, b) = if e < nh {
-                let (i, j) = (e / nv, e % nv);
-                ((i, j), (i + 1, j))
-            } else {
-                let k = e - nh;
-                let (i, j) = (k / (nv - 1), k % (nv - 1));
-                ((i, j), (i, j + 1))
-            };
-            let (fa, fb) = (val(a.0, a.1), val(b.0, b.1));
-            let (ua, ub) = (self.uv(a.0, a.1), self.uv(b.0, b.1));
-            let mut s = if fa != fb {
-                (fa / (fa - fb)).clamp(0.0, 1.0)
-            } else {
-                0.5
-            };
-            for _ in 0..3 {
-                let uv = ua + (ub - ua) * s;
-                let d = surface.derivs(uv.x, uv.y);
-                let g = d.p.coords.dot(&normal) - offset;
-                let dg = (d.su * (ub.x - ua.x) + d.sv * (ub.y - ua.y)).dot(&normal);
-                if dg.abs() < 1e-300 {
-                    break;
-                }
-                s = (s - g / dg).clamp(0.0, 1.0);
-            }
-            let (u, v) = surface.clamp_uv(ua.x + (ub.x - ua.x) * s, ua.y + (ub.y - ua.y) * s);
-            Vector2::new(u, v)
-        };
-        chains
-            .into_iter()
-            .map(|c| {
-                let mut pts: Vec<Vector2<f64>> = c.into_iter().map(crossing).collect();
-                pts.dedup_by(|a, b| (*a - *b).norm() < 1e-12);
-                pts
-            })
-            .filter(|p| p.len() >= 2)
-            .collect()
-    }
+    (lo, hi)
 }
 
 /// The contact paths in machining order (plane offsets increasing along the
@@ -384,14 +202,14 @@ pub fn plan_paths(
     normal: Vector3<f64>,
     progress: &dyn Progress,
 ) -> Result<(Vec<Vec<ContactPoint>>, belt_contact::Diagnostics)> {
-    let grid = Grid::new(surface, belt_contact::point_spacing(spec));
-    let (lo, hi) = grid
-        .points
-        .iter()
-        .map(|p| p.coords.dot(&normal))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-            (a.min(x), b.max(x))
-        });
+    let spacing = belt_contact::point_spacing(spec);
+    let (cu, cv) = cells(surface, spacing);
+    let options = SectionOptions {
+        cells_u: cu,
+        cells_v: cv,
+        max_segment: spacing,
+    };
+    let (lo, hi) = extent(surface, normal, (cu, cv));
     let extent = hi - lo;
     if extent.is_nan() || extent <= 1e-9 {
         return Err(Error::planning(format!(
@@ -416,7 +234,23 @@ pub fn plan_paths(
         let mut first = true;
         loop {
             let last = (limit - offset) * sign <= 0.0;
-            let curves = grid.section(surface, normal, offset);
+            let plane = Plane::new(Point3::from(normal * offset), normal).ok_or_else(|| {
+                Error::invalid("section_normal", "must be a finite non-zero vector")
+            })?;
+            let curves: Vec<Vec<Vector2<f64>>> = intersect_plane(surface, &plane, &options)
+                .into_iter()
+                .map(|c| {
+                    let mut uv: Vec<Vector2<f64>> =
+                        c.uv.iter().map(|p| Vector2::new(p[0], p[1])).collect();
+                    if c.closed {
+                        if let Some(&first) = uv.first() {
+                            uv.push(first);
+                        }
+                    }
+                    uv
+                })
+                .filter(|uv| uv.len() >= 2)
+                .collect();
             let mut step = f64::INFINITY;
             let mut any_curve = false;
             let mut analysed = Vec::new();

@@ -169,7 +169,6 @@ pub fn simulate(
             format!("must be a positive number of mm, got {resolution}"),
         ));
     }
-    let ((u0, u1), (v0, v1)) = surface.domain();
     let count = |len: f64| -> Result<usize> {
         let n = (len / resolution).ceil() + 1.0;
         if n > MAX_NODES_PER_DIRECTION as f64 {
@@ -184,6 +183,35 @@ pub fn simulate(
     };
     let nu = count(iso_length(surface, true))?;
     let nv = count(iso_length(surface, false))?;
+    simulate_on_grid(
+        surface,
+        result,
+        width,
+        wheel_radius,
+        params,
+        (nu, nv),
+        resolution,
+    )
+}
+
+/// [`simulate`] on a height field of `nu x nv` nodes (`resolution` only
+/// bounds how far beyond a pass end a node still counts as passed over).
+pub fn simulate_on_grid(
+    surface: &NurbsSurface,
+    result: &PlanResult,
+    width: f64,
+    wheel_radius: f64,
+    params: &GrindingParams,
+    (nu, nv): (usize, usize),
+    resolution: f64,
+) -> Result<Simulation> {
+    if nu < 2 || nv < 2 || nu > MAX_NODES_PER_DIRECTION || nv > MAX_NODES_PER_DIRECTION {
+        return Err(Error::invalid(
+            "simulation_resolution",
+            format!("a height field of {nu} x {nv} nodes is outside 2..{MAX_NODES_PER_DIRECTION} per direction"),
+        ));
+    }
+    let ((u0, u1), (v0, v1)) = surface.domain();
     let (du, dv) = ((u1 - u0) / (nu - 1) as f64, (v1 - v0) / (nv - 1) as f64);
     let mut points = Vec::with_capacity(nu * nv);
     let mut normals = Vec::with_capacity(nu * nv);
