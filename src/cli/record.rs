@@ -1,8 +1,21 @@
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::formats;
+use crate::machines::Machines;
+use crate::recording::runs;
 use std::path::Path;
 
-pub fn run(_job: &Path, _output: &Path) -> Result<()> {
-    Err(Error::planning(
-        "`toolpath record` is not available in this build yet",
-    ))
+/// `toolpath record JOB -o BAG`: plans the job as the node would and records
+/// its inputs and outputs as a rosbag2 bag.
+pub fn run(job: &Path, output: &Path) -> Result<()> {
+    let job = formats::read_job(job)?;
+    let summary = runs::record_job(&job, output, &Machines::default())?;
+    println!(
+        "{}: {} messages, {} chunks, {} bytes ({} uncompressed)",
+        summary.directory.display(),
+        summary.messages,
+        summary.chunks,
+        summary.file_bytes,
+        summary.uncompressed_bytes
+    );
+    Ok(())
 }

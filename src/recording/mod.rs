@@ -17,6 +17,7 @@
 mod metadata;
 mod reader;
 mod writer;
+pub mod runs;
 
 pub use metadata::{BagMetadata, FileInformation, TopicInformation, TopicMetadata};
 pub use reader::{read_bag, Bag, RecordedMessage, RecordedTopic};
