@@ -11,8 +11,8 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use futures::StreamExt;
 use ros2_client::{
-    ros2::QosProfile,
     qos::{Durability, History, WhenFull},
+    ros2::QosProfile,
     Context, Message, MessageTypeName, Name, NodeName, NodeOptions,
 };
 use serde::{Deserialize, Serialize};
@@ -22,7 +22,10 @@ use toolpath_planner::formats::{Pass, PathPoint, PlanResult};
 use toolpath_planner::ipc::{self, ToolpathPublisher, ToolpathSubscriber};
 
 fn points() -> usize {
-    std::env::var("TOOLPATH_BENCH_POINTS").ok().and_then(|s| s.parse().ok()).unwrap_or(1_000_000)
+    std::env::var("TOOLPATH_BENCH_POINTS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1_000_000)
 }
 
 fn big_result(n: usize) -> PlanResult {
@@ -111,7 +114,9 @@ fn bench_iceoryx2(c: &mut Criterion, r: &PlanResult) {
                     for k in 0..n {
                         let at = ipc::HEADER_SIZE + k * ipc::POINT_SIZE + 24;
                         for c in 0..3 {
-                            sum += f64::from_le_bytes(b[at + 8 * c..at + 8 * c + 8].try_into().unwrap());
+                            sum += f64::from_le_bytes(
+                                b[at + 8 * c..at + 8 * c + 8].try_into().unwrap(),
+                            );
                         }
                     }
                     sum
@@ -132,7 +137,9 @@ fn bench_iceoryx2(c: &mut Criterion, r: &PlanResult) {
             for _ in 0..iters {
                 let t0 = Instant::now();
                 publisher.publish(r).unwrap();
-                let (t1, sum) = done_rx.recv_timeout(Duration::from_secs(60)).expect("delivered");
+                let (t1, sum) = done_rx
+                    .recv_timeout(Duration::from_secs(60))
+                    .expect("delivered");
                 assert!(sum.is_finite());
                 total += t1 - t0;
             }
@@ -168,7 +175,10 @@ fn bench_dds(c: &mut Criterion, r: &PlanResult) {
             .unwrap();
         let ctx = Context::from_domain_participant(dp).unwrap();
         let mut node = ctx
-            .new_node(NodeName::new("/", name).unwrap(), NodeOptions::new().enable_rosout(false))
+            .new_node(
+                NodeName::new("/", name).unwrap(),
+                NodeOptions::new().enable_rosout(false),
+            )
             .unwrap();
         let spinner = node.spinner().unwrap();
         rt.spawn(async move {
@@ -181,14 +191,23 @@ fn bench_dds(c: &mut Criterion, r: &PlanResult) {
     let (_c2, mut sub_node) = make("bench_sub");
     let topic_name = Name::new("/", "bench_toolpath").unwrap();
     let ty = MessageTypeName::new("toolpath_bench", "Toolpath");
-    let t1 = pub_node.create_topic(&topic_name, ty.clone(), &qos).unwrap();
+    let t1 = pub_node
+        .create_topic(&topic_name, ty.clone(), &qos)
+        .unwrap();
     let t2 = sub_node.create_topic(&topic_name, ty, &qos).unwrap();
-    let publisher = pub_node.create_publisher::<DdsToolpath>(&t1, Some(qos.clone())).unwrap();
-    let subscription = sub_node.create_subscription::<DdsToolpath>(&t2, Some(qos.clone())).unwrap();
+    let publisher = pub_node
+        .create_publisher::<DdsToolpath>(&t1, Some(qos.clone()))
+        .unwrap();
+    let subscription = sub_node
+        .create_subscription::<DdsToolpath>(&t2, Some(qos.clone()))
+        .unwrap();
     rt.block_on(async {
-        tokio::time::timeout(Duration::from_secs(30), publisher.wait_for_subscription(&pub_node))
-            .await
-            .expect("DDS subscription matched");
+        tokio::time::timeout(
+            Duration::from_secs(30),
+            publisher.wait_for_subscription(&pub_node),
+        )
+        .await
+        .expect("DDS subscription matched");
     });
     let mut stream = Box::pin(subscription.async_stream());
     let mut g = c.benchmark_group("toolpath_delivery");

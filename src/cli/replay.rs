@@ -16,8 +16,15 @@ pub fn run(bag: &Path, check: bool, publish: bool) -> Result<()> {
         eprintln!("warning: {t}");
     }
     for j in &report.jobs {
-        let verdict = if j.differences.is_empty() { "same" } else { "DIFFERENT" };
-        println!("{:<28} {:<20} {:<6} {:>8} points  {verdict}", j.job_id, j.strategy, j.machine, j.points);
+        let verdict = if j.differences.is_empty() {
+            "same"
+        } else {
+            "DIFFERENT"
+        };
+        println!(
+            "{:<28} {:<20} {:<6} {:>8} points  {verdict}",
+            j.job_id, j.strategy, j.machine, j.points
+        );
         if check {
             for d in &j.differences {
                 println!("    {d}");

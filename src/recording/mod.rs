@@ -16,8 +16,8 @@
 
 mod metadata;
 mod reader;
-mod writer;
 pub mod runs;
+mod writer;
 
 pub use metadata::{BagMetadata, FileInformation, TopicInformation, TopicMetadata};
 pub use reader::{read_bag, Bag, RecordedMessage, RecordedTopic};

@@ -76,12 +76,23 @@ pub struct JobOutputs {
 }
 
 /// Plans `job_msg` on `shape` as the node does and builds its output messages.
-pub fn plan_outputs(job_msg: &msgs::Job, shape: &Shape, machines: &Machines, header: &msgs::Header) -> Result<JobOutputs> {
+pub fn plan_outputs(
+    job_msg: &msgs::Job,
+    shape: &Shape,
+    machines: &Machines,
+    header: &msgs::Header,
+) -> Result<JobOutputs> {
     let file = convert::job_file_from_msg(job_msg)?;
     let job = Job::new(file, shape.clone())?;
     let result = pipeline::run(&job, &NoProgress, RunOptions::default())?;
     let trajectory = crate::machines::trajectory(&job, &result, machines)?;
-    let toolpath = convert::toolpath_msg(&job, &job_msg.surface_id, &result, trajectory.duration(), header.clone());
+    let toolpath = convert::toolpath_msg(
+        &job,
+        &job_msg.surface_id,
+        &result,
+        trajectory.duration(),
+        header.clone(),
+    );
     let summary = format!(
         "{} passes, {} points, {:.1} mm, trajectory {:.1} s",
         toolpath.stats.passes,
@@ -99,7 +110,13 @@ pub fn plan_outputs(job_msg: &msgs::Job, shape: &Shape, machines: &Machines, hea
     })
 }
 
-fn status(header: &msgs::Header, job_id: &str, state: u8, progress: f32, message: String) -> msgs::JobStatus {
+fn status(
+    header: &msgs::Header,
+    job_id: &str,
+    state: u8,
+    progress: f32,
+    message: String,
+) -> msgs::JobStatus {
     msgs::JobStatus {
         header: header.clone(),
         job_id: job_id.to_string(),
@@ -134,13 +151,41 @@ pub fn record_job_into(w: &mut BagWriter, job: &Job, machines: &Machines) -> Res
     let t = |w: &BagWriter| super::now_ns().max(w.metadata().duration.nanoseconds);
     let shape_id = format!("{}_shape", job.job_id);
     match &job.shape {
-        Shape::Surface(s) => w.write(SURFACE, t(w), &convert::surface_to_msg(&shape_id, s, header.clone()))?,
-        Shape::Pocket(p) => w.write(POCKET, t(w), &convert::pocket_to_msg(&shape_id, p, header.clone()))?,
+        Shape::Surface(s) => w.write(
+            SURFACE,
+            t(w),
+            &convert::surface_to_msg(&shape_id, s, header.clone()),
+        )?,
+        Shape::Pocket(p) => w.write(
+            POCKET,
+            t(w),
+            &convert::pocket_to_msg(&shape_id, p, header.clone()),
+        )?,
     }
     let job_msg = convert::job_to_msg(job, &shape_id, header.clone());
     w.write(JOB, t(w), &job_msg)?;
-    w.write(JOB_STATUS, t(w), &status(&header, &job.job_id, msgs::JobStatus::ACCEPTED, 0.0, String::new()))?;
-    w.write(JOB_STATUS, t(w), &status(&header, &job.job_id, msgs::JobStatus::RUNNING, 0.0, String::new()))?;
+    w.write(
+        JOB_STATUS,
+        t(w),
+        &status(
+            &header,
+            &job.job_id,
+            msgs::JobStatus::ACCEPTED,
+            0.0,
+            String::new(),
+        ),
+    )?;
+    w.write(
+        JOB_STATUS,
+        t(w),
+        &status(
+            &header,
+            &job.job_id,
+            msgs::JobStatus::RUNNING,
+            0.0,
+            String::new(),
+        ),
+    )?;
     match plan_outputs(&job_msg, &job.shape, machines, &header) {
         Ok(out) => {
             w.write(TOOLPATH, t(w), &out.toolpath)?;
@@ -151,14 +196,28 @@ pub fn record_job_into(w: &mut BagWriter, job: &Job, machines: &Machines) -> Res
             };
             w.write(traj_topic, t(w), &out.trajectory)?;
             w.write(MARKERS, t(w), &out.markers)?;
-            w.write(JOB_STATUS, t(w), &status(&header, &job.job_id, msgs::JobStatus::SUCCEEDED, 1.0, out.summary))?;
+            w.write(
+                JOB_STATUS,
+                t(w),
+                &status(
+                    &header,
+                    &job.job_id,
+                    msgs::JobStatus::SUCCEEDED,
+                    1.0,
+                    out.summary,
+                ),
+            )?;
         }
         Err(e) => {
             let state = match e {
                 Error::Invalid { .. } => msgs::JobStatus::REJECTED,
                 _ => msgs::JobStatus::FAILED,
             };
-            w.write(JOB_STATUS, t(w), &status(&header, &job.job_id, state, 0.0, e.to_string()))?;
+            w.write(
+                JOB_STATUS,
+                t(w),
+                &status(&header, &job.job_id, state, 0.0, e.to_string()),
+            )?;
         }
     }
     // The job's messages form a unit: put them on disk now.
@@ -206,7 +265,10 @@ pub fn replay(path: &Path, machines: &Machines) -> Result<ReplayReport> {
     bag.check_types(&topic_specs())?;
     let mut shapes: BTreeMap<String, Shape> = BTreeMap::new();
     for m in decode_all::<msgs::Surface>(&bag, SURFACE)? {
-        shapes.insert(m.surface_id.clone(), Shape::Surface(convert::surface_from_msg(&m)?));
+        shapes.insert(
+            m.surface_id.clone(),
+            Shape::Surface(convert::surface_from_msg(&m)?),
+        );
     }
     for m in decode_all::<msgs::Pocket>(&bag, POCKET)? {
         let id = m.pocket_id.clone();
@@ -214,7 +276,10 @@ pub fn replay(path: &Path, machines: &Machines) -> Result<ReplayReport> {
     }
     let jobs = decode_all::<msgs::Job>(&bag, JOB)?;
     if jobs.is_empty() {
-        return Err(Error::invalid(path.display().to_string(), "the bag holds no job on /job"));
+        return Err(Error::invalid(
+            path.display().to_string(),
+            "the bag holds no job on /job",
+        ));
     }
     let toolpaths = decode_all::<msgs::Toolpath>(&bag, TOOLPATH)?;
     let poses = decode_all::<msgs::PoseArray>(&bag, TOOL_POSES)?;
@@ -228,7 +293,10 @@ pub fn replay(path: &Path, machines: &Machines) -> Result<ReplayReport> {
     };
     for (k, job_msg) in jobs.iter().enumerate() {
         let mut d = Vec::new();
-        let recorded_final = statuses.iter().rev().find(|s| s.job_id == job_msg.job_id && s.is_final());
+        let recorded_final = statuses
+            .iter()
+            .rev()
+            .find(|s| s.job_id == job_msg.job_id && s.is_final());
         let recorded_tp = toolpaths.iter().find(|t| t.job_id == job_msg.job_id);
         let recorded_poses = recorded_tp.and_then(|_| {
             // Outputs of the k-th succeeded job, in recording order.
@@ -239,7 +307,10 @@ pub fn replay(path: &Path, machines: &Machines) -> Result<ReplayReport> {
             Some(shape) => plan_outputs(job_msg, shape, machines, &header),
             None => Err(Error::invalid(
                 "surface_id",
-                format!("\"{}\" is not recorded on /surface or /pocket", job_msg.surface_id),
+                format!(
+                    "\"{}\" is not recorded on /surface or /pocket",
+                    job_msg.surface_id
+                ),
             )),
         };
         let new_state = match &new {
@@ -253,7 +324,10 @@ pub fn replay(path: &Path, machines: &Machines) -> Result<ReplayReport> {
                 msgs::JobStatus::state_name(s.state),
                 s.message,
                 msgs::JobStatus::state_name(new_state),
-                new.as_ref().err().map(|e| format!(" ({e})")).unwrap_or_default()
+                new.as_ref()
+                    .err()
+                    .map(|e| format!(" ({e})"))
+                    .unwrap_or_default()
             )),
             None => d.push("status: no final status recorded".into()),
             _ => {}
@@ -272,10 +346,15 @@ pub fn replay(path: &Path, machines: &Machines) -> Result<ReplayReport> {
                 };
                 match rec_traj {
                     Some(rt) => compare_trajectory(&rt, &out.trajectory, &mut d),
-                    None => d.push(format!("trajectory: none recorded for machine {}", out.machine.name())),
+                    None => d.push(format!(
+                        "trajectory: none recorded for machine {}",
+                        out.machine.name()
+                    )),
                 }
             }
-            (Ok(_), None) => d.push("toolpath: the job now succeeds but no toolpath was recorded".into()),
+            (Ok(_), None) => {
+                d.push("toolpath: the job now succeeds but no toolpath was recorded".into())
+            }
             (Err(_), Some(_)) => d.push("toolpath: recorded, but the job now fails".into()),
             (Err(_), None) => {}
         }
@@ -315,30 +394,71 @@ const MAX_LISTED: usize = 5;
 
 fn compare_toolpath(rec: &msgs::Toolpath, new: &msgs::Toolpath, d: &mut Vec<String>) {
     if rec.strategy != new.strategy {
-        d.push(format!("strategy: recorded {}, now {}", rec.strategy, new.strategy));
+        d.push(format!(
+            "strategy: recorded {}, now {}",
+            rec.strategy, new.strategy
+        ));
     }
     if rec.machine != new.machine {
-        d.push(format!("machine: recorded {}, now {}", rec.machine, new.machine));
+        d.push(format!(
+            "machine: recorded {}, now {}",
+            rec.machine, new.machine
+        ));
     }
     if rec.passes.len() != new.passes.len() {
-        d.push(format!("passes: recorded {}, now {}", rec.passes.len(), new.passes.len()));
+        d.push(format!(
+            "passes: recorded {}, now {}",
+            rec.passes.len(),
+            new.passes.len()
+        ));
     }
     for (i, (a, b)) in rec.passes.iter().zip(&new.passes).enumerate() {
         if a.points.len() != b.points.len() {
-            d.push(format!("pass {i}: recorded {} points, now {}", a.points.len(), b.points.len()));
+            d.push(format!(
+                "pass {i}: recorded {} points, now {}",
+                a.points.len(),
+                b.points.len()
+            ));
             continue;
         }
         if a.region != b.region {
-            d.push(format!("pass {i}: region recorded {}, now {}", a.region, b.region));
+            d.push(format!(
+                "pass {i}: region recorded {}, now {}",
+                a.region, b.region
+            ));
         }
         let before = d.len();
         let mut extra = 0;
         for (j, (p, q)) in a.points.iter().zip(&b.points).enumerate() {
             let mut local = Vec::new();
-            cmp_vec(&format!("pass {i} point {j} cc"), p.cc.to_array(), q.cc.to_array(), POSITION_TOLERANCE_MM, &mut local);
-            cmp_vec(&format!("pass {i} point {j} cl"), p.cl.to_array(), q.cl.to_array(), POSITION_TOLERANCE_MM, &mut local);
-            cmp_vec(&format!("pass {i} point {j} axis"), p.axis.to_array(), q.axis.to_array(), VALUE_TOLERANCE, &mut local);
-            cmp_num(&format!("pass {i} point {j} strip_width"), p.strip_width, q.strip_width, POSITION_TOLERANCE_MM, &mut local);
+            cmp_vec(
+                &format!("pass {i} point {j} cc"),
+                p.cc.to_array(),
+                q.cc.to_array(),
+                POSITION_TOLERANCE_MM,
+                &mut local,
+            );
+            cmp_vec(
+                &format!("pass {i} point {j} cl"),
+                p.cl.to_array(),
+                q.cl.to_array(),
+                POSITION_TOLERANCE_MM,
+                &mut local,
+            );
+            cmp_vec(
+                &format!("pass {i} point {j} axis"),
+                p.axis.to_array(),
+                q.axis.to_array(),
+                VALUE_TOLERANCE,
+                &mut local,
+            );
+            cmp_num(
+                &format!("pass {i} point {j} strip_width"),
+                p.strip_width,
+                q.strip_width,
+                POSITION_TOLERANCE_MM,
+                &mut local,
+            );
             if d.len() - before + local.len() > MAX_LISTED {
                 extra += local.len();
             } else {
@@ -350,21 +470,49 @@ fn compare_toolpath(rec: &msgs::Toolpath, new: &msgs::Toolpath, d: &mut Vec<Stri
         }
     }
     let (a, b) = (&rec.stats, &new.stats);
-    cmp_num("stats.path_length_mm", a.path_length_mm, b.path_length_mm, POSITION_TOLERANCE_MM, d);
+    cmp_num(
+        "stats.path_length_mm",
+        a.path_length_mm,
+        b.path_length_mm,
+        POSITION_TOLERANCE_MM,
+        d,
+    );
     if a.passes != b.passes || a.points != b.points {
         d.push(format!(
             "stats: recorded {} passes / {} points, now {} / {}",
             a.passes, a.points, b.passes, b.points
         ));
     }
-    cmp_num("stats.max_scallop_mm", a.max_scallop_mm, b.max_scallop_mm, POSITION_TOLERANCE_MM, d);
-    cmp_num("stats.max_gouge_mm", a.max_gouge_mm, b.max_gouge_mm, POSITION_TOLERANCE_MM, d);
-    cmp_num("stats.trajectory_duration_s", a.trajectory_duration_s, b.trajectory_duration_s, VALUE_TOLERANCE, d);
+    cmp_num(
+        "stats.max_scallop_mm",
+        a.max_scallop_mm,
+        b.max_scallop_mm,
+        POSITION_TOLERANCE_MM,
+        d,
+    );
+    cmp_num(
+        "stats.max_gouge_mm",
+        a.max_gouge_mm,
+        b.max_gouge_mm,
+        POSITION_TOLERANCE_MM,
+        d,
+    );
+    cmp_num(
+        "stats.trajectory_duration_s",
+        a.trajectory_duration_s,
+        b.trajectory_duration_s,
+        VALUE_TOLERANCE,
+        d,
+    );
 }
 
 fn compare_poses(rec: &msgs::PoseArray, new: &msgs::PoseArray, d: &mut Vec<String>) {
     if rec.poses.len() != new.poses.len() {
-        d.push(format!("tool_poses: recorded {} poses, now {}", rec.poses.len(), new.poses.len()));
+        d.push(format!(
+            "tool_poses: recorded {} poses, now {}",
+            rec.poses.len(),
+            new.poses.len()
+        ));
         return;
     }
     let bad = rec
@@ -378,16 +526,29 @@ fn compare_poses(rec: &msgs::PoseArray, new: &msgs::PoseArray, d: &mut Vec<Strin
         })
         .count();
     if bad > 0 {
-        d.push(format!("tool_poses: {bad} positions moved by more than {POSITION_TOLERANCE_MM} mm"));
+        d.push(format!(
+            "tool_poses: {bad} positions moved by more than {POSITION_TOLERANCE_MM} mm"
+        ));
     }
 }
 
-fn compare_trajectory(rec: &msgs::JointTrajectory, new: &msgs::JointTrajectory, d: &mut Vec<String>) {
+fn compare_trajectory(
+    rec: &msgs::JointTrajectory,
+    new: &msgs::JointTrajectory,
+    d: &mut Vec<String>,
+) {
     if rec.joint_names != new.joint_names {
-        d.push(format!("trajectory joints: recorded {:?}, now {:?}", rec.joint_names, new.joint_names));
+        d.push(format!(
+            "trajectory joints: recorded {:?}, now {:?}",
+            rec.joint_names, new.joint_names
+        ));
     }
     if rec.points.len() != new.points.len() {
-        d.push(format!("trajectory: recorded {} points, now {}", rec.points.len(), new.points.len()));
+        d.push(format!(
+            "trajectory: recorded {} points, now {}",
+            rec.points.len(),
+            new.points.len()
+        ));
         return;
     }
     let bad = rec
@@ -396,11 +557,20 @@ fn compare_trajectory(rec: &msgs::JointTrajectory, new: &msgs::JointTrajectory, 
         .zip(&new.points)
         .filter(|(a, b)| {
             a.positions.len() != b.positions.len()
-                || a.positions.iter().zip(&b.positions).any(|(x, y)| !close(*x, *y, POSITION_TOLERANCE_MM))
-                || !close(a.time_from_start.as_secs_f64(), b.time_from_start.as_secs_f64(), 1e-6)
+                || a.positions
+                    .iter()
+                    .zip(&b.positions)
+                    .any(|(x, y)| !close(*x, *y, POSITION_TOLERANCE_MM))
+                || !close(
+                    a.time_from_start.as_secs_f64(),
+                    b.time_from_start.as_secs_f64(),
+                    1e-6,
+                )
         })
         .count();
     if bad > 0 {
-        d.push(format!("trajectory: {bad} points differ (positions or times)"));
+        d.push(format!(
+            "trajectory: {bad} points differ (positions or times)"
+        ));
     }
 }
