@@ -18,7 +18,15 @@ fn benches(c: &mut Criterion) {
     let result = planners::plan(&job, &NoProgress).unwrap();
     let surface = job.surface().unwrap();
     g.bench_function("tensor_regions_verify", |b| {
-        b.iter(|| simulate(surface, &job.tool, black_box(&result), &ScallopSettings::default()).unwrap())
+        b.iter(|| {
+            simulate(
+                surface,
+                &job.tool,
+                black_box(&result),
+                &ScallopSettings::default(),
+            )
+            .unwrap()
+        })
     });
     g.finish();
 }
