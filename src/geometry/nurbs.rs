@@ -380,6 +380,33 @@ impl NurbsSurface {
         d.su.cross(&d.sv).try_normalize(1e-300)
     }
 
+    /// Length of the longest of five iso-curves (along u or v) from 32-segment
+    /// polylines: a cheap size estimate for choosing grid resolutions.
+    pub fn longest_iso_curve_length(&self, along_u: bool) -> f64 {
+        let ((u0, u1), (v0, v1)) = self.domain();
+        let mut best: f64 = 0.0;
+        for k in 0..5 {
+            let c = k as f64 / 4.0;
+            let mut len = 0.0;
+            let mut prev: Option<Point3<f64>> = None;
+            for i in 0..=32 {
+                let s = i as f64 / 32.0;
+                let (u, v) = if along_u {
+                    (u0 + (u1 - u0) * s, v0 + (v1 - v0) * c)
+                } else {
+                    (u0 + (u1 - u0) * c, v0 + (v1 - v0) * s)
+                };
+                let p = self.point(u, v);
+                if let Some(q) = prev {
+                    len += (p - q).norm();
+                }
+                prev = Some(p);
+            }
+            best = best.max(len);
+        }
+        best
+    }
+
     /// Axis-aligned bounding box of the control net (contains the surface).
     pub fn bounding_box(&self) -> (Point3<f64>, Point3<f64>) {
         let mut lo = Point3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);

@@ -149,31 +149,7 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
 
 /// Grid sizes (cells along u and v) with cells of about `spacing` mm.
 fn cells(surface: &NurbsSurface, spacing: f64) -> (usize, usize) {
-    let ((u0, u1), (v0, v1)) = surface.domain();
-    // Longest iso-curve in each direction, from coarse polylines.
-    let length = |along_u: bool| -> f64 {
-        let mut best: f64 = 0.0;
-        for k in 0..5 {
-            let c = k as f64 / 4.0;
-            let mut len = 0.0;
-            let mut prev: Option<Point3<f64>> = None;
-            for i in 0..=32 {
-                let s = i as f64 / 32.0;
-                let (u, v) = if along_u {
-                    (u0 + (u1 - u0) * s, v0 + (v1 - v0) * c)
-                } else {
-                    (u0 + (u1 - u0) * c, v0 + (v1 - v0) * s)
-                };
-                let p = surface.point(u, v);
-                if let Some(q) = prev {
-                    len += (p - q).norm();
-                }
-                prev = Some(p);
-            }
-            best = best.max(len);
-        }
-        best
-    };
+    let length = |along_u: bool| surface.longest_iso_curve_length(along_u);
     let n = |len: f64| ((len / spacing).ceil() as usize).clamp(16, 600);
     (n(length(true)), n(length(false)))
 }

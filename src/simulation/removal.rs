@@ -24,7 +24,7 @@ use crate::error::{Error, Result};
 use crate::formats::job::GrindingParams;
 use crate::formats::PlanResult;
 use crate::geometry::{LocalGeometry, NurbsSurface};
-use nalgebra::{Point3, Vector3};
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 /// Largest grid per direction (memory guard: 4000^2 nodes).
@@ -126,28 +126,7 @@ impl Simulation {
 }
 
 fn iso_length(surface: &NurbsSurface, along_u: bool) -> f64 {
-    let ((u0, u1), (v0, v1)) = surface.domain();
-    let mut best: f64 = 0.0;
-    for k in 0..5 {
-        let c = k as f64 / 4.0;
-        let mut len = 0.0;
-        let mut prev: Option<Point3<f64>> = None;
-        for i in 0..=32 {
-            let s = i as f64 / 32.0;
-            let (u, v) = if along_u {
-                (u0 + (u1 - u0) * s, v0 + (v1 - v0) * c)
-            } else {
-                (u0 + (u1 - u0) * c, v0 + (v1 - v0) * s)
-            };
-            let p = surface.point(u, v);
-            if let Some(q) = prev {
-                len += (p - q).norm();
-            }
-            prev = Some(p);
-        }
-        best = best.max(len);
-    }
-    best
+    surface.longest_iso_curve_length(along_u)
 }
 
 fn vec3(a: [f64; 3]) -> Vector3<f64> {
