@@ -266,7 +266,9 @@ fn iso_planar_cost(
 fn blade_chosen_normal_beats_poor_normals() {
     // The built-in sample at the paper's blade settings (w = 10, wheel
     // diameter 10, h = 0.02): the chosen normal beats every fixed normal tried
-    // and halves length and passes of the planes lying along the blade.
+    // and at least halves path length and passes of the paper's poor normal
+    // (0.1, 0.5, 0.85), which cuts obliquely across the rulings (its figure 6:
+    // 1642 mm / 21 passes against 3929 mm / 55).
     let s = samples::turbine_blade();
     let (lg, pg, good) = iso_planar_cost(&s, None, 5.0, 0.02);
     let n = good.section_normal.unwrap();
@@ -284,7 +286,7 @@ fn blade_chosen_normal_beats_poor_normals() {
             "turbine_blade: chosen {lg:.1} mm / {pg} passes, {poor:?}: {lp:.1} mm / {pp} passes"
         );
         assert!(lg < lp && pg < pp, "{poor:?}: {lg} / {pg} vs {lp} / {pp}");
-        if poor == [0.0, 0.0, 1.0] {
+        if poor == [0.1, 0.5, 0.85] || poor == [0.0, 0.0, 1.0] {
             assert!(
                 2.0 * lg <= lp && 2 * pg <= pp,
                 "{poor:?}: {lg} / {pg} vs {lp} / {pp}"
@@ -294,16 +296,14 @@ fn blade_chosen_normal_beats_poor_normals() {
 }
 
 #[test]
-fn cambered_blade_chosen_normal_halves_the_paper_poor_normal() {
-    // A more strongly cambered conical blade (arc 85 mm over a 70 mm chord),
-    // where the paper's poor normal (0.1, 0.5, 0.85) cuts obliquely across the
-    // rulings as in its figure 6.
-    let s = conical_blade();
+fn flat_blade_chosen_normal_beats_the_paper_poor_normal() {
+    // A flatter, less cambered blade (chord 100 mm, camber 12 mm): the
+    // oblique poor normal costs less here, but the chosen one still wins.
+    let s = flat_blade();
     let (lg, pg, _) = iso_planar_cost(&s, None, 5.0, 0.02);
     let (lp, pp, _) = iso_planar_cost(&s, Some([0.1, 0.5, 0.85]), 5.0, 0.02);
-    eprintln!("conical blade: chosen {lg:.1} mm / {pg} passes, poor {lp:.1} mm / {pp} passes");
-    assert!(2.0 * lg <= lp, "path length {lg} vs {lp}");
-    assert!(2 * pg <= pp, "passes {pg} vs {pp}");
+    eprintln!("flat blade: chosen {lg:.1} mm / {pg} passes, poor {lp:.1} mm / {pp} passes");
+    assert!(lg < lp && pg < pp, "{lg} / {pg} vs {lp} / {pp}");
 }
 
 #[test]

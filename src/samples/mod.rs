@@ -47,7 +47,7 @@ pub const SAMPLES: &[SampleInfo] = &[
     },
     SampleInfo {
         name: "turbine_blade",
-        description: "developable (conical) ruled blade, chord 100 -> 70 mm over 120 mm span (belt_iso_planar)",
+        description: "developable (conical) cambered ruled blade, chord 70 -> 55 mm over 130 mm span, about 9 900 mm^2 (belt_iso_planar)",
     },
     SampleInfo {
         name: "rect_pocket",

@@ -166,21 +166,24 @@ pub fn egg_crate() -> NurbsSurface {
 }
 
 /// Apex of the turbine blade's cone.
-pub const BLADE_APEX: [f64; 3] = [50.0, 400.0, 0.0];
-/// Tip section = apex + BLADE_TAPER (root section - apex).
-pub const BLADE_TAPER: f64 = 0.7;
+pub const BLADE_APEX: [f64; 3] = [35.0, 600.0, 30.0];
+/// Tip section = apex + BLADE_TAPER (root section - apex): the tip sits
+/// 130 mm from the root along y.
+pub const BLADE_TAPER: f64 = 470.0 / 600.0;
 
-/// Developable blade: a conical ruled surface between a cambered root section
-/// (cubic, chord 100 mm at y = 0) and the tip section (chord 70 mm at
-/// y = 120), the tip being the root scaled towards an apex. Rulings run along
-/// v; the tangent plane is constant along each ruling, so K = 0. About
-/// 10 400 mm^2, convex towards the tool.
+/// Developable blade: a conical ruled surface between a strongly cambered
+/// root section (cubic, chord 70 mm, arc about 85 mm, camber 20 mm, at y = 0)
+/// and the tip section 130 mm further along y, the tip being the root scaled
+/// towards an apex (as the paper's blade: the camber makes a badly chosen
+/// section plane cut obliquely across the rulings). Rulings run along v; the
+/// tangent plane is constant along each ruling, so K = 0. About 9 900 mm^2,
+/// convex towards the tool.
 pub fn turbine_blade() -> NurbsSurface {
     let root = [
         [0.0, 0.0, 0.0],
-        [30.0, 0.0, 12.0],
-        [70.0, 0.0, 10.0],
-        [100.0, 0.0, 0.0],
+        [23.0, 0.0, 27.0],
+        [47.0, 0.0, 27.0],
+        [70.0, 0.0, 0.0],
     ];
     let a = BLADE_APEX;
     let tip = |p: [f64; 3]| {

@@ -120,6 +120,38 @@ pub fn conical_blade() -> NurbsSurface {
     .expect("valid blade")
 }
 
+/// A flatter developable blade (chord 100 -> 70 mm over 120 mm, camber 12 mm).
+pub fn flat_blade() -> NurbsSurface {
+    let apex = [50.0, 400.0, 0.0];
+    let taper = 0.7;
+    let root = [
+        [0.0, 0.0, 0.0],
+        [30.0, 0.0, 12.0],
+        [70.0, 0.0, 10.0],
+        [100.0, 0.0, 0.0],
+    ];
+    let cps: Vec<Vec<[f64; 3]>> = root
+        .iter()
+        .map(|p| {
+            let tip = [
+                apex[0] + taper * (p[0] - apex[0]),
+                apex[1] + taper * (p[1] - apex[1]),
+                apex[2] + taper * (p[2] - apex[2]),
+            ];
+            vec![*p, tip]
+        })
+        .collect();
+    NurbsSurface::new(
+        3,
+        1,
+        clamped_knots(4, 3),
+        vec![0.0, 0.0, 1.0, 1.0],
+        &cps,
+        None,
+    )
+    .expect("valid blade")
+}
+
 /// Flat 100 x 100 square at z = 0.
 pub fn flat() -> NurbsSurface {
     let cps = vec![
