@@ -4,6 +4,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo test --locked
 if ls tests/python/test_*.py >/dev/null 2>&1; then
-  cargo build --locked --release --bin toolpath
-  python3 -m pytest -q tests/python
+  # `cargo test` has built the test-profile binary (dependencies at opt-level 3, this crate
+  # at 1): the Python tests drive it, which spares CI a second, release build of the stack.
+  cargo build --locked --bin toolpath
+  TOOLPATH_BIN="${TOOLPATH_BIN:-$PWD/target/debug/toolpath}" python3 -m pytest -q tests/python
 fi
