@@ -57,6 +57,14 @@ pub mod qos {
     pub fn job() -> QosProfile {
         reliable(Durability::Volatile, History::KeepLast { depth: 100 })
     }
+    /// What the node's own readers of `profile` use: the same, but keeping
+    /// every sample until the node has taken it. History is not part of QoS
+    /// matching, so publishers still see the documented profile; a burst of
+    /// more jobs (or shapes) than the depth arriving while the node is busy
+    /// would otherwise be overwritten in the reader's cache and lost.
+    pub fn reader(profile: QosProfile) -> QosProfile {
+        profile.history(History::KeepAll)
+    }
     /// `job_status`: transient-local, depth 1000 (a burst's statuses are not overwritten).
     pub fn status() -> QosProfile {
         reliable(
@@ -504,9 +512,9 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         domain,
         config.interfaces()?,
     )?;
-    let surfaces = ros.subscription::<msgs::Surface>(topics::SURFACE, qos::shapes())?;
-    let pockets = ros.subscription::<msgs::Pocket>(topics::POCKET, qos::shapes())?;
-    let jobs = ros.subscription::<msgs::Job>(topics::JOB, qos::job())?;
+    let surfaces = ros.subscription::<msgs::Surface>(topics::SURFACE, qos::reader(qos::shapes()))?;
+    let pockets = ros.subscription::<msgs::Pocket>(topics::POCKET, qos::reader(qos::shapes()))?;
+    let jobs = ros.subscription::<msgs::Job>(topics::JOB, qos::reader(qos::job()))?;
     let outputs = Arc::new(Outputs {
         status: Mutex::new(ros.publisher(topics::JOB_STATUS, qos::status())?),
         toolpath: Mutex::new(ros.publisher(topics::TOOLPATH, qos::results())?),
