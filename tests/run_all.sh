@@ -4,8 +4,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo test --locked
 if ls tests/python/test_*.py >/dev/null 2>&1; then
-  # `cargo test` has built the test-profile binary (dependencies at opt-level 3, this crate
-  # at 1): the Python tests drive it, which spares CI a second, release build of the stack.
-  cargo build --locked --bin toolpath
+  # `cargo test` has just built target/debug/toolpath for the integration tests (dependencies
+  # at opt-level 3, this crate at 1): the Python tests drive that binary, which spares CI a
+  # second build of the stack (a plain `cargo build` resolves other dependency features).
   TOOLPATH_BIN="${TOOLPATH_BIN:-$PWD/target/debug/toolpath}" python3 -m pytest -q tests/python
 fi
