@@ -96,7 +96,7 @@ pub fn plan_passes(
             for c in &contacts {
                 pass.points.push(c.path_point(s)?);
             }
-            super::pass_points::extend_end(&mut pass.points, s);
+            super::pass_points::extend_pass(surface, &mut pass.points, s)?;
             passes.push(pass);
             progress.set((0.5 + 0.45 * k as f64 / count as f64) as f32);
         }

@@ -8,10 +8,10 @@
 //! current pass still leaves region material uncut.
 
 use super::partition::Region;
-use super::pass_points::{extend_end, Contact, PassSettings};
+use super::pass_points::{extend_pass, walk_on_surface as walk, Contact, PassSettings};
 use crate::error::{Error, Result};
 use crate::formats::Pass;
-use crate::geometry::{LocalGeometry, NurbsSurface};
+use crate::geometry::NurbsSurface;
 use nalgebra::{Vector2, Vector3};
 
 /// A point of a pass front: its contact and the unit tangent pointing to
@@ -24,56 +24,6 @@ struct FrontPoint {
 
 /// Passes cannot exceed this count per region (a guard against runaway offsetting).
 const MAX_PASSES: usize = 5_000;
-
-/// Walks on the surface from `uv` along the 3-D tangent direction `dir`
-/// (re-projected on the tangent plane each sub-step, midpoint rule) for `dist`
-/// mm. Returns the end, the carried direction there, and whether the domain
-/// boundary stopped the walk.
-fn walk(
-    surface: &NurbsSurface,
-    uv: Vector2<f64>,
-    dir: Vector3<f64>,
-    dist: f64,
-) -> Option<(Vector2<f64>, Vector3<f64>, bool)> {
-    let ((u0, u1), (v0, v1)) = surface.domain();
-    let n = ((dist / 0.75).ceil() as usize).clamp(1, 64);
-    let h = dist / n as f64;
-    let mut p = uv;
-    let mut d = dir;
-    let step_at = |p: Vector2<f64>, d: Vector3<f64>| -> Option<(Vector2<f64>, Vector3<f64>)> {
-        let g = LocalGeometry::at(surface, p.x, p.y)?;
-        let t = (d - g.n * d.dot(&g.n)).try_normalize(1e-12)?;
-        Some((g.tangent_to_uv(t), t))
-    };
-    for _ in 0..n {
-        let (k1, t1) = step_at(p, d)?;
-        let mid = p + k1 * (0.5 * h);
-        let (mu, mv) = surface.clamp_uv(mid.x, mid.y);
-        let (k2, t2) = step_at(Vector2::new(mu, mv), t1)?;
-        let next = p + k2 * h;
-        d = t2;
-        if next.x < u0 || next.x > u1 || next.y < v0 || next.y > v1 {
-            // Clip the step at the boundary.
-            let delta = next - p;
-            let mut f = 1.0f64;
-            if delta.x > 0.0 {
-                f = f.min((u1 - p.x) / delta.x);
-            } else if delta.x < 0.0 {
-                f = f.min((u0 - p.x) / delta.x);
-            }
-            if delta.y > 0.0 {
-                f = f.min((v1 - p.y) / delta.y);
-            } else if delta.y < 0.0 {
-                f = f.min((v0 - p.y) / delta.y);
-            }
-            let end = p + delta * f.clamp(0.0, 1.0);
-            let (eu, ev) = surface.clamp_uv(end.x, end.y);
-            return Some((Vector2::new(eu, ev), d, true));
-        }
-        p = next;
-    }
-    Some((p, d, false))
-}
 
 /// Whether `travel` is within 30 deg of the domain edge through `uv`.
 fn runs_along_boundary(surface: &NurbsSurface, uv: Vector2<f64>, travel: Vector3<f64>) -> bool {
@@ -201,7 +151,7 @@ pub fn cover(
             }
             pass.points.push(c.path_point(s)?);
         }
-        extend_end(&mut pass.points, s);
+        extend_pass(surface, &mut pass.points, s)?;
         Ok(pass)
     };
     for run in sides[0].iter().rev() {

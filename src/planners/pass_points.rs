@@ -203,40 +203,275 @@ pub fn sample_curve(
     out
 }
 
-/// Extends a pass past its last contact along the travel tangent, so that
-/// the trailing edge points (which lag R (1 - cos phi) cos(lambda) behind the
-/// contact at lateral offset R sin phi) sweep the material up to the end
-/// contact's cross-section. The extension runs in the tangent plane, which
-/// stays above the surface to second order on both concave and convex parts.
-pub fn extend_end(points: &mut Vec<PathPoint>, s: &PassSettings) {
-    let Some(last) = points.last().cloned() else {
-        return;
+/// Walks on the surface from `uv` along the 3-D tangent direction `dir`
+/// (re-projected on the tangent plane each sub-step, midpoint rule) for `dist`
+/// mm. Returns the end, the carried direction there, and whether the domain
+/// boundary stopped the walk (the end then lies on it).
+pub fn walk_on_surface(
+    surface: &NurbsSurface,
+    uv: Vector2<f64>,
+    dir: Vector3<f64>,
+    dist: f64,
+) -> Option<(Vector2<f64>, Vector3<f64>, bool)> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let n = ((dist / 0.75).ceil() as usize).clamp(1, 64);
+    let h = dist / n as f64;
+    let mut p = uv;
+    let mut d = dir;
+    let step_at = |p: Vector2<f64>, d: Vector3<f64>| -> Option<(Vector2<f64>, Vector3<f64>)> {
+        let g = LocalGeometry::at(surface, p.x, p.y)?;
+        let t = (d - g.n * d.dot(&g.n)).try_normalize(1e-12)?;
+        Some((g.tangent_to_uv(t), t))
     };
-    let (Some(feed), Some(normal)) = (last.feed, last.normal) else {
-        return;
+    for _ in 0..n {
+        let (k1, t1) = step_at(p, d)?;
+        let mid = p + k1 * (0.5 * h);
+        let (mu, mv) = surface.clamp_uv(mid.x, mid.y);
+        let (k2, t2) = step_at(Vector2::new(mu, mv), t1)?;
+        let next = p + k2 * h;
+        d = t2;
+        if next.x < u0 || next.x > u1 || next.y < v0 || next.y > v1 {
+            // Clip the step at the boundary.
+            let delta = next - p;
+            let mut f = 1.0f64;
+            if delta.x > 0.0 {
+                f = f.min((u1 - p.x) / delta.x);
+            } else if delta.x < 0.0 {
+                f = f.min((u0 - p.x) / delta.x);
+            }
+            if delta.y > 0.0 {
+                f = f.min((v1 - p.y) / delta.y);
+            } else if delta.y < 0.0 {
+                f = f.min((v0 - p.y) / delta.y);
+            }
+            let end = p + delta * f.clamp(0.0, 1.0);
+            let (eu, ev) = surface.clamp_uv(end.x, end.y);
+            return Some((Vector2::new(eu, ev), d, true));
+        }
+        p = next;
+    }
+    Some((p, d, false))
+}
+
+/// Unit 3-D tangents of the domain edges `uv` lies on (none inside).
+fn boundary_edges(surface: &NurbsSurface, uv: Vector2<f64>) -> Vec<Vector3<f64>> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let d = surface.derivs(uv.x, uv.y);
+    let tol = 1e-9 * ((u1 - u0) + (v1 - v0));
+    let mut edges = Vec::new();
+    if (uv.x - u0).abs() <= tol || (uv.x - u1).abs() <= tol {
+        edges.extend(d.sv.try_normalize(1e-300));
+    }
+    if (uv.y - v0).abs() <= tol || (uv.y - v1).abs() <= tol {
+        edges.extend(d.su.try_normalize(1e-300));
+    }
+    edges
+}
+
+/// `next` moved back onto the domain edges `from` lies on.
+fn snap_to_edges(surface: &NurbsSurface, from: Vector2<f64>, next: Vector2<f64>) -> Vector2<f64> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let tol = 1e-9 * ((u1 - u0) + (v1 - v0));
+    let mut p = next;
+    if (from.x - u0).abs() <= tol {
+        p.x = u0;
+    } else if (from.x - u1).abs() <= tol {
+        p.x = u1;
+    }
+    if (from.y - v0).abs() <= tol {
+        p.y = v0;
+    } else if (from.y - v1).abs() <= tol {
+        p.y = v1;
+    }
+    let (u, v) = surface.clamp_uv(p.x, p.y);
+    Vector2::new(u, v)
+}
+
+/// Run-in and run-out of a pass, so that the whole strip is cut up to the
+/// pass ends and past the surface edges.
+///
+/// - Run-out: the edge points of the flat end lag R (1 - cos phi) cos(lambda)
+///   behind the contact at lateral offset R sin phi, so the pass continues
+///   by that lag past its last contact.
+/// - Where an end meets a surface edge at an angle theta, one side of the
+///   strip reaches the edge half-width * cot(theta) before (run-in) or after
+///   (run-out) the contact: the pass continues by that much more.
+///
+/// On the surface the extension follows it (real contacts: a straight run
+/// in the tangent plane would dip below a surface concave along the feed);
+/// past a surface edge it runs straight in the edge's tangent plane, keeping
+/// the edge's (u, v), for at most [`RUN_OUT_MAX`] tool radii.
+pub fn extend_pass(
+    surface: &NurbsSurface,
+    points: &mut Vec<PathPoint>,
+    s: &PassSettings,
+) -> Result<()> {
+    if points.is_empty() {
+        return Ok(());
+    }
+    let tail = extension(surface, points, s, true)?;
+    points.extend(tail);
+    let mut head = extension(surface, points, s, false)?;
+    head.reverse();
+    head.extend(points.drain(..));
+    *points = head;
+    Ok(())
+}
+
+/// Longest straight run past a surface edge, in tool radii (the tool has
+/// then cleared the edge; harness checks allow about one radius).
+pub const RUN_OUT_MAX: f64 = 1.15;
+
+/// The points to add after the last (`at_end`) or before the first point,
+/// in order away from the pass.
+fn extension(
+    surface: &NurbsSurface,
+    points: &[PathPoint],
+    s: &PassSettings,
+    at_end: bool,
+) -> Result<Vec<PathPoint>> {
+    let Some(end) = (if at_end {
+        points.last()
+    } else {
+        points.first()
+    }) else {
+        return Ok(Vec::new());
+    };
+    let (Some(feed), Some(_)) = (end.feed, end.normal) else {
+        return Ok(Vec::new());
     };
     let r = s.cutter.radius;
-    let w = last.strip_width.unwrap_or(2.0 * r).min(2.0 * r);
-    // The wider half of the strip decides; both halves are at most w.
-    let y = w.min(r);
-    let lag = if s.cutter.ball {
+    let travel = Vector3::from(feed);
+    // Direction the extension goes: along the travel at the end, against it at the start.
+    let out_dir = if at_end { travel } else { -travel };
+    let w = end.strip_width.unwrap_or(2.0 * r).min(2.0 * r);
+    let hw = 0.5 * w;
+    let lag = if s.cutter.ball || !at_end {
         0.0
     } else {
-        r * (1.0 - (1.0 - (y / r).powi(2)).max(0.0).sqrt()) * s.cutter.lead.cos()
+        let y = w.min(r);
+        r * (1.0 - (1.0 - (y / r).powi(2)).max(0.0).sqrt()) * s.cutter.lead.cos() * 1.05
     };
-    if lag <= 0.0 {
-        return;
+    let oblique = |uv: Vector2<f64>, t: Vector3<f64>| -> f64 {
+        boundary_edges(surface, uv)
+            .iter()
+            .map(|e| {
+                let c = t.dot(e).abs().min(1.0);
+                let sn = (1.0 - c * c).sqrt().max(1e-3);
+                (hw * c / sn).min(r)
+            })
+            .fold(0.0, f64::max)
+    };
+    let mut out = Vec::new();
+    let mut uv = Vector2::from(end.uv);
+    let mut dir = out_dir;
+    let mut done = 0.0;
+    let step = s.point_step.min(0.5 * r).max(1e-3);
+    let mut need = lag;
+    let mut at_edge = false;
+    let mut guard = 0;
+    // On the surface first; `at_edge` once the extension would leave it.
+    while done < need - 1e-9 && guard < 10_000 {
+        guard += 1;
+        let Some((next, d, clipped)) = walk_on_surface(surface, uv, dir, step.min(need - done))
+        else {
+            break;
+        };
+        let moved = (surface.point(next.x, next.y) - surface.point(uv.x, uv.y)).norm();
+        if clipped && moved <= 1e-6 * step {
+            // At an edge, heading out of the domain or along the edge.
+            let edges = boundary_edges(surface, uv);
+            let along = edges
+                .iter()
+                .copied()
+                .find(|e| e.dot(&dir).abs() >= 20f64.to_radians().cos());
+            match along {
+                // Along an edge: follow it on the surface (a straight run
+                // along a concave edge would cut below it).
+                Some(e) if guard < 9_999 => {
+                    let e = if e.dot(&dir) < 0.0 { -e } else { e };
+                    let Some((nx, _, _)) = walk_on_surface(surface, uv, e, step.min(need - done))
+                    else {
+                        break;
+                    };
+                    // Keep the walk on the edge line exactly.
+                    let nx = snap_to_edges(surface, uv, nx);
+                    let mv = (surface.point(nx.x, nx.y) - surface.point(uv.x, uv.y)).norm();
+                    if mv <= 1e-6 * step {
+                        // A corner: the edge ends here.
+                        at_edge = true;
+                        need = done.max(lag) + oblique(uv, dir);
+                        break;
+                    }
+                    done += mv;
+                    uv = nx;
+                    dir = e;
+                    let t = if at_end { e } else { -e };
+                    let Some(c) = Contact::new(surface, uv, t) else {
+                        break;
+                    };
+                    out.push(c.path_point(s)?);
+                    continue;
+                }
+                _ => {
+                    at_edge = true;
+                    need = done.max(lag) + oblique(uv, dir);
+                    break;
+                }
+            }
+        }
+        if moved <= 0.0 {
+            break;
+        }
+        done += moved;
+        uv = next;
+        dir = d;
+        let t = if at_end { d } else { -d };
+        let Some(c) = Contact::new(surface, uv, t) else {
+            break;
+        };
+        out.push(c.path_point(s)?);
     }
-    let t = Vector3::from(feed);
-    let n = Vector3::from(normal);
-    let cc = Point3::from(last.cc) + t * (lag * 1.05);
-    let (cl, axis) = s.cutter.pose(cc, n, t);
-    points.push(PathPoint {
-        cc: cc.into(),
-        cl: cl.into(),
-        axis: axis.into(),
-        ..last
-    });
+    if !at_edge && done >= need - 1e-9 && !boundary_edges(surface, uv).is_empty() {
+        // Ended exactly on an edge: check whether it heads out.
+        // Along an edge (within 20 deg) the disc behind the contact covers
+        // the edge: no run past it.
+        let along = boundary_edges(surface, uv)
+            .iter()
+            .any(|e| e.dot(&dir).abs() >= 20f64.to_radians().cos());
+        if let (false, Some((_, _, true))) = (along, walk_on_surface(surface, uv, dir, 1e-3 * step))
+        {
+            at_edge = true;
+            need = done.max(lag) + oblique(uv, dir);
+        }
+    }
+    if at_edge && done < need {
+        // Straight past the edge in its tangent plane.
+        let Some(g) = LocalGeometry::at(surface, uv.x, uv.y) else {
+            return Ok(out);
+        };
+        let Some(t) = (dir - g.n * dir.dot(&g.n)).try_normalize(1e-12) else {
+            return Ok(out);
+        };
+        let travel_t = if at_end { t } else { -t };
+        let Some(c) = Contact::from_geometry(g, travel_t) else {
+            return Ok(out);
+        };
+        let base = c.path_point(s)?;
+        let run = (need - done).min(RUN_OUT_MAX * r);
+        let n = (run / step).ceil().max(1.0) as usize;
+        for k in 1..=n {
+            let cc = g.point() + t * (run * k as f64 / n as f64);
+            let (cl, axis) = s.cutter.pose(cc, g.n, travel_t);
+            out.push(PathPoint {
+                cc: cc.into(),
+                cl: cl.into(),
+                axis: axis.into(),
+                ..base.clone()
+            });
+        }
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
