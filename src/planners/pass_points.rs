@@ -313,7 +313,7 @@ pub fn extend_pass(
     points.extend(tail);
     let mut head = extension(surface, points, s, false)?;
     head.reverse();
-    head.extend(points.drain(..));
+    head.append(points);
     *points = head;
     Ok(())
 }
