@@ -1,11 +1,24 @@
 #!/usr/bin/env bash
-# Re-records every golden bag from bags/jobs/*.json. Run it ON PURPOSE, when a change
-# is meant to move toolpaths; review `git diff --stat bags/` and the replay diffs first.
+# Re-records every golden bag from bags/jobs/*.json. Run it ON PURPOSE, when a
+# change is meant to move toolpaths; review `git diff --stat bags/` and the
+# replay diffs first (`toolpath replay bags/NAME --check` before re-recording).
+# TOOLPATH_BIN=path/to/toolpath uses that binary instead of a release build.
+# Every golden job must succeed: a job that fails is reported and the script
+# exits non-zero (tests/golden_bags.rs checks it too).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo build --release --bin toolpath
+bin=${TOOLPATH_BIN:-}
+if [ -z "$bin" ]; then
+  cargo build --release --bin toolpath
+  bin=target/release/toolpath
+fi
+failed=0
 for job in bags/jobs/*.json; do
   name=$(basename "$job" .json)
   rm -rf "bags/$name"
-  target/release/toolpath record "$job" -o "bags/$name"
+  if ! "$bin" record "$job" -o "bags/$name" --require-success; then
+    echo "error: golden job $name does not succeed: choose a feasible job or fix the planner" >&2
+    failed=1
+  fi
 done
+exit $failed

@@ -3,8 +3,9 @@
 //! and a non-zero exit from `toolpath replay --check`.
 
 use std::path::{Path, PathBuf};
+use toolpath_planner::formats::Strategy;
 use toolpath_planner::machines::Machines;
-use toolpath_planner::recording::runs::{self, replay, topic_specs};
+use toolpath_planner::recording::runs::{self, replay, topic_specs, Recorded};
 use toolpath_planner::recording::{read_bag, BagWriter, WriterOptions};
 use toolpath_planner::ros::msgs;
 
@@ -46,7 +47,35 @@ fn every_golden_bag_replays_without_difference() {
         machines.contains("mill5") && machines.contains("belt6"),
         "{machines:?}"
     );
-    assert!(strategies.len() >= 5, "{strategies:?}");
+    for s in Strategy::ALL {
+        assert!(
+            strategies.contains(s.name()),
+            "no golden bag for strategy {} (add a job to bags/jobs/ and run bags/record_all.sh): {strategies:?}",
+            s.name()
+        );
+    }
+}
+
+#[test]
+fn every_golden_job_was_recorded_as_succeeded() {
+    for bag in golden_bags() {
+        let rec = Recorded::read(&bag).unwrap();
+        for j in &rec.jobs {
+            let out = rec.outputs(&j.job_id);
+            let (state, message) = out.state.clone().expect("a final status");
+            assert_eq!(
+                state,
+                msgs::JobStatus::SUCCEEDED,
+                "{}: job {} recorded as {} ({message}): a golden bag must hold a feasible job",
+                bag.display(),
+                j.job_id,
+                msgs::JobStatus::state_name(state)
+            );
+            let tp = out.toolpath.expect("a toolpath");
+            assert!(runs::point_count(tp) > 0);
+            assert!(out.poses.is_some() && out.trajectory.is_some());
+        }
+    }
 }
 
 /// Copies `src` into a new bag at `dst`, passing each toolpath through `edit`.

@@ -2,9 +2,20 @@
 //! loopback. The node runs as a child process (`toolpath node`) on a private
 //! ROS domain; this process publishes every built-in sample shape and its job
 //! over DDS, collects the statuses and toolpaths, and prints the results table.
+//!
+//! Into `--out DIR` go the node's config (`node.yaml`), the bag the node
+//! records of the run (`DIR/demo_run/`, recording on unless `--no-record`) and
+//! one picture per sample (`DIR/<sample>.png`). The pictures are drawn from a
+//! local re-plan of the sample job: planning is deterministic, so it is the
+//! node's toolpath (the point counts are checked), and the local result also
+//! carries what the Toolpath message does not (separatrices, medial axis,
+//! degenerate-point kinds) plus the simulator's residual map.
 
 use crate::error::{Error, Result};
-use crate::formats::Shape;
+use crate::formats::{Job, Shape};
+use crate::pipeline::{self, RunOptions};
+use crate::planners::NoProgress;
+use crate::plot::{self, PlotInput};
 use crate::ros::convert;
 use crate::ros::msgs::{self, JobStatus};
 use crate::ros::node::{qos, topics, RosNode};
@@ -13,19 +24,43 @@ use futures::StreamExt;
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
 use std::net::{IpAddr, Ipv4Addr};
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// How long the demo waits for all jobs.
 const JOBS_TIMEOUT: Duration = Duration::from_secs(900);
 
-/// The node child process; killed by pid when dropped.
-struct NodeChild(Child);
+/// Name of the demo's bag inside `--out`.
+pub const DEMO_BAG: &str = "demo_run";
+
+/// The node child process; stopped by pid when dropped.
+pub struct NodeChild(Child);
+
+impl NodeChild {
+    /// SIGTERM (the node finishes its bag), then SIGKILL after `grace`.
+    pub fn stop(&mut self, grace: Duration) {
+        if matches!(self.0.try_wait(), Ok(Some(_))) {
+            return;
+        }
+        let pid = nix::unistd::Pid::from_raw(self.0.id() as i32);
+        if nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).is_ok() {
+            let deadline = Instant::now() + grace;
+            while Instant::now() < deadline {
+                if matches!(self.0.try_wait(), Ok(Some(_))) {
+                    return;
+                }
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        }
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
 
 impl Drop for NodeChild {
     fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
+        self.stop(Duration::from_secs(10));
     }
 }
 
@@ -44,11 +79,16 @@ fn demo_domain() -> u16 {
     (100 + (std::process::id() ^ nanos) % 100) as u16
 }
 
-fn start_node(domain: u16) -> Result<NodeChild> {
+/// Starts `toolpath node [--config CONFIG]` on `domain` and waits for its ready line.
+pub fn start_node(domain: u16, config: Option<&Path>) -> Result<NodeChild> {
     let exe = std::env::current_exe()
         .map_err(|e| Error::planning(format!("cannot find the toolpath binary: {e}")))?;
-    let mut child = Command::new(exe)
-        .arg("node")
+    let mut cmd = Command::new(exe);
+    cmd.arg("node");
+    if let Some(c) = config {
+        cmd.arg("--config").arg(c);
+    }
+    let mut child = cmd
         .env("ROS_DOMAIN_ID", domain.to_string())
         .env(
             "RUST_LOG",
@@ -78,17 +118,106 @@ struct Row {
     toolpath: Option<msgs::Toolpath>,
 }
 
-/// Plans every sample job through the node and prints one row each.
-pub fn run(_out: &std::path::Path) -> Result<()> {
+/// The node config of the demo: defaults, recording into `out` unless `record` is off.
+fn demo_config(out: &Path, record: bool) -> Result<PathBuf> {
+    let path = out.join("node.yaml");
+    let dir = std::fs::canonicalize(out).map_err(|e| Error::io(out.display().to_string(), e))?;
+    let text = format!(
+        "# Written by `toolpath demo`: the node config of the demo run.\n\
+         recording:\n  enabled: {record}\n  directory: \"{}\"\n  bag_name: {DEMO_BAG}\n",
+        dir.display()
+            .to_string()
+            .replace('\\', "\\\\")
+            .replace('"', "\\\"")
+    );
+    std::fs::write(&path, text).map_err(|e| Error::io(path.display().to_string(), e))?;
+    Ok(path)
+}
+
+/// Removes the bag of an earlier demo run (only if it is one: a bag's files and nothing else).
+fn remove_old_bag(bag: &Path) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(bag) else {
+        return Ok(());
+    };
+    let names: Vec<String> = entries
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    let ours = names
+        .iter()
+        .all(|n| n == "metadata.yaml" || n == &format!("{DEMO_BAG}_0.mcap"));
+    if !ours {
+        return Err(Error::invalid(
+            "out",
+            format!(
+                "{} exists and is not a demo bag: choose another --out directory",
+                bag.display()
+            ),
+        ));
+    }
+    std::fs::remove_dir_all(bag).map_err(|e| Error::io(bag.display().to_string(), e))
+}
+
+/// Re-plans `job` locally and draws it to `path` (with the residual map for milling).
+fn plot_sample(job: &Job, node_points: Option<u32>, path: &Path) -> Result<()> {
+    let options = RunOptions {
+        skip_verify: true,
+        no_timing: true,
+    };
+    let result = pipeline::run(job, &NoProgress, options)?;
+    let local_points = result.passes.iter().map(|p| p.points.len()).sum::<usize>()
+        + result
+            .tools
+            .iter()
+            .flatten()
+            .flat_map(|t| &t.passes)
+            .map(Vec::len)
+            .sum::<usize>();
+    if let Some(n) = node_points {
+        if n as usize != local_points {
+            eprintln!(
+                "warning: {}: the node planned {n} points, the local re-plan for the picture {local_points}",
+                job.job_id
+            );
+        }
+    }
+    let residual = plot::residual_for(job, &result)?;
+    let (surface, pocket) = match &job.shape {
+        Shape::Surface(s) => (Some(s), None),
+        Shape::Pocket(p) => (None, Some(p)),
+    };
+    plot::draw(
+        &PlotInput {
+            result: &result,
+            surface,
+            pocket,
+            residual: residual.as_ref(),
+        },
+        path,
+    )
+}
+
+/// Plans every sample job through the node and prints one row each; writes
+/// the bag of the run and a picture per sample into `out`.
+pub fn run(out: &Path, record: bool) -> Result<()> {
     super::node::init_logging_with("off");
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out.display().to_string(), e))?;
+    let bag = out.join(DEMO_BAG);
+    if record {
+        remove_old_bag(&bag)?;
+    }
+    let config = demo_config(out, record)?;
     let domain = demo_domain();
-    let _node = start_node(domain)?;
+    let mut node = start_node(domain, Some(&config))?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()
         .map_err(|e| Error::planning(format!("cannot start the async runtime: {e}")))?;
     let rows = runtime.block_on(client(domain))?;
+    drop(runtime);
+    // SIGTERM: the node writes the bag's summary and metadata.yaml.
+    node.stop(Duration::from_secs(30));
     println!(
         "{:<18} {:<20} {:<6} {:<10} {:>6} {:>7} {:>10} {:>9} {:>11} {:>9} {:>9}",
         "sample",
@@ -104,7 +233,7 @@ pub fn run(_out: &std::path::Path) -> Result<()> {
         "plan_ms"
     );
     let mut failed = 0;
-    for r in rows {
+    for r in &rows {
         let state = r
             .status
             .as_ref()
@@ -145,6 +274,20 @@ pub fn run(_out: &std::path::Path) -> Result<()> {
     println!(
         "(node and client on ROS domain {domain}, loopback; {failed} job(s) without a toolpath)"
     );
+    if record {
+        println!("bag of the run: {}", bag.display());
+    }
+    let mut pictures = 0;
+    for r in &rows {
+        let path = out.join(format!("{}.png", r.sample));
+        let job = samples::job(r.sample)?;
+        let points = r.toolpath.as_ref().map(|t| t.stats.points);
+        match plot_sample(&job, points, &path) {
+            Ok(()) => pictures += 1,
+            Err(e) => eprintln!("warning: no picture of {}: {e}", r.sample),
+        }
+    }
+    println!("pictures: {pictures} in {}", out.display());
     Ok(())
 }
 

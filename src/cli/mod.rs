@@ -74,9 +74,12 @@ pub enum Command {
     },
     /// Plan every sample job and print a table.
     Demo {
-        /// Directory for the demo's bags and pictures.
+        /// Directory for the demo's bag (DIR/demo_run), pictures (DIR/SAMPLE.png) and node config.
         #[arg(long, default_value = "out/demo")]
         out: PathBuf,
+        /// Do not record the run as a bag.
+        #[arg(long)]
+        no_record: bool,
     },
     /// Run the scallop simulator on a milling result and report residual height, gouge and uncovered area.
     Verify {
@@ -108,6 +111,9 @@ pub enum Command {
         /// Bag directory to create.
         #[arg(short, long)]
         output: PathBuf,
+        /// Exit non-zero unless the job succeeds (the bag is written either way).
+        #[arg(long)]
+        require_success: bool,
     },
     /// Re-plan the jobs of a bag; with --check compare with the recorded outputs.
     Replay {
@@ -115,9 +121,15 @@ pub enum Command {
         bag: PathBuf,
         #[arg(long)]
         check: bool,
-        /// Republish the inputs to a running node instead of planning locally.
+        /// Republish the inputs to a running node (ROS_DOMAIN_ID, loopback) instead of planning locally.
         #[arg(long)]
         publish: bool,
+        /// With --publish: the node's namespace.
+        #[arg(long, default_value = "/")]
+        namespace: String,
+        /// With --publish: how long to wait for the node's answers, s.
+        #[arg(long, default_value_t = 900.0)]
+        timeout_s: f64,
     },
     /// Publish a result file over iceoryx2 (the zero-copy toolpath service; layout in docs/formats.md).
     IpcPublish {
@@ -162,17 +174,30 @@ pub fn run() -> i32 {
             job,
             output,
         } => sample::run(name.as_deref(), list, job, &output),
-        Command::Demo { out } => demo::run(&out),
+        Command::Demo { out, no_record } => demo::run(&out, !no_record),
         Command::Verify { job, result, map } => verify::run(&job, &result, map.as_deref()),
         Command::Compare { job } => compare::run(&job),
         Command::Simulate { job, result, map } => simulate::run(&job, &result, map.as_deref()),
         Command::Node { config } => node::run(config.as_deref()),
-        Command::Record { job, output } => record::run(&job, &output),
+        Command::Record {
+            job,
+            output,
+            require_success,
+        } => record::run(&job, &output, require_success),
         Command::Replay {
             bag,
             check,
             publish,
-        } => replay::run(&bag, check, publish),
+            namespace,
+            timeout_s,
+        } => replay::run(
+            &bag,
+            check,
+            publish.then_some(replay::PublishArgs {
+                namespace: &namespace,
+                timeout_s,
+            }),
+        ),
         Command::IpcPublish {
             result,
             service,

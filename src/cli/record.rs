@@ -1,21 +1,33 @@
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::formats;
 use crate::machines::Machines;
 use crate::recording::runs;
+use crate::ros::msgs;
 use std::path::Path;
 
-/// `toolpath record JOB -o BAG`: plans the job as the node would and records
-/// its inputs and outputs as a rosbag2 bag.
-pub fn run(job: &Path, output: &Path) -> Result<()> {
+/// `toolpath record JOB -o BAG [--require-success]`: plans the job as the
+/// node would and records its inputs and outputs as a rosbag2 bag (a job that
+/// fails is recorded with its status; `--require-success` then exits non-zero).
+pub fn run(job: &Path, output: &Path, require_success: bool) -> Result<()> {
     let job = formats::read_job(job)?;
-    let summary = runs::record_job(&job, output, &Machines::default())?;
+    let (summary, last) = runs::record_job(&job, output, &Machines::default())?;
     println!(
-        "{}: {} messages, {} chunks, {} bytes ({} uncompressed)",
+        "{}: {} messages, {} chunks, {} bytes ({} uncompressed); job {} {}",
         summary.directory.display(),
         summary.messages,
         summary.chunks,
         summary.file_bytes,
-        summary.uncompressed_bytes
+        summary.uncompressed_bytes,
+        last.job_id,
+        msgs::JobStatus::state_name(last.state)
     );
+    if require_success && last.state != msgs::JobStatus::SUCCEEDED {
+        return Err(Error::planning(format!(
+            "job {} recorded as {}: {}",
+            last.job_id,
+            msgs::JobStatus::state_name(last.state),
+            last.message
+        )));
+    }
     Ok(())
 }

@@ -1,17 +1,49 @@
 use crate::error::{Error, Result};
 use crate::machines::Machines;
+use crate::recording::republish::{self, PublishOptions};
 use crate::recording::runs;
+use crate::ros::NodeConfig;
+use std::net::{IpAddr, Ipv4Addr};
 use std::path::Path;
+use std::time::Duration;
 
-/// `toolpath replay BAG [--check]`: re-plans every job of the bag; with
-/// `--check`, prints what differs from the recording and fails on a difference.
-pub fn run(bag: &Path, check: bool, publish: bool) -> Result<()> {
-    if publish {
-        return Err(Error::planning(
-            "`toolpath replay --publish` (republishing to a running node) is not available in this build yet",
-        ));
-    }
-    let report = runs::replay(bag, &Machines::default())?;
+/// How `--publish` reaches the node.
+pub struct PublishArgs<'a> {
+    pub namespace: &'a str,
+    pub timeout_s: f64,
+}
+
+/// `toolpath replay BAG [--check] [--publish]`: re-plans every job of the bag
+/// (or, with `--publish`, republishes its inputs to a running node on
+/// ROS_DOMAIN_ID over loopback); with `--check`, prints what differs from the
+/// recording and fails on a difference.
+pub fn run(bag: &Path, check: bool, publish: Option<PublishArgs<'_>>) -> Result<()> {
+    let report = match publish {
+        None => runs::replay(bag, &Machines::default())?,
+        Some(args) => {
+            if !args.timeout_s.is_finite() || args.timeout_s <= 0.0 {
+                return Err(Error::invalid(
+                    "--timeout-s",
+                    "must be a positive number of seconds",
+                ));
+            }
+            let options = PublishOptions {
+                // ROS_DOMAIN_ID, else 0 (a bad value is an error naming it).
+                domain_id: NodeConfig::default().domain_id()?,
+                namespace: args.namespace.to_string(),
+                interfaces: Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]),
+                discovery_timeout: Duration::from_secs(30),
+                timeout: Duration::from_secs_f64(args.timeout_s),
+            };
+            super::node::init_logging_with("error,rustdds=off");
+            let runtime = tokio::runtime::Builder::new_multi_thread()
+                .worker_threads(2)
+                .enable_all()
+                .build()
+                .map_err(|e| Error::planning(format!("cannot start the async runtime: {e}")))?;
+            runtime.block_on(republish::republish(bag, &options))?
+        }
+    };
     if let Some(t) = &report.truncated {
         eprintln!("warning: {t}");
     }

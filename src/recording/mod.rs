@@ -16,6 +16,7 @@
 
 mod metadata;
 mod reader;
+pub mod republish;
 pub mod runs;
 mod writer;
 

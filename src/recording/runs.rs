@@ -43,18 +43,54 @@ fn spec<M: RosMessage>(topic: &str, qos: Qos) -> TopicSpec {
 
 /// Every topic of the node, with the QoS it offers (inputs: as the clients publish them).
 pub fn topic_specs() -> Vec<TopicSpec> {
+    topic_specs_in("/")
+}
+
+/// [`topic_specs`] of a node in `namespace` (`/cell_b`: `/cell_b/job`, ...).
+pub fn topic_specs_in(namespace: &str) -> Vec<TopicSpec> {
+    let ns = namespace.trim_end_matches('/');
+    let t = |topic: &str| format!("{ns}{topic}");
     let results = Qos::reliable_transient_local(10);
     vec![
-        spec::<msgs::Surface>(SURFACE, Qos::reliable_transient_local(100)),
-        spec::<msgs::Pocket>(POCKET, Qos::reliable_transient_local(100)),
-        spec::<msgs::Job>(JOB, Qos::reliable_volatile(100)),
-        spec::<msgs::Toolpath>(TOOLPATH, results),
-        spec::<msgs::PoseArray>(TOOL_POSES, results),
-        spec::<msgs::JointTrajectory>(MILL5_TRAJECTORY, results),
-        spec::<msgs::JointTrajectory>(BELT6_TRAJECTORY, results),
-        spec::<msgs::JobStatus>(JOB_STATUS, Qos::reliable_transient_local(1000)),
-        spec::<msgs::MarkerArray>(MARKERS, results),
+        spec::<msgs::Surface>(&t(SURFACE), Qos::reliable_transient_local(100)),
+        spec::<msgs::Pocket>(&t(POCKET), Qos::reliable_transient_local(100)),
+        spec::<msgs::Job>(&t(JOB), Qos::reliable_volatile(100)),
+        spec::<msgs::Toolpath>(&t(TOOLPATH), results),
+        spec::<msgs::PoseArray>(&t(TOOL_POSES), results),
+        spec::<msgs::JointTrajectory>(&t(MILL5_TRAJECTORY), results),
+        spec::<msgs::JointTrajectory>(&t(BELT6_TRAJECTORY), results),
+        spec::<msgs::JobStatus>(&t(JOB_STATUS), Qos::reliable_transient_local(1000)),
+        spec::<msgs::MarkerArray>(&t(MARKERS), results),
     ]
+}
+
+/// A bag recorded by a node in a namespace (`/cell_b/job`, ...) read as if
+/// the node had none, so that replay finds its topics.
+fn strip_namespace(bag: &mut Bag) {
+    let job_type = ros2_type_name(&msgs::Job::full_name());
+    let Some(ns) = bag
+        .topics
+        .values()
+        .filter(|t| t.type_name == job_type)
+        .find_map(|t| t.topic.strip_suffix(JOB).filter(|ns| !ns.is_empty()))
+        .map(str::to_string)
+    else {
+        return;
+    };
+    let strip = |topic: &str| match topic.strip_prefix(&ns) {
+        Some(rest) if rest.starts_with('/') => rest.to_string(),
+        _ => topic.to_string(),
+    };
+    bag.topics = std::mem::take(&mut bag.topics)
+        .into_values()
+        .map(|mut t| {
+            t.topic = strip(&t.topic);
+            (t.topic.clone(), t)
+        })
+        .collect();
+    for m in &mut bag.messages {
+        m.topic = strip(&m.topic);
+    }
 }
 
 fn spec_of(topic: &str) -> Result<TopicSpec> {
@@ -136,17 +172,27 @@ fn header_now() -> msgs::Header {
 /// Records a run of `job` into a new bag at `directory`: its shape and job on
 /// the input topics, then ACCEPTED, RUNNING, the outputs and the final status.
 /// A job that cannot be planned is recorded with its FAILED/REJECTED status.
-pub fn record_job(job: &Job, directory: &Path, machines: &Machines) -> Result<super::BagSummary> {
+/// Returns the bag's summary and the final status recorded.
+pub fn record_job(
+    job: &Job,
+    directory: &Path,
+    machines: &Machines,
+) -> Result<(super::BagSummary, msgs::JobStatus)> {
     let mut w = BagWriter::create(directory, WriterOptions::default())?;
     for s in topic_specs() {
         w.add_topic(&s)?;
     }
-    record_job_into(&mut w, job, machines)?;
-    w.finish()
+    let last = record_job_into(&mut w, job, machines)?;
+    Ok((w.finish()?, last))
 }
 
-/// Records one job run into an open bag (several jobs may share a bag).
-pub fn record_job_into(w: &mut BagWriter, job: &Job, machines: &Machines) -> Result<()> {
+/// Records one job run into an open bag (several jobs may share a bag);
+/// returns the final status recorded.
+pub fn record_job_into(
+    w: &mut BagWriter,
+    job: &Job,
+    machines: &Machines,
+) -> Result<msgs::JobStatus> {
     let header = header_now();
     let t = |w: &BagWriter| super::now_ns().max(w.metadata().duration.nanoseconds);
     let shape_id = format!("{}_shape", job.job_id);
@@ -186,7 +232,7 @@ pub fn record_job_into(w: &mut BagWriter, job: &Job, machines: &Machines) -> Res
             String::new(),
         ),
     )?;
-    match plan_outputs(&job_msg, &job.shape, machines, &header) {
+    let last = match plan_outputs(&job_msg, &job.shape, machines, &header) {
         Ok(out) => {
             w.write(TOOLPATH, t(w), &out.toolpath)?;
             w.write(TOOL_POSES, t(w), &out.poses)?;
@@ -196,32 +242,26 @@ pub fn record_job_into(w: &mut BagWriter, job: &Job, machines: &Machines) -> Res
             };
             w.write(traj_topic, t(w), &out.trajectory)?;
             w.write(MARKERS, t(w), &out.markers)?;
-            w.write(
-                JOB_STATUS,
-                t(w),
-                &status(
-                    &header,
-                    &job.job_id,
-                    msgs::JobStatus::SUCCEEDED,
-                    1.0,
-                    out.summary,
-                ),
-            )?;
+            status(
+                &header,
+                &job.job_id,
+                msgs::JobStatus::SUCCEEDED,
+                1.0,
+                out.summary,
+            )
         }
         Err(e) => {
             let state = match e {
                 Error::Invalid { .. } => msgs::JobStatus::REJECTED,
                 _ => msgs::JobStatus::FAILED,
             };
-            w.write(
-                JOB_STATUS,
-                t(w),
-                &status(&header, &job.job_id, state, 0.0, e.to_string()),
-            )?;
+            status(&header, &job.job_id, state, 0.0, e.to_string())
         }
-    }
+    };
+    w.write(JOB_STATUS, t(w), &last)?;
     // The job's messages form a unit: put them on disk now.
-    w.flush()
+    w.flush()?;
+    Ok(last)
 }
 
 /// One replayed job.
@@ -258,52 +298,190 @@ fn decode_all<M: RosMessage>(bag: &Bag, topic: &str) -> Result<Vec<M>> {
         .collect()
 }
 
+/// Everything a bag recorded, decoded (topics without the node's namespace).
+#[derive(Clone, Debug)]
+pub struct Recorded {
+    pub surfaces: Vec<msgs::Surface>,
+    pub pockets: Vec<msgs::Pocket>,
+    pub jobs: Vec<msgs::Job>,
+    pub toolpaths: Vec<msgs::Toolpath>,
+    pub poses: Vec<msgs::PoseArray>,
+    pub statuses: Vec<msgs::JobStatus>,
+    pub mill5: Vec<msgs::JointTrajectory>,
+    pub belt6: Vec<msgs::JointTrajectory>,
+    pub truncated: Option<String>,
+}
+
+/// The outputs of one job of a run, as recorded or as a new run produced them.
+#[derive(Clone, Debug, Default)]
+pub struct RunOutputs<'a> {
+    /// Final state (JobStatus constants) and its message; `None`: no final status.
+    pub state: Option<(u8, String)>,
+    pub toolpath: Option<&'a msgs::Toolpath>,
+    pub poses: Option<&'a msgs::PoseArray>,
+    pub trajectory: Option<(Machine, &'a msgs::JointTrajectory)>,
+}
+
+fn same_stamp(a: &msgs::Header, b: &msgs::Header) -> bool {
+    a.stamp == b.stamp
+}
+
+/// Outputs of `job_id` among messages of one run: the last final status, the
+/// toolpath naming the job, and the poses and trajectory published with it
+/// (the node stamps all outputs of a job with one header stamp).
+pub fn outputs_of<'a>(
+    job_id: &str,
+    statuses: &'a [msgs::JobStatus],
+    toolpaths: &'a [msgs::Toolpath],
+    poses: &'a [msgs::PoseArray],
+    mill5: &'a [msgs::JointTrajectory],
+    belt6: &'a [msgs::JointTrajectory],
+) -> RunOutputs<'a> {
+    let state = statuses
+        .iter()
+        .rev()
+        .find(|s| s.job_id == job_id && s.is_final())
+        .map(|s| (s.state, s.message.clone()));
+    let toolpath = toolpaths.iter().rev().find(|t| t.job_id == job_id);
+    let poses = toolpath.and_then(|t| poses.iter().find(|p| same_stamp(&p.header, &t.header)));
+    let trajectory = toolpath.and_then(|t| {
+        let m = mill5
+            .iter()
+            .find(|j| same_stamp(&j.header, &t.header))
+            .map(|j| (Machine::Mill5, j));
+        m.or_else(|| {
+            belt6
+                .iter()
+                .find(|j| same_stamp(&j.header, &t.header))
+                .map(|j| (Machine::Belt6, j))
+        })
+    });
+    RunOutputs {
+        state,
+        toolpath,
+        poses,
+        trajectory,
+    }
+}
+
+impl Recorded {
+    /// Reads and decodes the bag at `path` (a bag directory or its .mcap).
+    pub fn read(path: &Path) -> Result<Self> {
+        let mut bag = read_bag(path)?;
+        strip_namespace(&mut bag);
+        bag.check_types(&topic_specs())?;
+        let jobs = decode_all::<msgs::Job>(&bag, JOB)?;
+        if jobs.is_empty() {
+            return Err(Error::invalid(
+                path.display().to_string(),
+                "the bag holds no job on /job",
+            ));
+        }
+        Ok(Recorded {
+            surfaces: decode_all(&bag, SURFACE)?,
+            pockets: decode_all(&bag, POCKET)?,
+            jobs,
+            toolpaths: decode_all(&bag, TOOLPATH)?,
+            poses: decode_all(&bag, TOOL_POSES)?,
+            statuses: decode_all(&bag, JOB_STATUS)?,
+            mill5: decode_all(&bag, MILL5_TRAJECTORY)?,
+            belt6: decode_all(&bag, BELT6_TRAJECTORY)?,
+            truncated: bag.truncated.clone(),
+        })
+    }
+
+    /// The recorded outputs of `job_id`.
+    pub fn outputs(&self, job_id: &str) -> RunOutputs<'_> {
+        outputs_of(
+            job_id,
+            &self.statuses,
+            &self.toolpaths,
+            &self.poses,
+            &self.mill5,
+            &self.belt6,
+        )
+    }
+
+    /// The recorded shapes by id (surfaces and pockets).
+    pub fn shapes(&self) -> Result<BTreeMap<String, Shape>> {
+        let mut shapes = BTreeMap::new();
+        for m in &self.surfaces {
+            shapes.insert(
+                m.surface_id.clone(),
+                Shape::Surface(convert::surface_from_msg(m)?),
+            );
+        }
+        for m in &self.pockets {
+            shapes.insert(
+                m.pocket_id.clone(),
+                Shape::Pocket(convert::pocket_from_msg(m)?),
+            );
+        }
+        Ok(shapes)
+    }
+}
+
+/// The differences of a new run of a job from its recording, readable.
+pub fn compare_outputs(rec: &RunOutputs<'_>, new: &RunOutputs<'_>) -> Vec<String> {
+    let mut d = Vec::new();
+    match (&rec.state, &new.state) {
+        (Some((a, am)), Some((b, bm))) if a != b => d.push(format!(
+            "status: recorded {} ({am}), now {} ({bm})",
+            msgs::JobStatus::state_name(*a),
+            msgs::JobStatus::state_name(*b),
+        )),
+        (None, _) => d.push("status: no final status recorded".into()),
+        (Some(_), None) => d.push("status: no final status now".into()),
+        _ => {}
+    }
+    match (rec.toolpath, new.toolpath) {
+        (Some(r), Some(n)) => {
+            compare_toolpath(r, n, &mut d);
+            match (rec.poses, new.poses) {
+                (Some(a), Some(b)) => compare_poses(a, b, &mut d),
+                (Some(_), None) => d.push("tool_poses: recorded, but none now".into()),
+                _ => {}
+            }
+            match (rec.trajectory, new.trajectory) {
+                (Some((ma, a)), Some((mb, b))) => {
+                    if ma != mb {
+                        d.push(format!(
+                            "trajectory: recorded for {}, now for {}",
+                            ma.name(),
+                            mb.name()
+                        ));
+                    }
+                    compare_trajectory(a, b, &mut d)
+                }
+                (None, Some((m, _))) => d.push(format!(
+                    "trajectory: none recorded for machine {}",
+                    m.name()
+                )),
+                (Some(_), None) => d.push("trajectory: recorded, but none now".into()),
+                (None, None) => {}
+            }
+        }
+        (None, Some(_)) => {
+            d.push("toolpath: the job now succeeds but no toolpath was recorded".into())
+        }
+        (Some(_), None) => d.push("toolpath: recorded, but the job now fails".into()),
+        (None, None) => {}
+    }
+    d
+}
+
 /// Re-plans every job of the bag at `path` and compares the outputs with the
 /// recorded ones.
 pub fn replay(path: &Path, machines: &Machines) -> Result<ReplayReport> {
-    let bag = read_bag(path)?;
-    bag.check_types(&topic_specs())?;
-    let mut shapes: BTreeMap<String, Shape> = BTreeMap::new();
-    for m in decode_all::<msgs::Surface>(&bag, SURFACE)? {
-        shapes.insert(
-            m.surface_id.clone(),
-            Shape::Surface(convert::surface_from_msg(&m)?),
-        );
-    }
-    for m in decode_all::<msgs::Pocket>(&bag, POCKET)? {
-        let id = m.pocket_id.clone();
-        shapes.insert(id, Shape::Pocket(convert::pocket_from_msg(&m)?));
-    }
-    let jobs = decode_all::<msgs::Job>(&bag, JOB)?;
-    if jobs.is_empty() {
-        return Err(Error::invalid(
-            path.display().to_string(),
-            "the bag holds no job on /job",
-        ));
-    }
-    let toolpaths = decode_all::<msgs::Toolpath>(&bag, TOOLPATH)?;
-    let poses = decode_all::<msgs::PoseArray>(&bag, TOOL_POSES)?;
-    let statuses = decode_all::<msgs::JobStatus>(&bag, JOB_STATUS)?;
-    let mut traj_mill = decode_all::<msgs::JointTrajectory>(&bag, MILL5_TRAJECTORY)?.into_iter();
-    let mut traj_belt = decode_all::<msgs::JointTrajectory>(&bag, BELT6_TRAJECTORY)?.into_iter();
+    let rec = Recorded::read(path)?;
+    let shapes = rec.shapes()?;
     let header = header_now();
     let mut report = ReplayReport {
         jobs: Vec::new(),
-        truncated: bag.truncated.clone(),
+        truncated: rec.truncated.clone(),
     };
-    for (k, job_msg) in jobs.iter().enumerate() {
-        let mut d = Vec::new();
-        let recorded_final = statuses
-            .iter()
-            .rev()
-            .find(|s| s.job_id == job_msg.job_id && s.is_final());
-        let recorded_tp = toolpaths.iter().find(|t| t.job_id == job_msg.job_id);
-        let recorded_poses = recorded_tp.and_then(|_| {
-            // Outputs of the k-th succeeded job, in recording order.
-            let idx = toolpaths.iter().position(|t| t.job_id == job_msg.job_id)?;
-            poses.get(idx)
-        });
-        let new = match shapes.get(&job_msg.surface_id) {
+    for job_msg in &rec.jobs {
+        let planned = match shapes.get(&job_msg.surface_id) {
             Some(shape) => plan_outputs(job_msg, shape, machines, &header),
             None => Err(Error::invalid(
                 "surface_id",
@@ -313,61 +491,38 @@ pub fn replay(path: &Path, machines: &Machines) -> Result<ReplayReport> {
                 ),
             )),
         };
-        let new_state = match &new {
-            Ok(_) => msgs::JobStatus::SUCCEEDED,
-            Err(Error::Invalid { .. }) => msgs::JobStatus::REJECTED,
-            Err(_) => msgs::JobStatus::FAILED,
+        let new = match &planned {
+            Ok(out) => RunOutputs {
+                state: Some((msgs::JobStatus::SUCCEEDED, out.summary.clone())),
+                toolpath: Some(&out.toolpath),
+                poses: Some(&out.poses),
+                trajectory: Some((out.machine, &out.trajectory)),
+            },
+            Err(e) => RunOutputs {
+                state: Some((
+                    match e {
+                        Error::Invalid { .. } => msgs::JobStatus::REJECTED,
+                        _ => msgs::JobStatus::FAILED,
+                    },
+                    e.to_string(),
+                )),
+                ..Default::default()
+            },
         };
-        match recorded_final {
-            Some(s) if s.state != new_state => d.push(format!(
-                "status: recorded {} ({}), now {}{}",
-                msgs::JobStatus::state_name(s.state),
-                s.message,
-                msgs::JobStatus::state_name(new_state),
-                new.as_ref()
-                    .err()
-                    .map(|e| format!(" ({e})"))
-                    .unwrap_or_default()
-            )),
-            None => d.push("status: no final status recorded".into()),
-            _ => {}
-        }
-        let mut points = 0;
-        match (&new, recorded_tp) {
-            (Ok(out), Some(rec)) => {
-                points = out.toolpath.passes.iter().map(|p| p.points.len()).sum();
-                compare_toolpath(rec, &out.toolpath, &mut d);
-                if let Some(rp) = recorded_poses {
-                    compare_poses(rp, &out.poses, &mut d);
-                }
-                let rec_traj = match out.machine {
-                    Machine::Mill5 => traj_mill.next(),
-                    Machine::Belt6 => traj_belt.next(),
-                };
-                match rec_traj {
-                    Some(rt) => compare_trajectory(&rt, &out.trajectory, &mut d),
-                    None => d.push(format!(
-                        "trajectory: none recorded for machine {}",
-                        out.machine.name()
-                    )),
-                }
-            }
-            (Ok(_), None) => {
-                d.push("toolpath: the job now succeeds but no toolpath was recorded".into())
-            }
-            (Err(_), Some(_)) => d.push("toolpath: recorded, but the job now fails".into()),
-            (Err(_), None) => {}
-        }
-        let _ = k;
         report.jobs.push(JobReplay {
             job_id: job_msg.job_id.clone(),
             strategy: job_msg.strategy.clone(),
             machine: job_msg.machine.clone(),
-            points,
-            differences: d,
+            points: new.toolpath.map_or(0, point_count),
+            differences: compare_outputs(&rec.outputs(&job_msg.job_id), &new),
         });
     }
     Ok(report)
+}
+
+/// Number of points of a toolpath message (all passes).
+pub fn point_count(t: &msgs::Toolpath) -> usize {
+    t.passes.iter().map(|p| p.points.len()).sum()
 }
 
 fn close(a: f64, b: f64, tol: f64) -> bool {

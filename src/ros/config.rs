@@ -44,11 +44,70 @@ impl Default for NodeSettings {
     }
 }
 
+/// Recording of the node's runs as rosbag2 bags (the `recording:` section).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RecordingSettings {
+    /// Record every run: all input and output topics, one bag per run.
+    pub enabled: bool,
+    /// Directory the bags go into (created when missing).
+    pub directory: String,
+    /// Name of the bag directory; `null` = `<node name>_<UTC start time>_<pid>`.
+    pub bag_name: Option<String>,
+    /// Target uncompressed chunk size, KiB (a chunk is also closed after every
+    /// job's final status, so a killed node keeps its finished jobs).
+    pub chunk_size_kib: u64,
+    /// zstd level of the chunks (1 fast .. 19 small); 0 = no compression.
+    pub zstd_level: u32,
+}
+
+impl Default for RecordingSettings {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            directory: "recorded_runs".into(),
+            bag_name: None,
+            chunk_size_kib: 256,
+            zstd_level: 3,
+        }
+    }
+}
+
+impl RecordingSettings {
+    pub fn validate(&self) -> Result<()> {
+        if self.directory.trim().is_empty() {
+            return Err(Error::invalid("recording.directory", "must not be empty"));
+        }
+        if let Some(name) = &self.bag_name {
+            if name.is_empty() || name.contains('/') || name == "." || name == ".." {
+                return Err(Error::invalid(
+                    "recording.bag_name",
+                    format!("\"{name}\" is not a plain directory name"),
+                ));
+            }
+        }
+        if self.chunk_size_kib == 0 {
+            return Err(Error::invalid(
+                "recording.chunk_size_kib",
+                "must be at least 1",
+            ));
+        }
+        if self.zstd_level > 19 {
+            return Err(Error::invalid(
+                "recording.zstd_level",
+                format!("{} is above zstd's maximum 19", self.zstd_level),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// A cell: node settings and the geometry and limits of both machines.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct NodeConfig {
     pub node: NodeSettings,
+    pub recording: RecordingSettings,
     pub mill5: Mill5Config,
     pub belt6: Belt6Config,
 }
@@ -105,6 +164,7 @@ impl NodeConfig {
             }
         }
         self.interfaces()?;
+        self.recording.validate()?;
         self.machines().validate()
     }
 

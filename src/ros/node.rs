@@ -11,6 +11,7 @@
 use super::config::NodeConfig;
 use super::convert;
 use super::msgs::{self, RosMessage};
+use super::recorder::Recorder;
 use crate::error::{Error, Result};
 use crate::formats::job::DEFAULT_FEED_RATE;
 use crate::formats::{Job, Machine, Shape};
@@ -177,19 +178,24 @@ struct Outputs {
     belt6: Mutex<Publisher<msgs::JointTrajectory>>,
     markers: Mutex<Publisher<msgs::MarkerArray>>,
     frame_id: String,
-}
-
-fn publish<M: RosMessage>(p: &Mutex<Publisher<M>>, topic: &str, m: M) {
-    let guard = match p.lock() {
-        Ok(g) => g,
-        Err(poisoned) => poisoned.into_inner(),
-    };
-    if let Err(e) = guard.publish(m) {
-        log::error!("cannot publish on {topic}: {e:?}");
-    }
+    recorder: Option<Arc<Recorder>>,
 }
 
 impl Outputs {
+    /// Publishes `m` on `topic` (and records it when the run is recorded).
+    fn publish<M: RosMessage>(&self, p: &Mutex<Publisher<M>>, topic: &str, m: M) {
+        if let Some(r) = &self.recorder {
+            r.record(topic, &m);
+        }
+        let guard = match p.lock() {
+            Ok(g) => g,
+            Err(poisoned) => poisoned.into_inner(),
+        };
+        if let Err(e) = guard.publish(m) {
+            log::error!("cannot publish on {topic}: {e:?}");
+        }
+    }
+
     fn header(&self) -> msgs::Header {
         msgs::Header {
             stamp: msgs::Time::now(),
@@ -216,7 +222,11 @@ impl Outputs {
             progress,
             message,
         };
-        publish(&self.status, topics::JOB_STATUS, m);
+        let is_final = m.is_final();
+        self.publish(&self.status, topics::JOB_STATUS, m);
+        if let (true, Some(r)) = (is_final, &self.recorder) {
+            r.job_done();
+        }
     }
 }
 
@@ -385,18 +395,18 @@ fn plan_and_publish(
         trajectory.duration(),
         result.stats.compute_ms
     );
-    publish(&outputs.toolpath, topics::TOOLPATH, toolpath);
-    publish(
+    outputs.publish(&outputs.toolpath, topics::TOOLPATH, toolpath);
+    outputs.publish(
         &outputs.poses,
         topics::TOOL_POSES,
         convert::pose_array(&job, &result, header.clone()),
     );
     let traj = convert::joint_trajectory_msg(&trajectory, header.clone());
     match job.machine {
-        Machine::Mill5 => publish(&outputs.mill5, topics::MILL5_TRAJECTORY, traj),
-        Machine::Belt6 => publish(&outputs.belt6, topics::BELT6_TRAJECTORY, traj),
+        Machine::Mill5 => outputs.publish(&outputs.mill5, topics::MILL5_TRAJECTORY, traj),
+        Machine::Belt6 => outputs.publish(&outputs.belt6, topics::BELT6_TRAJECTORY, traj),
     }
-    publish(
+    outputs.publish(
         &outputs.markers,
         topics::MARKERS,
         convert::markers(&result, header),
@@ -515,6 +525,15 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     let surfaces = ros.subscription::<msgs::Surface>(topics::SURFACE, qos::reader(qos::shapes()))?;
     let pockets = ros.subscription::<msgs::Pocket>(topics::POCKET, qos::reader(qos::shapes()))?;
     let jobs = ros.subscription::<msgs::Job>(topics::JOB, qos::reader(qos::job()))?;
+    let recorder = if config.recording.enabled {
+        Some(Arc::new(Recorder::start(
+            &config.recording,
+            &settings.name,
+            &settings.namespace,
+        )?))
+    } else {
+        None
+    };
     let outputs = Arc::new(Outputs {
         status: Mutex::new(ros.publisher(topics::JOB_STATUS, qos::status())?),
         toolpath: Mutex::new(ros.publisher(topics::TOOLPATH, qos::results())?),
@@ -523,6 +542,7 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         belt6: Mutex::new(ros.publisher(topics::BELT6_TRAJECTORY, qos::results())?),
         markers: Mutex::new(ros.publisher(topics::MARKERS, qos::results())?),
         frame_id: settings.frame_id.clone(),
+        recorder: recorder.clone(),
     });
     let shared = Arc::new(Shared {
         state: Mutex::new(State::default()),
@@ -544,8 +564,12 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     }
     let timeout = Duration::from_secs_f64(settings.surface_timeout_s);
     let machines = config.machines();
+    let recording = recorder
+        .as_ref()
+        .map(|r| format!(", recording to {}", r.directory().display()))
+        .unwrap_or_default();
     println!(
-        "ready: node {} on ROS domain {domain}, interfaces {}",
+        "ready: node {} on ROS domain {domain}, interfaces {}{recording}",
         ros.node.fully_qualified_name(),
         settings.interfaces.join(",")
     );
@@ -560,11 +584,19 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     loop {
         tokio::select! {
             Some(r) = job_stream.next() => match r {
-                Ok((msg, _)) => receive_job(&shared, &outputs, &machines, msg, timeout),
+                Ok((msg, _)) => {
+                    if let Some(rec) = &recorder {
+                        rec.record(topics::JOB, &msg);
+                    }
+                    receive_job(&shared, &outputs, &machines, msg, timeout)
+                }
                 Err(e) => log::error!("undecodable message on topic job: {e:?}"),
             },
             Some(r) = surface_stream.next() => match r {
                 Ok((msg, _)) => {
+                    if let Some(rec) = &recorder {
+                        rec.record(topics::SURFACE, &msg);
+                    }
                     let shape = convert::surface_from_msg(&msg).map(Shape::Surface);
                     receive_shape(&shared, msg.surface_id, shape);
                 }
@@ -572,6 +604,9 @@ pub async fn run(config: NodeConfig) -> Result<()> {
             },
             Some(r) = pocket_stream.next() => match r {
                 Ok((msg, _)) => {
+                    if let Some(rec) = &recorder {
+                        rec.record(topics::POCKET, &msg);
+                    }
                     let shape = convert::pocket_from_msg(&msg).map(Shape::Pocket);
                     receive_shape(&shared, msg.pocket_id, shape);
                 }
@@ -586,6 +621,20 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     // Workers finish their current job; the process exits after them.
     for h in handles {
         let _ = h.join();
+    }
+    if let Some(r) = &recorder {
+        match r.finish() {
+            Some(Ok(b)) => log::info!(
+                "recorded {}: {} messages, {} chunks, {} bytes ({} uncompressed)",
+                b.directory.display(),
+                b.messages,
+                b.chunks,
+                b.file_bytes,
+                b.uncompressed_bytes
+            ),
+            Some(Err(e)) => log::error!("recording {}: {e}", r.directory().display()),
+            None => {}
+        }
     }
     Ok(())
 }

@@ -1,0 +1,202 @@
+//! Recording the node's run as a rosbag2 bag (the `recording:` config section).
+//!
+//! Every message the node receives (surface, pocket, job) or publishes (all
+//! outputs) is handed to one writer thread as a clone; the thread serialises
+//! it to CDR and writes it, so recording adds a clone, not serialisation or
+//! compression, to a job's latency. After a job's final status the current
+//! chunk is closed and written (once the queue is empty, so a burst of jobs
+//! shares chunks): a node killed with SIGKILL leaves a .mcap whose finished
+//! jobs are readable. On a normal stop (SIGINT/SIGTERM) the summary and
+//! metadata.yaml are written.
+
+use super::config::RecordingSettings;
+use super::msgs::RosMessage;
+use crate::error::{Error, Result};
+use crate::recording::{now_ns, runs, to_cdr, BagSummary, BagWriter, WriterOptions};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, Receiver, Sender, TryRecvError};
+use std::sync::Mutex;
+use std::thread::JoinHandle;
+
+type Encode = Box<dyn FnOnce() -> Result<Vec<u8>> + Send>;
+
+enum Entry {
+    Message {
+        topic: String,
+        time_ns: u64,
+        encode: Encode,
+    },
+    /// A job is finished: close the chunk once nothing else is waiting.
+    JobDone,
+}
+
+/// The recorder of one node run.
+pub struct Recorder {
+    namespace: String,
+    directory: PathBuf,
+    tx: Mutex<Option<Sender<Entry>>>,
+    thread: Mutex<Option<JoinHandle<Result<BagSummary>>>>,
+}
+
+/// `YYYYMMDDTHHMMSSZ` of a Unix time in seconds (UTC, proleptic Gregorian).
+pub fn utc_stamp(unix_s: u64) -> String {
+    let days = (unix_s / 86_400) as i64;
+    let secs = unix_s % 86_400;
+    // Howard Hinnant's civil_from_days.
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}{m:02}{d:02}T{:02}{:02}{:02}Z",
+        secs / 3600,
+        secs / 60 % 60,
+        secs % 60
+    )
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    match m.lock() {
+        Ok(g) => g,
+        Err(p) => p.into_inner(),
+    }
+}
+
+impl Recorder {
+    /// Creates the bag (an error names the directory when it cannot be made)
+    /// and starts the writer thread.
+    pub fn start(settings: &RecordingSettings, node_name: &str, namespace: &str) -> Result<Self> {
+        let name = settings.bag_name.clone().unwrap_or_else(|| {
+            format!(
+                "{node_name}_{}_{}",
+                utc_stamp(now_ns() / 1_000_000_000),
+                std::process::id()
+            )
+        });
+        let directory = Path::new(&settings.directory).join(name);
+        let options = WriterOptions {
+            chunk_size: settings.chunk_size_kib.saturating_mul(1024),
+            compress: settings.zstd_level > 0,
+            compression_level: settings.zstd_level,
+        };
+        let mut writer = BagWriter::create(&directory, options).map_err(|e| match e {
+            Error::Invalid { message, .. } => Error::invalid("recording.directory", message),
+            other => other,
+        })?;
+        for spec in runs::topic_specs_in(namespace) {
+            writer.add_topic(&spec)?;
+        }
+        // Shapes and the header record are on disk before the first job.
+        writer.flush()?;
+        let (tx, rx) = mpsc::channel();
+        let thread = std::thread::Builder::new()
+            .name("recorder".into())
+            .spawn(move || write_loop(writer, rx))
+            .map_err(|e| Error::planning(format!("cannot start the recorder thread: {e}")))?;
+        Ok(Recorder {
+            namespace: namespace.trim_end_matches('/').to_string(),
+            directory,
+            tx: Mutex::new(Some(tx)),
+            thread: Mutex::new(Some(thread)),
+        })
+    }
+
+    /// The bag directory.
+    pub fn directory(&self) -> &Path {
+        &self.directory
+    }
+
+    fn send(&self, entry: Entry) {
+        if let Some(tx) = lock(&self.tx).as_ref() {
+            // A stopped writer thread has logged why; recording is best effort.
+            let _ = tx.send(entry);
+        }
+    }
+
+    /// Records `msg` on the node topic `relative` (as received or published now).
+    pub fn record<M: RosMessage>(&self, relative: &str, msg: &M) {
+        let msg = msg.clone();
+        self.send(Entry::Message {
+            topic: format!("{}/{relative}", self.namespace),
+            time_ns: now_ns(),
+            encode: Box::new(move || to_cdr(&msg)),
+        });
+    }
+
+    /// A job got its final status: its messages form a unit on disk.
+    pub fn job_done(&self) {
+        self.send(Entry::JobDone);
+    }
+
+    /// Writes what is queued, the summary and metadata.yaml. Idempotent.
+    pub fn finish(&self) -> Option<Result<BagSummary>> {
+        drop(lock(&self.tx).take());
+        let handle = lock(&self.thread).take()?;
+        Some(handle.join().unwrap_or_else(|_| {
+            Err(Error::planning(
+                "the recorder thread panicked (please report)",
+            ))
+        }))
+    }
+}
+
+impl Drop for Recorder {
+    fn drop(&mut self) {
+        let _ = self.finish();
+    }
+}
+
+fn write_loop(mut writer: BagWriter, rx: Receiver<Entry>) -> Result<BagSummary> {
+    let mut flush_due = false;
+    loop {
+        let entry = if flush_due {
+            match rx.try_recv() {
+                Ok(e) => Some(e),
+                Err(TryRecvError::Empty) => {
+                    if let Err(e) = writer.flush() {
+                        log::error!("recording: {e}");
+                    }
+                    flush_due = false;
+                    continue;
+                }
+                Err(TryRecvError::Disconnected) => None,
+            }
+        } else {
+            rx.recv().ok()
+        };
+        match entry {
+            None => break,
+            Some(Entry::JobDone) => flush_due = true,
+            Some(Entry::Message {
+                topic,
+                time_ns,
+                encode,
+            }) => {
+                let written = encode().and_then(|data| writer.write_raw(&topic, time_ns, &data));
+                if let Err(e) = written {
+                    log::error!("recording {topic}: {e}");
+                }
+            }
+        }
+    }
+    writer.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn utc_stamps_of_known_dates() {
+        assert_eq!(utc_stamp(0), "19700101T000000Z");
+        // 2000-02-29 12:34:56 UTC (leap day).
+        assert_eq!(utc_stamp(951_827_696), "20000229T123456Z");
+        // 2026-11-22 09:21:01 UTC.
+        assert_eq!(utc_stamp(1_795_339_261), "20261122T092101Z");
+    }
+}

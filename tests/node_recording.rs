@@ -1,0 +1,205 @@
+//! The node records its runs (launch-config `recording:`) and
+//! `toolpath replay BAG --publish` republishes a bag's inputs to a running
+//! node: golden bags republished to a recording node come back identical
+//! (checked by the replay itself), the node's own bag replays identically,
+//! and a node killed with SIGKILL leaves its finished jobs readable.
+//!
+//! Every node runs on loopback on a domain of its own and is stopped by pid.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+use toolpath_planner::machines::Machines;
+use toolpath_planner::recording::read_bag;
+use toolpath_planner::recording::runs::{self, replay};
+use toolpath_planner::ros::msgs;
+
+const BIN: &str = env!("CARGO_BIN_EXE_toolpath");
+
+fn golden(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("bags")
+        .join(name)
+}
+
+/// A domain no other test of this file (or a parallel run) is likely to use.
+fn domain(offset: u32) -> u16 {
+    (201 + (std::process::id() * 3 + offset) % 30) as u16
+}
+
+/// `toolpath node` with recording into `dir/bag_name`; killed by pid on drop.
+struct Node {
+    child: Child,
+    domain: u16,
+}
+
+impl Node {
+    fn start(dir: &Path, bag_name: &str, domain: u16) -> Node {
+        let config = dir.join(format!("{bag_name}.yaml"));
+        std::fs::write(
+            &config,
+            format!(
+                "recording:\n  enabled: true\n  directory: \"{}\"\n  bag_name: {bag_name}\n",
+                dir.display()
+            ),
+        )
+        .unwrap();
+        let mut child = Command::new(BIN)
+            .args(["node", "--config", config.to_str().unwrap()])
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("RUST_LOG", "off")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        let node = Node { child, domain };
+        assert!(line.starts_with("ready"), "node did not start: {line:?}");
+        assert!(
+            line.contains(&format!("recording to {}", dir.join(bag_name).display())),
+            "{line}"
+        );
+        node
+    }
+
+    fn replay_publish(&self, bag: &Path) -> std::process::Output {
+        Command::new(BIN)
+            .args(["replay", bag.to_str().unwrap(), "--publish", "--check"])
+            .args(["--timeout-s", "300"])
+            .env("ROS_DOMAIN_ID", self.domain.to_string())
+            .output()
+            .unwrap()
+    }
+
+    /// SIGTERM, then wait (the node writes the bag's summary and metadata.yaml).
+    fn terminate(mut self) {
+        let pid = nix::unistd::Pid::from_raw(self.child.id() as i32);
+        nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).unwrap();
+        let t0 = Instant::now();
+        while t0.elapsed() < Duration::from_secs(30) {
+            if let Ok(Some(status)) = self.child.try_wait() {
+                assert!(status.success(), "node exit: {status}");
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        panic!("the node did not stop within 30 s of SIGTERM");
+    }
+}
+
+impl Drop for Node {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn assert_same(out: &std::process::Output) {
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("same") && !stdout.contains("DIFFERENT"),
+        "replay --publish --check: {}\n{stdout}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn republished_golden_bags_match_and_the_node_records_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let node = Node::start(tmp.path(), "run", domain(0));
+    // Both machines; the second replay of the same bag must ignore the
+    // answers of the first (the node's outputs are transient-local).
+    for bag in [
+        "iso_parametric_plane",
+        "belt_iso_planar_sine_wave",
+        "iso_parametric_plane",
+    ] {
+        assert_same(&node.replay_publish(&golden(bag)));
+    }
+    node.terminate();
+
+    let bag_dir = tmp.path().join("run");
+    assert!(bag_dir.join("metadata.yaml").is_file());
+    let bag = read_bag(&bag_dir).unwrap();
+    assert!(bag.truncated.is_none());
+    let count = |topic: &str| bag.messages_on(topic).count();
+    assert!(count(runs::SURFACE) >= 2 && count(runs::JOB) == 3);
+    assert_eq!(count(runs::TOOLPATH), 3);
+    assert_eq!(count(runs::MILL5_TRAJECTORY), 2);
+    assert_eq!(count(runs::BELT6_TRAJECTORY), 1);
+    assert_eq!(count(runs::TOOL_POSES), 3);
+    assert_eq!(count(runs::MARKERS), 3);
+    let spec = runs::topic_specs()
+        .into_iter()
+        .find(|s| s.topic == runs::JOB_STATUS)
+        .unwrap();
+    let finals: Vec<msgs::JobStatus> = bag
+        .messages
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| m.topic == runs::JOB_STATUS)
+        .map(|(i, _)| bag.decode::<msgs::JobStatus>(i, &spec).unwrap())
+        .filter(|s| s.is_final())
+        .collect();
+    assert_eq!(finals.len(), 3);
+    assert!(finals.iter().all(|s| s.state == msgs::JobStatus::SUCCEEDED));
+    // The node's bag replays like a golden one; the duplicate job id is
+    // matched to its last run.
+    let report = replay(&bag_dir, &Machines::default()).unwrap();
+    assert_eq!(report.jobs.len(), 3);
+    assert_eq!(report.differences(), 0, "{:?}", report.jobs);
+}
+
+#[test]
+fn a_killed_node_leaves_its_finished_jobs_readable() {
+    let tmp = tempfile::tempdir().unwrap();
+    let node = Node::start(tmp.path(), "killed", domain(1));
+    assert_same(&node.replay_publish(&golden("iso_parametric_plane")));
+    // The chunk of a finished job is written once the recorder's queue is empty.
+    let file = tmp.path().join("killed/killed_0.mcap");
+    let t0 = Instant::now();
+    loop {
+        let bag = read_bag(&file);
+        if bag
+            .as_ref()
+            .is_ok_and(|b| b.messages_on(runs::TOOLPATH).count() == 1)
+        {
+            break;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(10), "{bag:?}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    drop(node); // SIGKILL
+    let dir = tmp.path().join("killed");
+    assert!(!dir.join("metadata.yaml").exists());
+    let report = replay(&dir, &Machines::default()).unwrap();
+    assert!(report.truncated.is_some());
+    assert_eq!(report.jobs.len(), 1);
+    assert_eq!(report.differences(), 0, "{:?}", report.jobs);
+}
+
+#[test]
+fn republishing_a_bad_bag_or_timeout_is_a_clear_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = tmp.path().join("x.mcap");
+    std::fs::write(&p, b"not a bag").unwrap();
+    let out = Command::new(BIN)
+        .args(["replay", p.to_str().unwrap(), "--publish"])
+        .env("ROS_DOMAIN_ID", domain(2).to_string())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not an MCAP file"));
+    let out = Command::new(BIN)
+        .args(["replay", golden("iso_parametric_plane").to_str().unwrap()])
+        .args(["--publish", "--timeout-s=0"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--timeout-s"));
+}
