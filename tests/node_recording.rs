@@ -203,3 +203,35 @@ fn republishing_a_bad_bag_or_timeout_is_a_clear_error() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--timeout-s"));
 }
+
+#[test]
+fn bench_node_prints_its_table() {
+    // A tiny run: the figures themselves come from an idle machine (README).
+    let out = Command::new(BIN)
+        .args([
+            "bench-node",
+            "--jobs",
+            "2",
+            "--points",
+            "600",
+            "--burst",
+            "5",
+        ])
+        .env("ROS_DOMAIN_ID", domain(3).to_string())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("node: job received -> toolpath published - planning"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("burst: 5 jobs sent back to back, 5 final statuses (5 SUCCEEDED), 0 lost, 0 duplicate finals"),
+        "{stdout}"
+    );
+}

@@ -66,7 +66,7 @@ impl Drop for NodeChild {
 
 /// A domain of its own (so the demo never talks to another node), unless
 /// ROS_DOMAIN_ID asks for one.
-fn demo_domain() -> u16 {
+pub fn demo_domain() -> u16 {
     if let Some(d) = std::env::var("ROS_DOMAIN_ID")
         .ok()
         .and_then(|s| s.trim().parse::<u16>().ok())
@@ -81,6 +81,18 @@ fn demo_domain() -> u16 {
 
 /// Starts `toolpath node [--config CONFIG]` on `domain` and waits for its ready line.
 pub fn start_node(domain: u16, config: Option<&Path>) -> Result<NodeChild> {
+    let log = std::env::var("RUST_LOG").unwrap_or_else(|_| "off".into());
+    start_node_with(domain, config, &log, false).map(|(n, _)| n)
+}
+
+/// [`start_node`] with the node's RUST_LOG filter, and its stderr piped to
+/// the caller when `capture_stderr` (else inherited).
+pub fn start_node_with(
+    domain: u16,
+    config: Option<&Path>,
+    rust_log: &str,
+    capture_stderr: bool,
+) -> Result<(NodeChild, Option<std::process::ChildStderr>)> {
     let exe = std::env::current_exe()
         .map_err(|e| Error::planning(format!("cannot find the toolpath binary: {e}")))?;
     let mut cmd = Command::new(exe);
@@ -90,20 +102,22 @@ pub fn start_node(domain: u16, config: Option<&Path>) -> Result<NodeChild> {
     }
     let mut child = cmd
         .env("ROS_DOMAIN_ID", domain.to_string())
-        .env(
-            "RUST_LOG",
-            std::env::var("RUST_LOG").unwrap_or_else(|_| "off".into()),
-        )
+        .env("RUST_LOG", rust_log)
         .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
+        .stderr(if capture_stderr {
+            Stdio::piped()
+        } else {
+            Stdio::inherit()
+        })
         .spawn()
         .map_err(|e| Error::planning(format!("cannot start `toolpath node`: {e}")))?;
     let stdout = child.stdout.take();
+    let stderr = child.stderr.take();
     let guard = NodeChild(child);
     let mut lines =
         BufReader::new(stdout.ok_or_else(|| Error::planning("node stdout missing"))?).lines();
     match lines.next() {
-        Some(Ok(line)) if line.starts_with("ready") => Ok(guard),
+        Some(Ok(line)) if line.starts_with("ready") => Ok((guard, stderr)),
         other => Err(Error::planning(format!(
             "`toolpath node` did not start: {other:?}"
         ))),

@@ -1,6 +1,7 @@
 //! The `toolpath` command line. One module per subcommand; this file only
 //! parses arguments and maps errors to exit codes (2 for bad input).
 
+mod bench_node;
 mod compare;
 mod compare_milling;
 mod compare_mpec;
@@ -99,6 +100,18 @@ pub enum Command {
         #[arg(long)]
         map: Option<PathBuf>,
     },
+    /// Benchmark the node on loopback: overhead beyond planning (p50/p90/p99) and a job burst.
+    BenchNode {
+        /// Jobs timed one at a time (after 3 warm-up jobs).
+        #[arg(long, default_value_t = 200)]
+        jobs: usize,
+        /// Points per timed toolpath (about).
+        #[arg(long, default_value_t = 10_000)]
+        points: usize,
+        /// Jobs sent back to back in the burst (0: no burst).
+        #[arg(long, default_value_t = 200)]
+        burst: usize,
+    },
     /// Run the ROS 2 node.
     Node {
         /// Cell configuration (launch_configs/*.yaml).
@@ -179,6 +192,11 @@ pub fn run() -> i32 {
         Command::Compare { job } => compare::run(&job),
         Command::Simulate { job, result, map } => simulate::run(&job, &result, map.as_deref()),
         Command::Node { config } => node::run(config.as_deref()),
+        Command::BenchNode {
+            jobs,
+            points,
+            burst,
+        } => bench_node::run(jobs, points, burst),
         Command::Record {
             job,
             output,

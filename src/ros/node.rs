@@ -25,8 +25,12 @@ use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, Subscription,
 };
 use std::collections::{BTreeMap, VecDeque};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
+
+/// Start of the per-job timing line the node logs at debug level.
+pub const TIMING_TAG: &str = "timing:";
 
 /// Topic names, relative to the node namespace.
 pub mod topics {
@@ -179,6 +183,8 @@ struct Outputs {
     markers: Mutex<Publisher<msgs::MarkerArray>>,
     frame_id: String,
     recorder: Option<Arc<Recorder>>,
+    /// The last header stamp given out, ns since the epoch.
+    last_stamp_ns: AtomicU64,
 }
 
 impl Outputs {
@@ -196,9 +202,30 @@ impl Outputs {
         }
     }
 
+    /// A header stamped now, strictly later than every earlier stamp of this
+    /// node: the outputs of one job share a stamp that no other job's outputs
+    /// carry, so clients can match them to their Toolpath by stamp.
     fn header(&self) -> msgs::Header {
+        let now = msgs::Time::now();
+        let now_ns = u64::try_from(now.sec).unwrap_or(0) * 1_000_000_000 + u64::from(now.nanosec);
+        let mut prev = self.last_stamp_ns.load(Ordering::Relaxed);
+        let ns = loop {
+            let next = now_ns.max(prev + 1);
+            match self.last_stamp_ns.compare_exchange_weak(
+                prev,
+                next,
+                Ordering::Relaxed,
+                Ordering::Relaxed,
+            ) {
+                Ok(_) => break next,
+                Err(p) => prev = p,
+            }
+        };
         msgs::Header {
-            stamp: msgs::Time::now(),
+            stamp: msgs::Time {
+                sec: i32::try_from(ns / 1_000_000_000).unwrap_or(i32::MAX),
+                nanosec: (ns % 1_000_000_000) as u32,
+            },
             frame_id: self.frame_id.clone(),
         }
     }
@@ -377,7 +404,9 @@ fn plan_and_publish(
         job_id: &job.job_id,
         last: Mutex::new((Instant::now(), 0.0)),
     };
+    let planning_started = Instant::now();
     let result = pipeline::run(&job, &progress, options)?;
+    let planning = planning_started.elapsed();
     let trajectory = crate::machines::trajectory(&job, &result, machines)?;
     let header = outputs.header();
     let toolpath = convert::toolpath_msg(
@@ -396,6 +425,13 @@ fn plan_and_publish(
         result.stats.compute_ms
     );
     outputs.publish(&outputs.toolpath, topics::TOOLPATH, toolpath);
+    // `toolpath bench-node` reads this line (target: debug, this module).
+    log::debug!(
+        "{TIMING_TAG} job={} received_to_toolpath_published_ms={:.3} planning_ms={:.3}",
+        job.job_id,
+        p.received.elapsed().as_secs_f64() * 1e3,
+        planning.as_secs_f64() * 1e3
+    );
     outputs.publish(
         &outputs.poses,
         topics::TOOL_POSES,
@@ -410,11 +446,6 @@ fn plan_and_publish(
         &outputs.markers,
         topics::MARKERS,
         convert::markers(&result, header),
-    );
-    log::debug!(
-        "job {} handled {:.1} ms after it arrived",
-        job.job_id,
-        p.received.elapsed().as_secs_f64() * 1e3
     );
     Ok(summary)
 }
@@ -543,6 +574,7 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         markers: Mutex::new(ros.publisher(topics::MARKERS, qos::results())?),
         frame_id: settings.frame_id.clone(),
         recorder: recorder.clone(),
+        last_stamp_ns: AtomicU64::new(0),
     });
     let shared = Arc::new(Shared {
         state: Mutex::new(State::default()),

@@ -1,5 +1,6 @@
-"""Every message of every golden bag decodes with the independent readers:
-`mcap` + `mcap-ros2-support`, and `rosbags` (bag directory and bare .mcap)."""
+"""Every message of every golden bag, and of a bag recorded by the node itself,
+decodes with the independent readers: `mcap` + `mcap-ros2-support`, and
+`rosbags` (bag directory and bare .mcap)."""
 
 from pathlib import Path
 
@@ -9,17 +10,18 @@ from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore, get_types_from_msg
 
+from harness import msgs
+from harness.client import Client, job, quadratic_surface, tool
+from harness.process import NodeProcess
+
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = sorted(p for p in (ROOT / "bags").iterdir() if (p / "metadata.yaml").is_file())
 
 
-def test_there_are_golden_bags():
-    assert len(BAGS) >= 5
-
-
-@pytest.mark.parametrize("bag", BAGS, ids=[b.name for b in BAGS])
-def test_mcap_ros2_decodes_every_message(bag):
+def decode_with_mcap_ros2(bag):
+    """[(topic, message)] of the bag's .mcap, decoded by mcap-ros2-support."""
     mcap_file = bag / f"{bag.name}_0.mcap"
+    out = []
     with open(mcap_file, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         assert reader.get_header().profile == "ros2"
@@ -29,22 +31,18 @@ def test_mcap_ros2_decodes_every_message(bag):
         for channel in summary.channels.values():
             assert channel.message_encoding == "cdr"
             assert "offered_qos_profiles" in channel.metadata
-        count = 0
-        topics = set()
         for schema, channel, message, msg in reader.iter_decoded_messages():
-            count += 1
-            topics.add(channel.topic)
-            if channel.topic == "/job":
-                assert msg.job_id == bag.name
+            out.append((channel.topic, msg))
             if channel.topic == "/toolpath":
                 assert sum(len(p.points) for p in msg.passes) == msg.stats.points
-        assert count == summary.statistics.message_count
-        assert {"/job", "/job_status"} <= topics
+        assert len(out) == summary.statistics.message_count
+    return out
 
 
-@pytest.mark.parametrize("bag", BAGS, ids=[b.name for b in BAGS])
-def test_rosbags_decodes_every_message(bag):
+def decode_with_rosbags(bag):
+    """[(topic, message)] of the bag directory and of its bare .mcap, by rosbags."""
     store = get_typestore(Stores.ROS2_JAZZY)
+    out = []
     for path in (bag, bag / f"{bag.name}_0.mcap"):
         with Reader(path) as reader:
             types = {}
@@ -56,5 +54,55 @@ def test_rosbags_decodes_every_message(bag):
                 msg = store.deserialize_cdr(raw, conn.msgtype)
                 if conn.topic == "/job_status":
                     assert msg.state in (0, 1, 2, 3, 4)
+                out.append((conn.topic, msg))
                 count += 1
             assert count == reader.message_count > 0
+    return out
+
+
+def test_there_are_golden_bags():
+    assert len(BAGS) >= 7
+
+
+@pytest.mark.parametrize("bag", BAGS, ids=[b.name for b in BAGS])
+def test_mcap_ros2_decodes_every_message(bag):
+    got = decode_with_mcap_ros2(bag)
+    topics = {t for t, _ in got}
+    for t, m in got:
+        if t == "/job":
+            assert m.job_id == bag.name
+    assert {"/job", "/job_status"} <= topics
+
+
+@pytest.mark.parametrize("bag", BAGS, ids=[b.name for b in BAGS])
+def test_rosbags_decodes_every_message(bag):
+    decode_with_rosbags(bag)
+
+
+def test_a_bag_recorded_by_the_node_decodes(tmp_path):
+    config = 'recording:\n  enabled: true\n  directory: "%s"\n  bag_name: node_run\n' % tmp_path
+    proc = NodeProcess(config_text=config)
+    c = Client(proc.domain_id)
+    try:
+        assert "recording to %s" % (tmp_path / "node_run") in proc.ready_line
+        c.wait_for_node()
+        c.send_surface(quadratic_surface("rec_trough", 0, 40, -20, 20, ky=0.01))
+        c.send_job(job("rec_ok", "rec_trough", "iso_parametric", tool("flat_end", radius=2.5),
+                       scallop=0.5, lead_angle_deg=5.0, feed_direction="u"))
+        c.send_job(job("rec_bad", "rec_trough", "spiral", tool("ball", radius=1.0)))
+        got = c.wait_final(["rec_ok", "rec_bad"], timeout=120)
+        assert got["rec_ok"].state == msgs.JobStatus.SUCCEEDED, got["rec_ok"].message
+        assert got["rec_bad"].state == msgs.JobStatus.REJECTED
+    finally:
+        c.close()
+        proc.stop()  # SIGTERM: the node writes metadata.yaml
+    bag = tmp_path / "node_run"
+    assert (bag / "metadata.yaml").is_file()
+    for decoded in (decode_with_mcap_ros2(bag), decode_with_rosbags(bag)):
+        topics = {t for t, _ in decoded}
+        assert {"/surface", "/job", "/toolpath", "/tool_poses", "/mill5/joint_trajectory", "/markers",
+                "/job_status"} <= topics
+        finals = {m.job_id: m.state for t, m in decoded if t == "/job_status" and m.state >= 2}
+        assert finals == {"rec_ok": 2, "rec_bad": 4}
+        jobs = [m.job_id for t, m in decoded if t == "/job"]
+        assert sorted(set(jobs)) == ["rec_bad", "rec_ok"]
