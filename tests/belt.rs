@@ -215,7 +215,7 @@ fn section_normal_ignores_the_sign_of_the_directions() {
         min_curvature_directions, section_normal_from_directions,
     };
     for s in [
-        conical_blade(),
+        flat_blade(),
         egg_crate(3.0, 50.0, 100.0),
         samples::egg_crate(),
         samples::turbine_blade(),

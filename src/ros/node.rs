@@ -553,7 +553,8 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         domain,
         config.interfaces()?,
     )?;
-    let surfaces = ros.subscription::<msgs::Surface>(topics::SURFACE, qos::reader(qos::shapes()))?;
+    let surfaces =
+        ros.subscription::<msgs::Surface>(topics::SURFACE, qos::reader(qos::shapes()))?;
     let pockets = ros.subscription::<msgs::Pocket>(topics::POCKET, qos::reader(qos::shapes()))?;
     let jobs = ros.subscription::<msgs::Job>(topics::JOB, qos::reader(qos::job()))?;
     let recorder = if config.recording.enabled {

@@ -86,27 +86,15 @@ pub fn egg_crate(a: f64, period: f64, size: f64) -> NurbsSurface {
     NurbsSurface::new(3, 3, knots.clone(), knots, &cps, None).expect("valid egg crate")
 }
 
-/// A blade-like developable ruled surface (a general cone): rulings from the
-/// arched curve A(u) at y = 0 towards a far apex, ending at y = 130. About
-/// 70 (arc 85) x 130 mm, area about 10 000 mm^2, like the paper's turbine blade.
-pub fn conical_blade() -> NurbsSurface {
-    let apex = [35.0, 600.0, 30.0];
-    let a = [
-        [0.0, 0.0, 0.0],
-        [23.0, 0.0, 27.0],
-        [47.0, 0.0, 27.0],
-        [70.0, 0.0, 0.0],
-    ];
-    let lambda = (apex[1] - 130.0) / apex[1];
-    let cps: Vec<Vec<[f64; 3]>> = a
+/// A developable blade (a general cone): the cubic root section `root` at
+/// y = 0 ruled towards `apex`, the tip section being the root scaled by
+/// `taper` towards the apex.
+pub fn cone_blade(root: [[f64; 3]; 4], apex: [f64; 3], taper: f64) -> NurbsSurface {
+    let cps: Vec<Vec<[f64; 3]>> = root
         .iter()
         .map(|p| {
-            let b = [
-                apex[0] + lambda * (p[0] - apex[0]),
-                apex[1] + lambda * (p[1] - apex[1]),
-                apex[2] + lambda * (p[2] - apex[2]),
-            ];
-            vec![*p, b]
+            let tip = std::array::from_fn(|k| apex[k] + taper * (p[k] - apex[k]));
+            vec![*p, tip]
         })
         .collect();
     NurbsSurface::new(
@@ -120,36 +108,19 @@ pub fn conical_blade() -> NurbsSurface {
     .expect("valid blade")
 }
 
-/// A flatter developable blade (chord 100 -> 70 mm over 120 mm, camber 12 mm).
+/// A flatter blade than the built-in turbine_blade (chord 100 -> 70 mm over
+/// 120 mm, camber 12 mm).
 pub fn flat_blade() -> NurbsSurface {
-    let apex = [50.0, 400.0, 0.0];
-    let taper = 0.7;
-    let root = [
-        [0.0, 0.0, 0.0],
-        [30.0, 0.0, 12.0],
-        [70.0, 0.0, 10.0],
-        [100.0, 0.0, 0.0],
-    ];
-    let cps: Vec<Vec<[f64; 3]>> = root
-        .iter()
-        .map(|p| {
-            let tip = [
-                apex[0] + taper * (p[0] - apex[0]),
-                apex[1] + taper * (p[1] - apex[1]),
-                apex[2] + taper * (p[2] - apex[2]),
-            ];
-            vec![*p, tip]
-        })
-        .collect();
-    NurbsSurface::new(
-        3,
-        1,
-        clamped_knots(4, 3),
-        vec![0.0, 0.0, 1.0, 1.0],
-        &cps,
-        None,
+    cone_blade(
+        [
+            [0.0, 0.0, 0.0],
+            [30.0, 0.0, 12.0],
+            [70.0, 0.0, 10.0],
+            [100.0, 0.0, 0.0],
+        ],
+        [50.0, 400.0, 0.0],
+        0.7,
     )
-    .expect("valid blade")
 }
 
 /// Flat 100 x 100 square at z = 0.
