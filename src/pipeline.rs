@@ -85,7 +85,15 @@ pub fn fill_path_stats(result: &mut PlanResult, feed_rate: f64) {
         Some(tools) => tools.iter().map(|t| t.passes.len()).sum(),
         None => result.passes.len(),
     };
-    result.stats.points = Some(result.point_count());
+    result.stats.points = Some(match &result.tools {
+        // Pockets: the tool-centre points of every tool.
+        Some(tools) => tools
+            .iter()
+            .flat_map(|t| t.passes.iter())
+            .map(Vec::len)
+            .sum(),
+        None => result.point_count(),
+    });
     result.stats.machining_time_min = Some(length / feed_rate);
 }
 

@@ -367,6 +367,14 @@ fn result_fields_and_determinism() {
     // The pipeline's total is the sum over the tools' flattened paths.
     let total: f64 = per_tool.iter().sum();
     assert!((a.stats.path_length_mm - total).abs() < 1e-3 * total);
+    // Counts: passes and tool-centre points of every tool, time at the feed rate.
+    let passes: usize = tools.iter().map(|t| t.passes.len()).sum();
+    let points: usize = tools.iter().flat_map(|t| &t.passes).map(Vec::len).sum();
+    assert!(points > passes && passes > 0);
+    assert_eq!(a.stats.passes, passes);
+    assert_eq!(a.stats.points, Some(points));
+    let minutes = a.stats.machining_time_min.unwrap();
+    assert!((minutes - a.stats.path_length_mm / job.feed_rate).abs() < 1e-9 * minutes);
 }
 
 #[test]

@@ -128,6 +128,10 @@ struct Boundary {
     /// Per segment: (a, b, vertex before a, vertex after b) in scaled coordinates.
     segs: Vec<(Point2, Point2, Point2, Point2)>,
     ints: Vec<[i32; 4]>,
+    /// Per segment: its start vertex in mm (unrounded) and its loop's first
+    /// segment index and length.
+    start_mm: Vec<Point2>,
+    loop_of: Vec<(usize, usize)>,
     center: Point2,
     scale: f64,
 }
@@ -147,18 +151,23 @@ impl Boundary {
         let scale = UNITS_PER_MM.min((1u64 << 29) as f64 / half.max(1e-9));
         let mut segs = Vec::new();
         let mut ints = Vec::new();
+        let mut start_mm = Vec::new();
+        let mut loop_of = Vec::new();
         let loops = std::iter::once(&pocket.outer).chain(pocket.holes.iter());
         for (l, poly) in loops.enumerate() {
             let mut q: Vec<[i32; 2]> = Vec::with_capacity(poly.len());
+            let mut qmm: Vec<Point2> = Vec::with_capacity(poly.len());
             for p in poly {
                 let x = ((p[0] - center[0]) * scale).round() as i32;
                 let y = ((p[1] - center[1]) * scale).round() as i32;
                 if q.last() != Some(&[x, y]) {
                     q.push([x, y]);
+                    qmm.push(*p);
                 }
             }
             while q.len() > 1 && q.first() == q.last() {
                 q.pop();
+                qmm.pop();
             }
             if q.len() < 3 {
                 let field = if l == 0 {
@@ -173,6 +182,9 @@ impl Boundary {
             }
             let n = q.len();
             let f = |v: [i32; 2]| [v[0] as f64, v[1] as f64];
+            let first = segs.len();
+            start_mm.extend(qmm);
+            loop_of.extend(std::iter::repeat_n((first, n), n));
             for i in 0..n {
                 let (a, b, prev, next) = (q[i], q[(i + 1) % n], q[(i + n - 1) % n], q[(i + 2) % n]);
                 segs.push((f(a), f(b), f(prev), f(next)));
@@ -182,6 +194,8 @@ impl Boundary {
         Ok(Self {
             segs,
             ints,
+            start_mm,
+            loop_of,
             center,
             scale,
         })
@@ -224,6 +238,8 @@ struct KeptEdge {
     v1: usize,
     points: Vec<[f64; 3]>,
     angle: f64,
+    /// The two boundary segments it separates (None unless both sites are segments).
+    segments: Option<[usize; 2]>,
 }
 
 /// Samples the edge between two Voronoi vertices separated by sites s1 and s2.
@@ -374,16 +390,20 @@ pub fn medial_axis(pocket: &Pocket) -> Result<MedialAxis> {
                 [q[0], q[1], s1.distance(p) / bd.scale]
             })
             .collect();
+        let segments =
+            (k1 == SourceCategory::Segment && k2 == SourceCategory::Segment).then_some([i1, i2]);
         kept.push(KeptEdge {
             v0: v0.usize(),
             v1: v1.usize(),
             points,
             angle,
+            segments,
         });
     }
     let centre = bd.to_mm(best.1);
     let rmax = best.0 / bd.scale;
-    let (branches, nodes) = chain_branches(&kept, vertices.len());
+    let (mut branches, end_segments, mut nodes) = chain_branches(&kept, vertices.len());
+    extend_smooth_ends(&mut branches, &end_segments, &mut nodes, &bd);
     let min_corner_radius = corner_radii(&branches, &nodes)
         .min_by(f64::total_cmp)
         .unwrap_or(rmax);
@@ -422,8 +442,14 @@ fn corner_radii<'a>(branches: &'a [Branch], nodes: &'a [Node]) -> impl Iterator<
     })
 }
 
+/// The boundary segments either side of a branch's first and last edge.
+type EndSegments = [Option<[usize; 2]>; 2];
+
 /// Joins kept edges through degree-2 vertices into branches.
-fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<Node>) {
+fn chain_branches(
+    kept: &[KeptEdge],
+    vertex_count: usize,
+) -> (Vec<Branch>, Vec<EndSegments>, Vec<Node>) {
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); vertex_count];
     for (k, e) in kept.iter().enumerate() {
         if let Some(v) = incident.get_mut(e.v0) {
@@ -437,6 +463,7 @@ fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<N
     let mut nodes: Vec<Node> = Vec::new();
     let mut used = vec![false; kept.len()];
     let mut branches = Vec::new();
+    let mut end_segments: Vec<EndSegments> = Vec::new();
     let mut node_id = |v: usize, p: [f64; 3], nodes: &mut Vec<Node>, deg: usize| -> usize {
         *node_of[v].get_or_insert_with(|| {
             nodes.push(Node {
@@ -449,33 +476,36 @@ fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<N
         })
     };
     // Walk from vertex `v` along edge `k`, through degree-2 vertices.
-    let walk =
-        |start_v: usize, first: usize, used: &mut Vec<bool>| -> (Vec<[f64; 3]>, usize, [f64; 2]) {
-            let mut pts: Vec<[f64; 3]> = Vec::new();
-            let (mut v, mut k) = (start_v, first);
-            let first_angle = kept[first].angle;
-            loop {
-                used[k] = true;
-                let e = &kept[k];
-                let angles = [first_angle, e.angle];
-                let forward = e.v0 == v;
-                let seq: Vec<[f64; 3]> = if forward {
-                    e.points.clone()
-                } else {
-                    e.points.iter().rev().copied().collect()
-                };
-                let skip = usize::from(!pts.is_empty());
-                pts.extend(seq.into_iter().skip(skip));
-                v = if forward { e.v1 } else { e.v0 };
-                if incident[v].len() != 2 || v == start_v {
-                    return (pts, v, angles);
-                }
-                match incident[v].iter().copied().find(|&j| !used[j]) {
-                    Some(j) => k = j,
-                    None => return (pts, v, angles),
-                }
+    let walk = |start_v: usize,
+                first: usize,
+                used: &mut Vec<bool>|
+     -> (Vec<[f64; 3]>, usize, [f64; 2], EndSegments) {
+        let mut pts: Vec<[f64; 3]> = Vec::new();
+        let (mut v, mut k) = (start_v, first);
+        let first_angle = kept[first].angle;
+        loop {
+            used[k] = true;
+            let e = &kept[k];
+            let angles = [first_angle, e.angle];
+            let forward = e.v0 == v;
+            let seq: Vec<[f64; 3]> = if forward {
+                e.points.clone()
+            } else {
+                e.points.iter().rev().copied().collect()
+            };
+            let skip = usize::from(!pts.is_empty());
+            pts.extend(seq.into_iter().skip(skip));
+            v = if forward { e.v1 } else { e.v0 };
+            let ends = [kept[first].segments, e.segments];
+            if incident[v].len() != 2 || v == start_v {
+                return (pts, v, angles, ends);
             }
-        };
+            match incident[v].iter().copied().find(|&j| !used[j]) {
+                Some(j) => k = j,
+                None => return (pts, v, angles, ends),
+            }
+        }
+    };
     for v in 0..vertex_count {
         if incident[v].is_empty() || incident[v].len() == 2 {
             continue;
@@ -485,7 +515,7 @@ fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<N
             if used[k] {
                 continue;
             }
-            let (pts, w, end_angles) = walk(v, k, &mut used);
+            let (pts, w, end_angles, ends) = walk(v, k, &mut used);
             let (Some(&first), Some(&last)) = (pts.first(), pts.last()) else {
                 continue;
             };
@@ -497,6 +527,7 @@ fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<N
                 end: b,
                 end_angles,
             });
+            end_segments.push(ends);
         }
     }
     // Closed loops with no branch point (e.g. around a hole in an annulus).
@@ -505,7 +536,7 @@ fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<N
             continue;
         }
         let v = kept[k].v0;
-        let (pts, _, end_angles) = walk(v, k, &mut used);
+        let (pts, _, end_angles, ends) = walk(v, k, &mut used);
         let Some(&first) = pts.first() else { continue };
         let a = node_id(v, first, &mut nodes, 2);
         branches.push(Branch {
@@ -514,8 +545,126 @@ fn chain_branches(kept: &[KeptEdge], vertex_count: usize) -> (Vec<Branch>, Vec<N
             end: a,
             end_angles,
         });
+        end_segments.push(ends);
     }
-    (branches, nodes)
+    (branches, end_segments, nodes)
+}
+
+/// Completes the branches that stop inside the pocket at a smooth lobe.
+///
+/// A polygonised smooth lobe has no medial-axis end of its own: the axis of
+/// the polygon runs on into the fan of tiny branches towards its vertices,
+/// which the object-angle rule prunes, so the kept axis stops where the
+/// object angle falls to [`MIN_OBJECT_ANGLE`], short of the true end (0.05 mm
+/// short on the 50 x 30 ellipse). The true end is the centre of curvature at
+/// the lobe's curvature maximum, which lies on the boundary between the two
+/// segments of the last kept edge: it is found there from the unrounded
+/// vertices (circle through each vertex and its neighbours, the maximum
+/// refined by a parabola), and kept when it continues the branch (r no larger,
+/// not further than r away).
+fn extend_smooth_ends(
+    branches: &mut [Branch],
+    end_segments: &[EndSegments],
+    nodes: &mut [Node],
+    bd: &Boundary,
+) {
+    let mut done = vec![false; nodes.len()];
+    for (b, ends) in branches.iter_mut().zip(end_segments) {
+        if b.start == b.end {
+            continue;
+        }
+        let mut tips = [None, None];
+        for (side, node) in [b.start, b.end].into_iter().enumerate() {
+            let Some(n) = nodes.get(node) else { continue };
+            // Ends on a polygon vertex (r = 0) are true corners.
+            if n.degree != 1 || n.r <= 1e-6 || done.get(node).copied().unwrap_or(true) {
+                continue;
+            }
+            let Some(tip) = ends[side].and_then(|segs| lobe_centre(bd, segs)) else {
+                continue;
+            };
+            let gap = (tip[0] - n.x).hypot(tip[1] - n.y);
+            if tip[2] <= n.r + 1e-9 && tip[2] > 0.0 && gap <= n.r {
+                tips[side] = Some((node, tip));
+            }
+        }
+        for (side, t) in tips.into_iter().enumerate() {
+            let Some((node, tip)) = t else { continue };
+            if side == 0 {
+                b.points.insert(0, tip);
+            } else {
+                b.points.push(tip);
+            }
+            if let Some(n) = nodes.get_mut(node) {
+                (n.x, n.y, n.r) = (tip[0], tip[1], tip[2]);
+            }
+            if let Some(d) = done.get_mut(node) {
+                *d = true;
+            }
+        }
+    }
+}
+
+/// Centre and radius of curvature (x, y, r) at the curvature maximum of the
+/// boundary between segments `segs` (same loop, the shorter way round).
+fn lobe_centre(bd: &Boundary, segs: [usize; 2]) -> Option<[f64; 3]> {
+    let (&(f0, n), &(f1, n1)) = (bd.loop_of.get(segs[0])?, bd.loop_of.get(segs[1])?);
+    if f0 != f1 || n < 3 || n1 != n {
+        return None;
+    }
+    let (i, j) = (segs[0] - f0, segs[1] - f0);
+    // Vertices strictly after segment `from` up to the start of segment `to`.
+    let fwd = (j + n - i) % n;
+    let (from, count) = if fwd <= n - fwd {
+        (i, fwd)
+    } else {
+        (j, n - fwd)
+    };
+    if count == 0 || count > n / 2 {
+        return None;
+    }
+    let vertex = |k: usize| bd.start_mm.get(f0 + k % n).copied();
+    // Circle through vertices k-1, k, k+1: (centre, curvature); None unless turning left.
+    let circle = |k: usize| -> Option<(Point2, f64)> {
+        let (a, b, c) = (vertex(k + n - 1)?, vertex(k)?, vertex(k + 1)?);
+        let (ab, ac) = (sub(b, a), sub(c, a));
+        let d = 2.0 * cross(ab, ac);
+        if d <= 0.0 {
+            return None;
+        }
+        let (l1, l2) = (dot(ab, ab), dot(ac, ac));
+        let centre = [
+            a[0] + (ac[1] * l1 - ab[1] * l2) / d,
+            a[1] + (ab[0] * l2 - ac[0] * l1) / d,
+        ];
+        Some((centre, 1.0 / norm(sub(centre, b))))
+    };
+    let (mut best, mut best_k) = (0.0, None);
+    for m in 1..=count {
+        let k = from + m;
+        if let Some((_, kappa)) = circle(k) {
+            if kappa > best {
+                best = kappa;
+                best_k = Some(k);
+            }
+        }
+    }
+    let k = best_k?;
+    let (c0, k0) = circle(k)?;
+    let (cm, km) = circle(k + n - 1).unwrap_or((c0, k0));
+    let (cp, kp) = circle(k + 1).unwrap_or((c0, k0));
+    // Parabola through the three curvatures: offset of the maximum in [-1/2, 1/2].
+    let den = km - 2.0 * k0 + kp;
+    let t = if den < 0.0 {
+        (0.5 * (km - kp) / den).clamp(-0.5, 0.5)
+    } else {
+        0.0
+    };
+    let lerp = |i: usize| {
+        cm[i] * 0.5 * t * (t - 1.0) + c0[i] * (1.0 - t * t) + cp[i] * 0.5 * t * (t + 1.0)
+    };
+    let kappa = km * 0.5 * t * (t - 1.0) + k0 * (1.0 - t * t) + kp * 0.5 * t * (t + 1.0);
+    Some([lerp(0), lerp(1), 1.0 / kappa])
 }
 
 #[cfg(test)]
