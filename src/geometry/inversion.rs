@@ -6,9 +6,108 @@
 //! definite, coordinates at a bound held fixed while the gradient pushes
 //! outwards, backtracking on f) converges to a local minimum, so points
 //! beyond the edge of the surface land exactly on the boundary.
+//!
+//! [`invert_in_frame`] is the other inversion the planners need: the
+//! parameters of the surface point with given coordinates along two tangent
+//! directions of a local frame (the part as a height field over a tangent
+//! plane), on the surface continued past its edges ([`extended_derivs`]).
 
-use super::nurbs::NurbsSurface;
-use nalgebra::{Matrix2, Point3, Vector2};
+use super::nurbs::{NurbsSurface, SurfaceDerivs};
+use nalgebra::{Matrix2, Point3, Vector2, Vector3};
+
+/// Positions and derivatives of the surface, continued past its boundary by
+/// the second-order Taylor expansion at the nearest boundary point, so that
+/// tools overhanging the edge see a smooth continuation.
+pub fn extended_derivs(surface: &NurbsSurface, u: f64, v: f64) -> SurfaceDerivs {
+    let (uc, vc) = surface.clamp_uv(u, v);
+    let d = surface.derivs(uc, vc);
+    let (du, dv) = (u - uc, v - vc);
+    if du == 0.0 && dv == 0.0 {
+        return d;
+    }
+    SurfaceDerivs {
+        p: d.p
+            + d.su * du
+            + d.sv * dv
+            + 0.5 * (d.suu * du * du + 2.0 * d.suv * du * dv + d.svv * dv * dv),
+        su: d.su + d.suu * du + d.suv * dv,
+        sv: d.sv + d.suv * du + d.svv * dv,
+        ..d
+    }
+}
+
+/// The point of the extended surface (see [`extended_derivs`]); plain
+/// evaluation inside the domain.
+pub fn extended_point(surface: &NurbsSurface, u: f64, v: f64) -> Point3<f64> {
+    let (uc, vc) = surface.clamp_uv(u, v);
+    if uc == u && vc == v {
+        surface.point(u, v)
+    } else {
+        extended_derivs(surface, u, v).p
+    }
+}
+
+/// A surface point found by [`invert_in_frame`].
+#[derive(Clone, Copy, Debug)]
+pub struct FramePoint {
+    pub uv: Vector2<f64>,
+    /// Derivatives there (on the extended surface).
+    pub derivs: SurfaceDerivs,
+    /// Height (S - origin) . e3 over the tangent plane.
+    pub height: f64,
+    /// Slopes of that height along e1 and e2.
+    pub slope: [f64; 2],
+}
+
+/// The point of the (extended) surface whose offset from `origin` has
+/// components `xy` along the orthonormal directions `e1`, `e2`: Newton on
+/// (u, v) from `seed`, i.e. the surface hit by the line through
+/// origin + x e1 + y e2 along e3 = e1 x e2. Converges where the surface is a
+/// graph over the e1-e2 plane near the seed.
+pub fn invert_in_frame(
+    surface: &NurbsSurface,
+    origin: &Point3<f64>,
+    e1: &Vector3<f64>,
+    e2: &Vector3<f64>,
+    xy: [f64; 2],
+    seed: Vector2<f64>,
+) -> FramePoint {
+    let jac =
+        |d: &SurfaceDerivs| Matrix2::new(d.su.dot(e1), d.sv.dot(e1), d.su.dot(e2), d.sv.dot(e2));
+    let mut uv = seed;
+    let mut d = extended_derivs(surface, uv.x, uv.y);
+    for _ in 0..12 {
+        let r = d.p - origin;
+        let res = Vector2::new(r.dot(e1) - xy[0], r.dot(e2) - xy[1]);
+        if res.norm() < 1e-10 {
+            break;
+        }
+        let Some(ji) = jac(&d).try_inverse() else {
+            break;
+        };
+        uv -= ji * res;
+        d = extended_derivs(surface, uv.x, uv.y);
+    }
+    let e3 = e1.cross(e2);
+    // dh/dx, dh/dy: the parameter steps that move one unit along e1, e2.
+    let slope = jac(&d)
+        .try_inverse()
+        .map(|ji| {
+            let a = ji.column(0);
+            let b = ji.column(1);
+            [
+                (d.su * a.x + d.sv * a.y).dot(&e3),
+                (d.su * b.x + d.sv * b.y).dot(&e3),
+            ]
+        })
+        .unwrap_or([0.0, 0.0]);
+    FramePoint {
+        uv,
+        derivs: d,
+        height: (d.p - origin).dot(&e3),
+        slope,
+    }
+}
 
 /// Result of an inversion.
 #[derive(Clone, Copy, Debug, PartialEq)]

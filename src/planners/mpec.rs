@@ -22,7 +22,8 @@ use super::mpec_error_curve::{
 use super::Progress;
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, Pass, PathPoint, PlanResult};
-use crate::geometry::{LocalGeometry, NurbsSurface, SurfaceDerivs};
+use crate::geometry::inversion::{extended_derivs, extended_point, invert_in_frame};
+use crate::geometry::{LocalGeometry, NurbsSurface};
 use crate::tools::Tool;
 use nalgebra::{Point3, SMatrix, SVector, Vector2, Vector3};
 
@@ -31,27 +32,6 @@ pub const POINT_SPACING: f64 = 1.5;
 
 /// Narrowest usable half strip, mm: below it the passes could not advance.
 const MIN_HALF_WIDTH: f64 = 0.05;
-
-/// Positions and derivatives of the surface, continued past its boundary by
-/// the second-order Taylor expansion at the nearest boundary point, so that
-/// tools overhanging the edge see a smooth continuation.
-pub fn extended_derivs(surface: &NurbsSurface, u: f64, v: f64) -> SurfaceDerivs {
-    let (uc, vc) = surface.clamp_uv(u, v);
-    let d = surface.derivs(uc, vc);
-    let (du, dv) = (u - uc, v - vc);
-    if du == 0.0 && dv == 0.0 {
-        return d;
-    }
-    SurfaceDerivs {
-        p: d.p
-            + d.su * du
-            + d.sv * dv
-            + 0.5 * (d.suu * du * du + 2.0 * d.suv * du * dv + d.svv * dv * dv),
-        su: d.su + d.suu * du + d.suv * dv,
-        sv: d.sv + d.suv * du + d.svv * dv,
-        ..d
-    }
-}
 
 /// The tool's second reference frame at a drive point.
 #[derive(Clone, Copy, Debug)]
@@ -71,62 +51,19 @@ impl Frame {
     }
 }
 
-/// Exact height of the part over the tangent plane: Newton point inversion of
-/// (S(u, v) - P1) . (e1, e2) = (x, y) on the (extended) surface.
+/// Exact height of the part over the tangent plane: the shared point
+/// inversion in the drive point's frame, on the (extended) surface.
 pub struct ExactHeight<'a> {
     pub surface: &'a NurbsSurface,
     pub frame: Frame,
     pub uv: Vector2<f64>,
 }
 
-impl ExactHeight<'_> {
-    fn solve(&self, x: f64, y: f64) -> (SurfaceDerivs, f64, f64, f64) {
-        let f = &self.frame;
-        let mut uv = self.uv;
-        let mut d = extended_derivs(self.surface, uv.x, uv.y);
-        for _ in 0..12 {
-            let r = d.p - f.p;
-            let res = Vector2::new(r.dot(&f.e1) - x, r.dot(&f.e2) - y);
-            let j = nalgebra::Matrix2::new(
-                d.su.dot(&f.e1),
-                d.sv.dot(&f.e1),
-                d.su.dot(&f.e2),
-                d.sv.dot(&f.e2),
-            );
-            let Some(ji) = j.try_inverse() else { break };
-            let step = ji * res;
-            uv -= step;
-            d = extended_derivs(self.surface, uv.x, uv.y);
-            if res.norm() < 1e-10 {
-                break;
-            }
-        }
-        let j = nalgebra::Matrix2::new(
-            d.su.dot(&f.e1),
-            d.sv.dot(&f.e1),
-            d.su.dot(&f.e2),
-            d.sv.dot(&f.e2),
-        );
-        // dh/dx, dh/dy: the parameter steps that move one unit along e1, e2.
-        let (hx, hy) = j
-            .try_inverse()
-            .map(|ji| {
-                let a = ji * Vector2::new(1.0, 0.0);
-                let b = ji * Vector2::new(0.0, 1.0);
-                (
-                    (d.su * a.x + d.sv * a.y).dot(&f.e3),
-                    (d.su * b.x + d.sv * b.y).dot(&f.e3),
-                )
-            })
-            .unwrap_or((0.0, 0.0));
-        (d, (d.p - f.p).dot(&f.e3), hx, hy)
-    }
-}
-
 impl LocalHeight for ExactHeight<'_> {
     fn height(&self, x: f64, y: f64) -> (f64, f64, f64) {
-        let (_, h, hx, hy) = self.solve(x, y);
-        (h, hx, hy)
+        let f = &self.frame;
+        let q = invert_in_frame(self.surface, &f.p, &f.e1, &f.e2, [x, y], self.uv);
+        (q.height, q.slope[0], q.slope[1])
     }
 }
 
@@ -237,7 +174,7 @@ pub fn fit_height(
             let x = x0 + (x1 - x0) * a as f64 / (FIT_GRID - 1) as f64;
             let y = y0 + (y1 - y0) * b as f64 / (FIT_GRID - 1) as f64;
             let uv = g.uv + ji * Vector2::new(x, y);
-            let p = extended_derivs(surface, uv.x, uv.y).p - frame.p;
+            let p = extended_point(surface, uv.x, uv.y) - frame.p;
             let (lx, ly, lz) = (
                 p.dot(&frame.e1) / scale,
                 p.dot(&frame.e2) / scale,
@@ -414,7 +351,7 @@ impl<'a> Planner<'a> {
 
     pub fn point(&self, s: f64, t: f64) -> Point3<f64> {
         let (u, v) = self.uv(s, t);
-        extended_derivs(self.surface, u, v).p
+        extended_point(self.surface, u, v)
     }
 
     /// Frame and geometry at (s, t) on the extended surface.
@@ -441,7 +378,7 @@ impl<'a> Planner<'a> {
         &self,
         s: f64,
         t: f64,
-        hint: Option<f64>,
+        hint: Option<&DrivePoint>,
         inside: bool,
     ) -> Result<DrivePoint> {
         let (g, frame) = self.local(s, t)?;
@@ -458,7 +395,8 @@ impl<'a> Planner<'a> {
         let search = LeadSearch {
             theta_min: self.theta_min,
             phi: self.phi,
-            hint,
+            hint: hint.map(|p| p.solution.pos.theta),
+            strip_hint: hint.map(|p| (p.solution.y_left, p.solution.y_right)),
             ..LeadSearch::default()
         };
         let exact = ExactHeight {
@@ -535,8 +473,8 @@ impl<'a> Planner<'a> {
     pub fn pass(&self, t: f64, samples: &[(f64, bool)]) -> Result<Vec<DrivePoint>> {
         let mut out: Vec<DrivePoint> = Vec::with_capacity(samples.len());
         for &(s, inside) in samples {
-            let hint = out.last().map(|p| p.solution.pos.theta);
-            out.push(self.drive_point(s, t, hint, inside)?);
+            let point = self.drive_point(s, t, out.last(), inside)?;
+            out.push(point);
         }
         Ok(out)
     }
@@ -581,25 +519,59 @@ impl<'a> Planner<'a> {
 
     /// Largest distance between the drive curves at `from` and `to`, over the feed samples.
     pub fn gap(&self, samples: &[(f64, bool)], from: f64, to: f64) -> f64 {
+        let base: Vec<Point3<f64>> = self.curve(samples, from);
+        self.gap_from(samples, &base, to)
+    }
+
+    /// Points of the drive curve at cross parameter `t`, at the inside feed samples.
+    fn curve(&self, samples: &[(f64, bool)], t: f64) -> Vec<Point3<f64>> {
         samples
             .iter()
             .filter(|(_, inside)| *inside)
-            .map(|&(s, _)| (self.point(s, to) - self.point(s, from)).norm())
+            .map(|&(s, _)| self.point(s, t))
+            .collect()
+    }
+
+    fn gap_from(&self, samples: &[(f64, bool)], base: &[Point3<f64>], to: f64) -> f64 {
+        samples
+            .iter()
+            .filter(|(_, inside)| *inside)
+            .zip(base)
+            .map(|(&(s, _), p)| (self.point(s, to) - p).norm())
             .fold(0.0, f64::max)
     }
 
-    /// Cross parameter beyond `from` (towards `end`) at which the gap is `target`.
+    /// Cross parameter beyond `from` (towards `end`) at which the gap is
+    /// `target` (to 1e-6 mm): regula falsi (Illinois) on the gap, which grows
+    /// smoothly and monotonically with the distance from `from`.
     pub fn advance(&self, samples: &[(f64, bool)], from: f64, end: f64, target: f64) -> f64 {
-        if self.gap(samples, from, end) <= target {
+        let base = self.curve(samples, from);
+        let g = |t: f64| self.gap_from(samples, &base, t) - target;
+        let g_end = g(end);
+        if g_end <= 0.0 {
             return end;
         }
-        let (mut a, mut b) = (from, end);
-        for _ in 0..50 {
-            let m = 0.5 * (a + b);
-            if self.gap(samples, from, m) <= target {
-                a = m;
+        let (mut a, mut b, mut ga, mut gb) = (from, end, -target, g_end);
+        let mut side = 0i8;
+        for _ in 0..100 {
+            if ga > -1e-6 || (b - a).abs() <= 1e-12 * (1.0 + a.abs()) {
+                break;
+            }
+            let w = (gb / (gb - ga)).clamp(0.01, 0.99);
+            let m = b - w * (b - a);
+            let gm = g(m);
+            if gm <= 0.0 {
+                (a, ga) = (m, gm);
+                if side == -1 {
+                    gb *= 0.5;
+                }
+                side = -1;
             } else {
-                b = m;
+                (b, gb) = (m, gm);
+                if side == 1 {
+                    ga *= 0.5;
+                }
+                side = 1;
             }
         }
         a
@@ -620,14 +592,7 @@ impl<'a> Planner<'a> {
         fixed: f64,
         guess: f64,
     ) -> Result<(f64, Vec<DrivePoint>)> {
-        let trial: Vec<(f64, bool)> = samples
-            .iter()
-            .enumerate()
-            .filter(|(i, (_, inside))| {
-                *inside && (i % 4 == 0 || samples.get(i + 1).is_none_or(|n| !n.1))
-            })
-            .map(|(_, s)| *s)
-            .collect();
+        let trial = trial_samples(samples);
         let facing_of = |pass: &[DrivePoint]| {
             let (plus, minus) = self.narrowest(pass);
             if end > from {
@@ -678,6 +643,19 @@ impl<'a> Planner<'a> {
     }
 }
 
+/// Every fourth inside feed sample and the last one: enough to find a
+/// pass's narrowest strip while placing it.
+fn trial_samples(samples: &[(f64, bool)]) -> Vec<(f64, bool)> {
+    samples
+        .iter()
+        .enumerate()
+        .filter(|(i, (_, inside))| {
+            *inside && (i % 4 == 0 || samples.get(i + 1).is_none_or(|n| !n.1))
+        })
+        .map(|(_, s)| *s)
+        .collect()
+}
+
 /// Plans an MPEC job.
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     let planner = Planner::from_job(job)?;
@@ -690,7 +668,7 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
     let (_, (t0, t1)) = planner.ranges();
     let mut passes: Vec<Vec<DrivePoint>> = Vec::new();
     // First pass: its lower strip edge on the boundary t0.
-    let probe = planner.pass(t0, &samples)?;
+    let probe = planner.pass(t0, &trial_samples(&samples))?;
     let (_, minus0) = planner.narrowest(&probe);
     if minus0 < MIN_HALF_WIDTH {
         return Err(planner.too_narrow(&probe, false));

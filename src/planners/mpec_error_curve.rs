@@ -69,15 +69,47 @@ pub struct Position {
 /// Sphere centre c(psi) in the local frame (rotated by phi about e3).
 #[inline]
 pub fn sphere_centre(tool: TorusCutter, pos: Position, psi: f64) -> [f64; 3] {
-    let (s, c) = psi.sin_cos();
-    let (st, ct) = pos.theta.sin_cos();
-    let (x, y) = (-tool.r0 * ct * (1.0 - c), tool.r0 * s);
-    let z = tool.r + pos.middle + tool.r0 * st * (1.0 - c);
-    if pos.phi == 0.0 {
-        return [x, y, z];
+    Pose::new(tool, pos).centre(psi)
+}
+
+/// A [`Position`] with its trigonometry done once (the error curve evaluates
+/// thousands of sphere centres per position).
+#[derive(Clone, Copy, Debug)]
+struct Pose {
+    r0: f64,
+    r: f64,
+    /// R0 cos(theta), R0 sin(theta), r + middle.
+    r0c: f64,
+    r0s: f64,
+    base: f64,
+    /// sin, cos of phi; None when phi = 0.
+    phi: Option<(f64, f64)>,
+}
+
+impl Pose {
+    #[inline]
+    fn new(tool: TorusCutter, pos: Position) -> Self {
+        let (st, ct) = pos.theta.sin_cos();
+        Self {
+            r0: tool.r0,
+            r: tool.r,
+            r0c: tool.r0 * ct,
+            r0s: tool.r0 * st,
+            base: tool.r + pos.middle,
+            phi: (pos.phi != 0.0).then(|| pos.phi.sin_cos()),
+        }
     }
-    let (sp, cp) = pos.phi.sin_cos();
-    [x * cp - y * sp, x * sp + y * cp, z]
+
+    #[inline]
+    fn centre(&self, psi: f64) -> [f64; 3] {
+        let (s, c) = psi.sin_cos();
+        let (x, y) = (-self.r0c * (1.0 - c), self.r0 * s);
+        let z = self.base + self.r0s * (1.0 - c);
+        match self.phi {
+            None => [x, y, z],
+            Some((sp, cp)) => [x * cp - y * sp, x * sp + y * cp, z],
+        }
+    }
 }
 
 /// Tool tip (centre of the bottom face) and axis in the local frame.
@@ -107,16 +139,10 @@ pub fn tip_and_axis(tool: TorusCutter, pos: Position) -> ([f64; 3], [f64; 3]) {
 /// concave feed curve: methods.md B evaluates only at cx, which the swept-tool
 /// check in tests/mpec.rs shows to miss gouges of r (dh/dx)^2 / 2).
 #[inline]
-fn sphere_error(
-    tool: TorusCutter,
-    pos: Position,
-    h: &dyn LocalHeight,
-    psi: f64,
-    y: f64,
-) -> Option<f64> {
-    let c = sphere_centre(tool, pos, psi);
+fn sphere_error(pose: &Pose, h: &dyn LocalHeight, psi: f64, y: f64) -> Option<f64> {
+    let c = pose.centre(psi);
     let t = y - c[1];
-    let rho2 = tool.r * tool.r - t * t;
+    let rho2 = pose.r * pose.r - t * t;
     if rho2 < 0.0 {
         return None;
     }
@@ -139,15 +165,15 @@ fn sphere_error(
 /// Smallest vertical gap between sphere `psi` and the part: its closest point
 /// sits at (c - r grad h / sqrt(1 + |grad h|^2)) below the centre; a fast
 /// fixed point because the slope changes little over r.
-fn sphere_clearance(tool: TorusCutter, pos: Position, h: &dyn LocalHeight, psi: f64) -> f64 {
-    let c = sphere_centre(tool, pos, psi);
+fn sphere_clearance(pose: &Pose, h: &dyn LocalHeight, psi: f64) -> f64 {
+    let c = pose.centre(psi);
     let (mut x, mut y) = (c[0], c[1]);
     let mut best = f64::INFINITY;
     for _ in 0..5 {
         let (z, hx, hy) = h.height(x, y);
         let (dx, dy) = (x - c[0], y - c[1]);
-        best = best.min(c[2] - (tool.r * tool.r - dx * dx - dy * dy).max(0.0).sqrt() - z);
-        let k = tool.r / (1.0 + hx * hx + hy * hy).sqrt();
+        best = best.min(c[2] - (pose.r * pose.r - dx * dx - dy * dy).max(0.0).sqrt() - z);
+        let k = pose.r / (1.0 + hx * hx + hy * hy).sqrt();
         let (nx, ny) = (c[0] + k * hx, c[1] + k * hy);
         if (nx - x).abs() + (ny - y).abs() < 1e-9 {
             break;
@@ -158,33 +184,87 @@ fn sphere_clearance(tool: TorusCutter, pos: Position, h: &dyn LocalHeight, psi: 
     best
 }
 
-/// Golden-section minimisation of `f` on [a, b].
-fn golden_min(mut a: f64, mut b: f64, iterations: usize, f: impl Fn(f64) -> f64) -> (f64, f64) {
-    const G: f64 = 0.618_033_988_749_894_8;
-    let mut x1 = b - G * (b - a);
-    let mut x2 = a + G * (b - a);
-    let (mut f1, mut f2) = (f(x1), f(x2));
-    for _ in 0..iterations {
-        if f1 <= f2 {
-            b = x2;
-            x2 = x1;
-            f2 = f1;
-            x1 = b - G * (b - a);
-            f1 = f(x1);
+/// Brent's minimisation of `f` on [a, b] (parabolic steps, golden-section
+/// fallback) to an abscissa tolerance `tol`: a handful of evaluations on the
+/// smooth, locally parabolic error functions here, where plain golden
+/// section needed 12 to 16. Returns (x, f(x)).
+fn brent_min(a: f64, b: f64, tol: f64, f: impl Fn(f64) -> f64) -> (f64, f64) {
+    const C: f64 = 0.381_966_011_250_105_1;
+    let (mut a, mut b) = (a.min(b), a.max(b));
+    let mut x = a + C * (b - a);
+    let (mut w, mut v) = (x, x);
+    let mut fx = f(x);
+    let (mut fw, mut fv) = (fx, fx);
+    let (mut d, mut e) = (0.0f64, 0.0f64);
+    for _ in 0..60 {
+        let m = 0.5 * (a + b);
+        let tol1 = tol + 1e-12 * x.abs();
+        let tol2 = 2.0 * tol1;
+        if (x - m).abs() <= tol2 - 0.5 * (b - a) {
+            break;
+        }
+        let mut golden = true;
+        if e.abs() > tol1 {
+            // Parabola through x, w, v.
+            let r = (x - w) * (fx - fv);
+            let mut q = (x - v) * (fx - fw);
+            let mut p = (x - v) * q - (x - w) * r;
+            q = 2.0 * (q - r);
+            if q > 0.0 {
+                p = -p;
+            }
+            q = q.abs();
+            let e_old = e;
+            if p.abs() < (0.5 * q * e_old).abs() && p > q * (a - x) && p < q * (b - x) {
+                e = d;
+                d = p / q;
+                let u = x + d;
+                if u - a < tol2 || b - u < tol2 {
+                    d = if m >= x { tol1 } else { -tol1 };
+                }
+                golden = false;
+            }
+        }
+        if golden {
+            e = if x >= m { a - x } else { b - x };
+            d = C * e;
+        }
+        let u = if d.abs() >= tol1 {
+            x + d
         } else {
-            a = x1;
-            x1 = x2;
-            f1 = f2;
-            x2 = a + G * (b - a);
-            f2 = f(x2);
+            x + tol1.copysign(d)
+        };
+        let fu = f(u);
+        if fu <= fx {
+            if u >= x {
+                a = x;
+            } else {
+                b = x;
+            }
+            (v, fv) = (w, fw);
+            (w, fw) = (x, fx);
+            (x, fx) = (u, fu);
+        } else {
+            if u < x {
+                a = u;
+            } else {
+                b = u;
+            }
+            if fu <= fw || w == x {
+                (v, fv) = (w, fw);
+                (w, fw) = (u, fu);
+            } else if fu <= fv || v == x || v == w {
+                (v, fv) = (u, fu);
+            }
         }
     }
-    if f1 <= f2 {
-        (x1, f1)
-    } else {
-        (x2, f2)
-    }
+    (x, fx)
 }
+
+/// Abscissa tolerance of the minimisations over psi (radians): the error
+/// curves are parabolic there with curvature below ~1 mm/rad^2, so the value
+/// is exact to ~1e-8 mm.
+const PSI_TOL: f64 = 1e-4;
 
 /// Number of samples around the tube-centre circle before refinement (5 degrees).
 const PSI_SAMPLES: usize = 72;
@@ -193,15 +273,16 @@ const PSI_STEP: f64 = std::f64::consts::TAU / PSI_SAMPLES as f64;
 /// Lowest point of the whole error curve: min over psi of the sphere clearance.
 /// Returns (error, psi at the minimum).
 pub fn min_error(tool: TorusCutter, pos: Position, h: &dyn LocalHeight) -> (f64, f64) {
-    let cands = minimum_candidates(tool, pos, h);
-    refine_minimum(tool, pos, h, &cands)
+    let pose = Pose::new(tool, pos);
+    let cands = minimum_candidates(&pose, h);
+    refine_minimum(&pose, h, &cands)
 }
 
 /// The sampled local minima of the sphere clearance around the circle (the
 /// two dips of the "W" and, on concave feed curves, the heel).
-fn minimum_candidates(tool: TorusCutter, pos: Position, h: &dyn LocalHeight) -> Vec<f64> {
+fn minimum_candidates(pose: &Pose, h: &dyn LocalHeight) -> Vec<f64> {
     let vals: Vec<f64> = (0..PSI_SAMPLES)
-        .map(|i| sphere_clearance(tool, pos, h, -std::f64::consts::PI + PSI_STEP * i as f64))
+        .map(|i| sphere_clearance(pose, h, -std::f64::consts::PI + PSI_STEP * i as f64))
         .collect();
     let mut out = Vec::new();
     for i in 0..PSI_SAMPLES {
@@ -214,17 +295,12 @@ fn minimum_candidates(tool: TorusCutter, pos: Position, h: &dyn LocalHeight) -> 
     out
 }
 
-/// Golden-section refinement of each candidate within one sample step.
-fn refine_minimum(
-    tool: TorusCutter,
-    pos: Position,
-    h: &dyn LocalHeight,
-    cands: &[f64],
-) -> (f64, f64) {
+/// Refinement of each candidate within one sample step.
+fn refine_minimum(pose: &Pose, h: &dyn LocalHeight, cands: &[f64]) -> (f64, f64) {
     let mut best = (f64::INFINITY, 0.0);
     for &c in cands {
-        let (psi, v) = golden_min(c - PSI_STEP, c + PSI_STEP, 16, |p| {
-            sphere_clearance(tool, pos, h, p)
+        let (psi, v) = brent_min(c - PSI_STEP, c + PSI_STEP, PSI_TOL, |p| {
+            sphere_clearance(pose, h, p)
         });
         if v < best.0 {
             best = (v, psi);
@@ -237,12 +313,16 @@ fn refine_minimum(
 /// halves of the tube circle) of the sphere's lowest point minus the part.
 /// `f64::INFINITY` beyond the tool (|y| >= R0 + r).
 pub fn error_at(tool: TorusCutter, pos: Position, h: &dyn LocalHeight, y: f64) -> f64 {
-    let lo = ((y - tool.r) / tool.r0).clamp(-1.0, 1.0).asin();
-    let hi = ((y + tool.r) / tool.r0).clamp(-1.0, 1.0).asin();
+    pose_error_at(&Pose::new(tool, pos), h, y)
+}
+
+fn pose_error_at(pose: &Pose, h: &dyn LocalHeight, y: f64) -> f64 {
+    let lo = ((y - pose.r) / pose.r0).clamp(-1.0, 1.0).asin();
+    let hi = ((y + pose.r) / pose.r0).clamp(-1.0, 1.0).asin();
     if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         return f64::INFINITY;
     }
-    let f = |psi: f64| sphere_error(tool, pos, h, psi, y).unwrap_or(f64::INFINITY);
+    let f = |psi: f64| sphere_error(pose, h, psi, y).unwrap_or(f64::INFINITY);
     let mut best = f64::INFINITY;
     // Front branch psi in [lo, hi], back branch pi - psi (same cy, further back).
     for back in [false, true] {
@@ -259,7 +339,7 @@ pub fn error_at(tool: TorusCutter, pos: Position, h: &dyn LocalHeight, y: f64) -
         }
         let a = (arg.1 - step).max(lo);
         let b = (arg.1 + step).min(hi);
-        let (_, v) = golden_min(a, b, 12, |s| f(map(s)));
+        let (_, v) = brent_min(a, b, PSI_TOL, |s| f(map(s)));
         best = best.min(v).min(arg.0);
     }
     best
@@ -274,32 +354,93 @@ pub fn outer_crossings(
     h: &dyn LocalHeight,
     level: f64,
 ) -> Option<(f64, f64)> {
+    outer_crossings_near(tool, pos, h, level, None)
+}
+
+/// Spacing of the scan for the outermost crossing, as a fraction of the tool's reach.
+const SCAN_STEPS: usize = 21;
+
+/// Largest spacing of the check that no crossing lies further out than the
+/// one found near a neighbour's, mm.
+const OUTWARD_CHECK_MM: f64 = 5.0;
+
+/// [`outer_crossings`] starting from the neighbouring drive point's crossings
+/// `hint`: a bracket of +-0.25 mm around each, checked to have nothing below
+/// `level` further out, replaces the scan from the tool's edge.
+fn outer_crossings_near(
+    tool: TorusCutter,
+    pos: Position,
+    h: &dyn LocalHeight,
+    level: f64,
+    hint: Option<(f64, f64)>,
+) -> Option<(f64, f64)> {
+    let pose = Pose::new(tool, pos);
     let reach = tool.r0 + tool.r;
-    let side = |sign: f64| -> Option<f64> {
-        // Scan inwards from the tool's outer edge for the first point at or
-        // below `level`, then bisect between it and the previous (outer) sample.
-        const STEPS: usize = 21;
-        let step = reach / STEPS as f64;
-        let mut outer = reach;
-        for i in 1..=STEPS {
-            let t = reach - step * i as f64;
-            if error_at(tool, pos, h, sign * t) <= level {
-                let (mut a, mut b) = (t, outer);
-                while b - a > 1e-4 {
-                    let mid = 0.5 * (a + b);
-                    if error_at(tool, pos, h, sign * mid) <= level {
-                        a = mid;
-                    } else {
-                        b = mid;
-                    }
+    let side = |sign: f64, hint: Option<f64>| -> Option<f64> {
+        // g > 0: above the level (outside the strip).
+        let g = |t: f64| pose_error_at(&pose, h, sign * t) - level;
+        if let Some(t0) = hint.map(f64::abs).filter(|t| *t > 0.0 && *t < reach) {
+            let (a, b) = ((t0 - 0.25).max(0.0), (t0 + 0.25).min(reach));
+            let (ga, gb) = (g(a), g(b));
+            if ga <= 0.0 && gb > 0.0 {
+                let n = ((reach - b) / OUTWARD_CHECK_MM).ceil().max(1.0) as usize;
+                if (1..=n).all(|i| g(b + (reach - b) * i as f64 / n as f64) > 0.0) {
+                    return Some(sign * crossing(a, ga, b, gb, g));
                 }
-                return Some(sign * a);
             }
-            outer = t;
+        }
+        // Scan inwards from the tool's outer edge for the first point at or
+        // below `level`, then solve between it and the previous (outer) sample.
+        let step = reach / SCAN_STEPS as f64;
+        let (mut outer, mut g_outer) = (reach, f64::INFINITY);
+        for i in 1..=SCAN_STEPS {
+            let t = reach - step * i as f64;
+            let gt = g(t);
+            if gt <= 0.0 {
+                return Some(sign * crossing(t, gt, outer, g_outer, g));
+            }
+            (outer, g_outer) = (t, gt);
         }
         None
     };
-    Some((side(-1.0)?, side(1.0)?))
+    let (l, r) = match hint {
+        Some((l, r)) => (Some(l), Some(r)),
+        None => (None, None),
+    };
+    Some((side(-1.0, l)?, side(1.0, r)?))
+}
+
+/// The crossing of g = 0 between a (g <= 0) and b (g > 0, possibly infinite):
+/// regula falsi with the Illinois modification (bisection while g(b) is not
+/// finite). Returns the inner end once within 1e-9 mm of the level or 1e-6 mm
+/// of the crossing.
+fn crossing(mut a: f64, mut ga: f64, mut b: f64, mut gb: f64, g: impl Fn(f64) -> f64) -> f64 {
+    let mut side = 0i8;
+    for _ in 0..60 {
+        if ga > -1e-9 || (b - a).abs() < 1e-6 {
+            break;
+        }
+        let m = if gb.is_finite() {
+            (a * gb - b * ga) / (gb - ga)
+        } else {
+            0.5 * (a + b)
+        };
+        let gm = g(m);
+        if gm <= 0.0 {
+            (a, ga) = (m, gm);
+            if side == -1 {
+                gb *= 0.5;
+            }
+            side = -1;
+        } else {
+            (b, gb) = (m, gm);
+            if side == 1 {
+                ga *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    a
 }
 
 /// How a drive point was positioned.
@@ -349,6 +490,8 @@ pub struct LeadSearch {
     pub theta_tol: f64,
     /// Previous point's lead, to start from a narrow bracket.
     pub hint: Option<f64>,
+    /// Previous point's strip edges (y_left, y_right), to find the new ones near them.
+    pub strip_hint: Option<(f64, f64)>,
     /// Fixed rotation about e3 (radians).
     pub phi: f64,
 }
@@ -360,41 +503,48 @@ impl Default for LeadSearch {
             theta_max: 60f64.to_radians(),
             theta_tol: 2e-6,
             hint: None,
+            strip_hint: None,
             phi: 0.0,
         }
     }
 }
 
-/// Smallest lead angle in [theta_min, theta_max] with min_error >= floor, by
-/// bisection (the error curve's dips rise monotonically with the lead). The
-/// dips are tracked from one sampling of the whole circle; the result is
-/// checked with a fresh sampling and the search repeated with it if a new
-/// minimum turned up.
+/// Smallest lead angle in [theta_min, theta_max] with min_error >= floor
+/// (the error curve's dips rise monotonically with the lead), and the error
+/// curve's lowest point there. The dips are tracked from one sampling of the
+/// whole circle; the result is checked with a fresh sampling and the search
+/// repeated with it if a new minimum turned up.
 fn bisect_lead(
     tool: TorusCutter,
     h: &dyn LocalHeight,
     middle: f64,
     floor: f64,
     s: &LeadSearch,
-) -> Result<f64, SolveError> {
-    let at = |theta: f64| Position {
-        theta,
-        middle,
-        phi: s.phi,
+) -> Result<(f64, f64), SolveError> {
+    let at = |theta: f64| {
+        Pose::new(
+            tool,
+            Position {
+                theta,
+                middle,
+                phi: s.phi,
+            },
+        )
     };
     let start = s
         .hint
         .unwrap_or(s.theta_min)
         .clamp(s.theta_min, s.theta_max);
-    let mut cands = minimum_candidates(tool, at(start), h);
+    let mut cands = minimum_candidates(&at(start), h);
     for _ in 0..3 {
-        let ok = |theta: f64| refine_minimum(tool, at(theta), h, &cands).0 >= floor;
-        let theta = bisect_with(s, ok);
+        let margin = |theta: f64| refine_minimum(&at(theta), h, &cands).0 - floor;
+        let theta = smallest_lead(s, margin);
         let verify_at = theta.unwrap_or(s.theta_max);
-        let fresh = minimum_candidates(tool, at(verify_at), h);
-        let full = refine_minimum(tool, at(verify_at), h, &fresh).0;
+        let pose = at(verify_at);
+        let fresh = minimum_candidates(&pose, h);
+        let full = refine_minimum(&pose, h, &fresh).0;
         match theta {
-            Some(t) if full >= floor - 1e-9 => return Ok(t),
+            Some(t) if full >= floor - 1e-9 => return Ok((t, full)),
             None if full < floor => {
                 return Err(SolveError::TooCurved {
                     theta_max: s.theta_max,
@@ -408,30 +558,44 @@ fn bisect_lead(
             }
         }
     }
-    // Candidates kept changing: plain bisection with full sampling each step.
-    let ok = |theta: f64| min_error(tool, at(theta), h).0 >= floor;
-    bisect_with(s, ok).ok_or_else(|| SolveError::TooCurved {
-        theta_max: s.theta_max,
-        min_error: min_error(tool, at(s.theta_max), h).0,
-    })
+    // Candidates kept changing: full sampling at each step.
+    let full = |theta: f64| {
+        let pose = at(theta);
+        refine_minimum(&pose, h, &minimum_candidates(&pose, h)).0
+    };
+    match smallest_lead(s, |theta| full(theta) - floor) {
+        Some(t) => Ok((t, full(t))),
+        None => Err(SolveError::TooCurved {
+            theta_max: s.theta_max,
+            min_error: full(s.theta_max),
+        }),
+    }
 }
 
-/// Smallest theta with `ok(theta)` (ok assumed monotone), or None if even theta_max fails.
-fn bisect_with(s: &LeadSearch, ok: impl Fn(f64) -> bool) -> Option<f64> {
-    if ok(s.theta_min) {
+/// Smallest theta with `margin(theta) >= 0` (margin assumed increasing), or
+/// None if even theta_max fails: a bracket (narrow around the hint when there
+/// is one), then regula falsi (Illinois) on the smooth margin, ending on the
+/// valid side within `theta_tol` or 1e-9 mm of zero margin.
+fn smallest_lead(s: &LeadSearch, margin: impl Fn(f64) -> f64) -> Option<f64> {
+    let m_min = margin(s.theta_min);
+    if m_min >= 0.0 {
         return Some(s.theta_min);
     }
     let (mut lo, mut hi) = (s.theta_min, s.theta_max);
+    let (mut m_lo, mut m_hi) = (m_min, f64::NAN);
     if let Some(hint) = s.hint {
         // A narrow bracket around the neighbour's lead, widened until valid.
         let mut w = 1e-3;
         loop {
             let a = (hint - w).max(s.theta_min);
             let b = (hint + w).min(s.theta_max);
-            if (a == s.theta_min || !ok(a)) && ok(b) {
-                lo = a;
-                hi = b;
-                break;
+            let ma = if a == s.theta_min { m_min } else { margin(a) };
+            if ma < 0.0 {
+                let mb = margin(b);
+                if mb >= 0.0 {
+                    (lo, hi, m_lo, m_hi) = (a, b, ma, mb);
+                    break;
+                }
             }
             if a == s.theta_min && b == s.theta_max {
                 break;
@@ -439,15 +603,33 @@ fn bisect_with(s: &LeadSearch, ok: impl Fn(f64) -> bool) -> Option<f64> {
             w *= 4.0;
         }
     }
-    if !ok(hi) {
+    if m_hi.is_nan() {
+        m_hi = margin(hi);
+    }
+    if m_hi < 0.0 {
         return None;
     }
-    while hi - lo > s.theta_tol {
-        let mid = 0.5 * (lo + hi);
-        if ok(mid) {
-            hi = mid;
+    let mut side = 0i8;
+    for _ in 0..100 {
+        if hi - lo <= s.theta_tol || m_hi < 1e-9 {
+            break;
+        }
+        // Regula falsi, kept off the bracket ends.
+        let t = (m_hi / (m_hi - m_lo)).clamp(0.01, 0.99);
+        let mid = hi - t * (hi - lo);
+        let m = margin(mid);
+        if m >= 0.0 {
+            (hi, m_hi) = (mid, m);
+            if side == 1 {
+                m_lo *= 0.5;
+            }
+            side = 1;
         } else {
-            lo = mid;
+            (lo, m_lo) = (mid, m);
+            if side == -1 {
+                m_hi *= 0.5;
+            }
+            side = -1;
         }
     }
     Some(hi)
@@ -476,19 +658,20 @@ pub fn solve(
     } else {
         (Status::NotApplicable, 0.0)
     };
-    let theta = bisect_lead(tool, h, middle, -delta, search)?;
+    let (theta, lowest) = bisect_lead(tool, h, middle, -delta, search)?;
     let pos = Position {
         theta,
         middle,
         phi: search.phi,
     };
-    let (y_left, y_right) = outer_crossings(tool, pos, h, delta).ok_or(SolveError::NoStrip)?;
+    let (y_left, y_right) =
+        outer_crossings_near(tool, pos, h, delta, search.strip_hint).ok_or(SolveError::NoStrip)?;
     Ok(Solution {
         status,
         pos,
         y_left,
         y_right,
-        min_error: min_error(tool, pos, h).0,
+        min_error: lowest,
     })
 }
 

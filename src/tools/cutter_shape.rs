@@ -191,7 +191,9 @@ impl CutterShape {
             let w = w0 + m * t;
             let r = w.norm();
             let dr = (r - r0).max(0.0);
-            let dist = dz.hypot(dr);
+            // sqrt, not hypot: mm-sized values cannot overflow, and this loop is
+            // the simulator's hot spot (hypot took a quarter of its time).
+            let dist = (dz * dz + dr * dr).sqrt();
             let g = dist - rc;
             if g <= tol {
                 return Some(t);
