@@ -235,3 +235,80 @@ fn bench_node_prints_its_table() {
         "{stdout}"
     );
 }
+
+/// Files under /dev/shm and /tmp/iceoryx2 whose names contain `prefix`.
+fn iceoryx2_files(prefix: &str) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for dir in ["/dev/shm", "/tmp/iceoryx2"] {
+        let mut stack = vec![PathBuf::from(dir)];
+        while let Some(d) = stack.pop() {
+            for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+                let p = e.path();
+                if p.is_dir() {
+                    stack.push(p);
+                } else if e.file_name().to_string_lossy().contains(prefix) {
+                    out.push(p);
+                }
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn the_node_publishes_every_toolpath_over_iceoryx2() {
+    use toolpath_planner::ipc::ToolpathSubscriber;
+    let tmp = tempfile::tempdir().unwrap();
+    let prefix = format!("tpn{}_", std::process::id());
+    let service = format!("toolpath_planner/test_{}", std::process::id());
+    let config = tmp.path().join("ipc.yaml");
+    std::fs::write(
+        &config,
+        format!("ipc:\n  enabled: true\n  service: {service}\n  prefix: {prefix}\n"),
+    )
+    .unwrap();
+    let d = domain(4);
+    let sub = ToolpathSubscriber::with_prefix(&service, Some(&prefix)).unwrap();
+    let mut child = Command::new(BIN)
+        .args(["node", "--config", config.to_str().unwrap()])
+        .env("ROS_DOMAIN_ID", d.to_string())
+        .env("RUST_LOG", "off")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let node = Node { child, domain: d };
+    assert!(
+        line.contains(&format!("iceoryx2 service {service}")),
+        "{line}"
+    );
+    let bag = golden("iso_parametric_plane");
+    assert_same(&node.replay_publish(&bag));
+    let got = sub
+        .receive(Duration::from_secs(30))
+        .unwrap()
+        .expect("a toolpath on iceoryx2");
+    let rec = runs::Recorded::read(&bag).unwrap();
+    let tp = &rec.toolpaths[0];
+    assert_eq!(got.job_id, tp.job_id);
+    assert_eq!(got.points.len(), runs::point_count(tp));
+    assert_eq!(got.pass_count as usize, tp.passes.len());
+    let first = &tp.passes[0].points[0];
+    assert!((got.points[0].cl[0] - first.cl.x).abs() < 1e-9);
+    node.terminate();
+    drop(sub);
+    // The node removed its publisher's files on SIGTERM; iceoryx2 keeps one
+    // management segment per prefix by design: remove ours.
+    let left = iceoryx2_files(&prefix);
+    let (mgmt, other): (Vec<PathBuf>, Vec<PathBuf>) = left
+        .into_iter()
+        .partition(|f| f.to_string_lossy().ends_with(".global_mgmt"));
+    for f in &mgmt {
+        let _ = std::fs::remove_file(f);
+    }
+    assert!(other.is_empty(), "iceoryx2 files left behind: {other:?}");
+}

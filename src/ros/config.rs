@@ -102,12 +102,36 @@ impl RecordingSettings {
     }
 }
 
+/// Zero-copy toolpath output over iceoryx2 (the `ipc:` section; payload
+/// layout in docs/formats.md).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IpcSettings {
+    /// Also publish every toolpath on the iceoryx2 service.
+    pub enabled: bool,
+    /// iceoryx2 service name.
+    pub service: String,
+    /// iceoryx2 file-name prefix; `null` = iceoryx2's own (tests isolate themselves with one).
+    pub prefix: Option<String>,
+}
+
+impl Default for IpcSettings {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            service: crate::ipc::SERVICE_NAME.into(),
+            prefix: None,
+        }
+    }
+}
+
 /// A cell: node settings and the geometry and limits of both machines.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct NodeConfig {
     pub node: NodeSettings,
     pub recording: RecordingSettings,
+    pub ipc: IpcSettings,
     pub mill5: Mill5Config,
     pub belt6: Belt6Config,
 }
@@ -165,6 +189,9 @@ impl NodeConfig {
         }
         self.interfaces()?;
         self.recording.validate()?;
+        if self.ipc.service.trim().is_empty() {
+            return Err(Error::invalid("ipc.service", "must not be empty"));
+        }
         self.machines().validate()
     }
 

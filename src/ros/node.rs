@@ -8,13 +8,14 @@
 //! arrives or `surface_timeout_s` passes. Every job gets exactly one final
 //! status; a panic inside a planner becomes FAILED, never a dead node.
 
-use super::config::NodeConfig;
+use super::config::{IpcSettings, NodeConfig};
 use super::convert;
 use super::msgs::{self, RosMessage};
 use super::recorder::Recorder;
 use crate::error::{Error, Result};
 use crate::formats::job::DEFAULT_FEED_RATE;
-use crate::formats::{Job, Machine, Shape};
+use crate::formats::{Job, Machine, PlanResult, Shape};
+use crate::ipc::ToolpathPublisher;
 use crate::machines::Machines;
 use crate::pipeline::{self, RunOptions};
 use crate::planners::Progress;
@@ -185,6 +186,46 @@ struct Outputs {
     recorder: Option<Arc<Recorder>>,
     /// The last header stamp given out, ns since the epoch.
     last_stamp_ns: AtomicU64,
+    /// To the iceoryx2 publisher thread (its publisher is not `Send`).
+    ipc: Option<std::sync::mpsc::Sender<PlanResult>>,
+}
+
+/// Starts the thread that owns the iceoryx2 publisher and sends it every
+/// result; fails (naming the service) when the publisher cannot be made.
+fn start_ipc(
+    settings: &IpcSettings,
+) -> Result<(
+    std::sync::mpsc::Sender<PlanResult>,
+    std::thread::JoinHandle<()>,
+)> {
+    let (tx, rx) = std::sync::mpsc::channel::<PlanResult>();
+    let (ready_tx, ready_rx) = std::sync::mpsc::channel::<Result<()>>();
+    let (service, prefix) = (settings.service.clone(), settings.prefix.clone());
+    let handle = std::thread::Builder::new()
+        .name("ipc".into())
+        .spawn(move || {
+            let mut publisher = match ToolpathPublisher::with_prefix(&service, prefix.as_deref()) {
+                Ok(p) => {
+                    let _ = ready_tx.send(Ok(()));
+                    p
+                }
+                Err(e) => {
+                    let _ = ready_tx.send(Err(e));
+                    return;
+                }
+            };
+            for result in rx {
+                if let Err(e) = publisher.publish(&result) {
+                    log::error!("iceoryx2 {service}: job {}: {e}", result.job_id);
+                }
+            }
+        })
+        .map_err(|e| Error::planning(format!("cannot start the iceoryx2 thread: {e}")))?;
+    ready_rx
+        .recv()
+        .map_err(|_| Error::planning("the iceoryx2 thread stopped"))?
+        .map_err(|e| e.within("ipc"))?;
+    Ok((tx, handle))
 }
 
 impl Outputs {
@@ -447,6 +488,9 @@ fn plan_and_publish(
         topics::MARKERS,
         convert::markers(&result, header),
     );
+    if let Some(tx) = &outputs.ipc {
+        let _ = tx.send(result);
+    }
     Ok(summary)
 }
 
@@ -566,6 +610,11 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     } else {
         None
     };
+    let ipc = if config.ipc.enabled {
+        Some(start_ipc(&config.ipc)?)
+    } else {
+        None
+    };
     let outputs = Arc::new(Outputs {
         status: Mutex::new(ros.publisher(topics::JOB_STATUS, qos::status())?),
         toolpath: Mutex::new(ros.publisher(topics::TOOLPATH, qos::results())?),
@@ -576,7 +625,9 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         frame_id: settings.frame_id.clone(),
         recorder: recorder.clone(),
         last_stamp_ns: AtomicU64::new(0),
+        ipc: ipc.as_ref().map(|(tx, _)| tx.clone()),
     });
+    let ipc_thread = ipc.map(|(_, handle)| handle);
     let shared = Arc::new(Shared {
         state: Mutex::new(State::default()),
         wake: Condvar::new(),
@@ -597,12 +648,15 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     }
     let timeout = Duration::from_secs_f64(settings.surface_timeout_s);
     let machines = config.machines();
-    let recording = recorder
+    let mut extra = recorder
         .as_ref()
         .map(|r| format!(", recording to {}", r.directory().display()))
         .unwrap_or_default();
+    if config.ipc.enabled {
+        extra += &format!(", iceoryx2 service {}", config.ipc.service);
+    }
     println!(
-        "ready: node {} on ROS domain {domain}, interfaces {}{recording}",
+        "ready: node {} on ROS domain {domain}, interfaces {}{extra}",
         ros.node.fully_qualified_name(),
         settings.interfaces.join(",")
     );
@@ -653,6 +707,12 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     shared.wake.notify_all();
     // Workers finish their current job; the process exits after them.
     for h in handles {
+        let _ = h.join();
+    }
+    // The workers are gone: dropping the outputs closes the iceoryx2 channel,
+    // and its thread removes the publisher's shared memory as it ends.
+    drop(outputs);
+    if let Some(h) = ipc_thread {
         let _ = h.join();
     }
     if let Some(r) = &recorder {
