@@ -7,6 +7,11 @@
 //!     cargo bench --bench ipc_vs_dds
 //!
 //! Set TOOLPATH_BENCH_POINTS to change the size.
+//!
+//! DDS carries the path as one message per pass (10 000 points, about 1 MB
+//! each, the last one flagged): a single 1 000 000-point sample (about
+//! 104 MB) was not delivered by RustDDS on loopback within 120 s. Set
+//! TOOLPATH_BENCH_DDS_SINGLE=1 to try the single sample anyway.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use futures::StreamExt;
@@ -69,30 +74,49 @@ struct DdsPoint {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 struct DdsToolpath {
     job_id: String,
+    /// Index of this message of the path, and how many there are.
+    part: u32,
+    parts: u32,
     points: Vec<DdsPoint>,
 }
 impl Message for DdsToolpath {}
 
-fn to_dds(r: &PlanResult) -> DdsToolpath {
-    DdsToolpath {
-        job_id: r.job_id.clone(),
-        points: r
+/// The path as DDS messages: one per pass, or one for all (`single`).
+fn to_dds(r: &PlanResult, single: bool) -> Vec<DdsToolpath> {
+    let point = |k: usize, p: &toolpath_planner::formats::Pass, q: &PathPoint| DdsPoint {
+        cc: q.cc,
+        cl: q.cl,
+        axis: q.axis,
+        uv: q.uv,
+        strip_width: q.strip_width.unwrap_or(f64::NAN),
+        pass: k as u32,
+        region: p.region as u32,
+    };
+    let groups: Vec<Vec<DdsPoint>> = if single {
+        vec![r
             .passes
             .iter()
             .enumerate()
-            .flat_map(|(k, p)| {
-                p.points.iter().map(move |q| DdsPoint {
-                    cc: q.cc,
-                    cl: q.cl,
-                    axis: q.axis,
-                    uv: q.uv,
-                    strip_width: q.strip_width.unwrap_or(f64::NAN),
-                    pass: k as u32,
-                    region: p.region as u32,
-                })
-            })
-            .collect(),
-    }
+            .flat_map(|(k, p)| p.points.iter().map(move |q| point(k, p, q)))
+            .collect()]
+    } else {
+        r.passes
+            .iter()
+            .enumerate()
+            .map(|(k, p)| p.points.iter().map(|q| point(k, p, q)).collect())
+            .collect()
+    };
+    let parts = groups.len() as u32;
+    groups
+        .into_iter()
+        .enumerate()
+        .map(|(i, points)| DdsToolpath {
+            job_id: r.job_id.clone(),
+            part: i as u32,
+            parts,
+            points,
+        })
+        .collect()
 }
 
 fn bench_iceoryx2(c: &mut Criterion, r: &PlanResult) {
@@ -167,7 +191,7 @@ fn bench_dds(c: &mut Criterion, r: &PlanResult) {
     let qos = QosProfile::subscription_default()
         .reliability_reliable(WhenFull::Wait(Duration::from_secs(60)))
         .durability(Durability::Volatile)
-        .history(History::KeepLast { depth: 1 });
+        .history(History::KeepLast { depth: 1000 });
     let make = |name: &str| {
         let dp = rustdds::DomainParticipantBuilder::new(domain)
             .with_only_networks([std::net::IpAddr::V4(std::net::Ipv4Addr::LOCALHOST)])
@@ -212,22 +236,36 @@ fn bench_dds(c: &mut Criterion, r: &PlanResult) {
     let mut stream = Box::pin(subscription.async_stream());
     let mut g = c.benchmark_group("toolpath_delivery");
     g.sample_size(10);
+    let single = std::env::var("TOOLPATH_BENCH_DDS_SINGLE").is_ok_and(|v| v == "1");
     g.bench_function(format!("dds_loopback_{}_points", r.point_count()), |b| {
         b.iter_custom(|iters| {
             let mut total = Duration::ZERO;
             for _ in 0..iters {
                 let t0 = Instant::now();
-                let msg = to_dds(r);
+                let msgs = to_dds(r, single);
+                let parts = msgs.len();
                 rt.block_on(async {
-                    if publisher.async_publish(msg).await.is_err() {
-                        panic!("DDS publish failed");
+                    for msg in msgs {
+                        if publisher.async_publish(msg).await.is_err() {
+                            panic!("DDS publish failed");
+                        }
                     }
-                    let (m, _) = tokio::time::timeout(Duration::from_secs(120), stream.next())
-                        .await
-                        .expect("delivered within 120 s")
-                        .expect("stream open")
-                        .unwrap();
-                    let sum: f64 = m.points.iter().map(|p| p.cl[0] + p.cl[1] + p.cl[2]).sum();
+                    let mut sum = 0.0;
+                    let mut got = 0;
+                    while got < parts {
+                        let (m, _) = tokio::time::timeout(Duration::from_secs(120), stream.next())
+                            .await
+                            .expect("delivered within 120 s")
+                            .expect("stream open")
+                            .unwrap();
+                        assert_eq!(m.parts as usize, parts);
+                        sum += m
+                            .points
+                            .iter()
+                            .map(|p| p.cl[0] + p.cl[1] + p.cl[2])
+                            .sum::<f64>();
+                        got += 1;
+                    }
                     assert!(sum.is_finite());
                 });
                 total += t0.elapsed();
