@@ -73,7 +73,7 @@ pub enum Command {
         #[arg(short, long, default_value = "-")]
         output: PathBuf,
     },
-    /// Plan every sample job and print a table.
+    /// Start the node on loopback, send it every sample shape and job over DDS, print the results table, record the run and draw each sample.
     Demo {
         /// Directory for the demo's bag (DIR/demo_run), pictures (DIR/SAMPLE.png) and node config.
         #[arg(long, default_value = "out/demo")]

@@ -241,7 +241,8 @@ fn thin<T: Copy>(v: &[T], max: usize) -> Vec<T> {
 impl Scene {
     pub fn build(input: &PlotInput, size: (u32, u32)) -> Scene {
         let r = input.result;
-        let points = r.point_count();
+        // Pocket results keep their tool-centre points per tool, counted in stats.points.
+        let points = r.stats.points.unwrap_or_else(|| r.point_count());
         let title = format!(
             "{} - {} - {} passes, {} points, length {:.1} mm",
             if r.job_id.is_empty() {
