@@ -96,8 +96,10 @@ fn wing_mould_three_strategies_against_the_simulator() {
     assert!(lengths[1] < lengths[0], "{lengths:?}");
 }
 
+/// Two trisectors near the boundary and two wedges: the separatrix graph
+/// does not tile this surface, so tensor_regions must fall back to one
+/// region rather than leave faces uncut.
 #[test]
-#[ignore = "open (issue 3): iso_scallop gouges 0.016 mm on this surface; run with --ignored"]
 fn second_freeform_surface_is_cut_without_gouge_or_gaps() {
     let mut job = samples::job("wing_mould").unwrap();
     job.shape = Shape::Surface(second_surface());

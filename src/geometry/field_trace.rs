@@ -27,6 +27,8 @@ pub enum TraceStop {
     StepTooSmall,
     /// `max_points` reached.
     MaxPoints,
+    /// The caller's stop predicate held at the last point.
+    Stopped,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -214,6 +216,22 @@ pub fn trace_field<F>(
 where
     F: Fn(Vector2<f64>) -> Option<Vector2<f64>>,
 {
+    trace_field_until(surface, field, start, direction, options, &|_, _| false)
+}
+
+/// As [`trace_field`], also ending (with [`TraceStop::Stopped`]) at the first
+/// step end where `stop(uv, xyz)` holds; that point is the last of the trace.
+pub fn trace_field_until<F>(
+    surface: &NurbsSurface,
+    field: F,
+    start: Vector2<f64>,
+    direction: Vector2<f64>,
+    options: &TraceOptions,
+    stop: &dyn Fn(Vector2<f64>, &nalgebra::Point3<f64>) -> bool,
+) -> Trace
+where
+    F: Fn(Vector2<f64>) -> Option<Vector2<f64>>,
+{
     let ((u0, u1), (v0, v1)) = surface.domain();
     let tracer = Tracer {
         surface,
@@ -299,6 +317,10 @@ where
         out.xyz.push([p.x, p.y, p.z]);
         if at_boundary {
             out.stop = TraceStop::Boundary;
+            return out;
+        }
+        if stop(x, &p) {
+            out.stop = TraceStop::Stopped;
             return out;
         }
         if last_step && h_acc >= remaining {

@@ -58,6 +58,8 @@ struct Offset {
     /// The walk hit the domain boundary: the point is not a pass point (the
     /// pass is extended to the boundary along its own direction instead).
     clipped: bool,
+    /// Distance walked from the front point, mm (the two half-widths).
+    dist: f64,
 }
 
 fn offset_point(
@@ -93,6 +95,7 @@ fn offset_point(
         away: end.1,
         needed,
         clipped,
+        dist,
     })
 }
 
@@ -145,11 +148,29 @@ pub fn cover(
             points: Vec::with_capacity(contacts.len() + 1),
             min_strip_width: None,
         };
-        for (k, c) in contacts.iter().enumerate() {
-            if k > 0 {
-                pivot(&contacts[k - 1], c, s, &mut pass.points)?;
+        let mut prev: Option<Contact> = None;
+        for c in contacts {
+            if let Some(a) = prev {
+                // Offset points follow the front, not the chord tolerance
+                // (points clipped onto an edge can lie far apart): contacts
+                // in between keep each straight move within the tolerance.
+                let gap = (c.point() - a.point()).norm();
+                let n = (gap / s.point_step).ceil() as usize;
+                let mut last = a;
+                for m in 1..n {
+                    let f = m as f64 / n as f64;
+                    let uv = a.uv() * (1.0 - f) + c.uv() * f;
+                    let t = a.travel * (1.0 - f) + c.travel * f;
+                    if let Some(mc) = Contact::new(surface, uv, t) {
+                        pivot(&last, &mc, s, &mut pass.points)?;
+                        pass.points.push(mc.path_point(s)?);
+                        last = mc;
+                    }
+                }
+                pivot(&last, c, s, &mut pass.points)?;
             }
             pass.points.push(c.path_point(s)?);
+            prev = Some(*c);
         }
         extend_pass(surface, &mut pass.points, s)?;
         Ok(pass)
@@ -405,6 +426,17 @@ fn offset_front(
             let sel: Vec<&(Offset, Vector3<f64>)> = keep.iter().map(|&k| &kept[a + k]).collect();
             let mut uv: Vec<Vector2<f64>> = sel.iter().map(|(o, _)| o.uv).collect();
             let mut aways: Vec<Vector3<f64>> = sel.iter().map(|(o, _)| o.away).collect();
+            let mut travels: Vec<Vector3<f64>> = sel.iter().map(|(_, t)| *t).collect();
+            let dists: Vec<f64> = sel.iter().map(|(o, _)| o.dist).collect();
+            pull_in(
+                surface,
+                front,
+                &mut uv,
+                &mut aways,
+                &mut travels,
+                &dists,
+                region,
+            );
             let (head, tail) = extend_ends(surface, s, region, &mut uv);
             let t0 = kept[a].1;
             let t1 = kept[b].1;
@@ -416,7 +448,7 @@ fn offset_front(
             }
             // The new pass travels against the current one (zig-zag).
             let mut reference: Vec<Vector3<f64>> = vec![-t0; head];
-            reference.extend(sel.iter().map(|(_, t)| -t));
+            reference.extend(travels.iter().map(|t| -t));
             reference.extend(std::iter::repeat_n(-t1, tail));
             let contacts = front_from_uv(surface, &uv, Some(&reference))?;
             if contacts.len() >= 2 {
@@ -443,4 +475,152 @@ fn offset_front(
         i = j + 1;
     }
     Ok(runs)
+}
+
+/// Nearest point of the front polyline to `p`: (distance, uv there), `None`
+/// where that is an end of the front (beyond its ends the pass's run-in
+/// and run-out cover, not an offset).
+fn nearest_on_front(
+    front_xyz: &[nalgebra::Point3<f64>],
+    front_uv: &[Vector2<f64>],
+    p: &nalgebra::Point3<f64>,
+) -> Option<(f64, Vector2<f64>)> {
+    let mut best: Option<(f64, Vector2<f64>, bool)> = None;
+    let last = front_xyz.len().saturating_sub(1);
+    for k in 0..front_xyz.len() {
+        let (a, ua) = (front_xyz[k], front_uv[k]);
+        let (b, ub) = if k + 1 < front_xyz.len() {
+            (front_xyz[k + 1], front_uv[k + 1])
+        } else {
+            (a, ua)
+        };
+        let d = b - a;
+        let dd = d.norm_squared();
+        let f = if dd > 0.0 {
+            ((p - a).dot(&d) / dd).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let dist = (a + d * f - p).norm();
+        let at_end = (k == 0 && f <= 0.0) || (k + 1 >= last && f >= 1.0) || last == 0;
+        if best.is_none_or(|(bd, _, _)| dist < bd) {
+            best = Some((dist, ua + (ub - ua) * f, at_end));
+        }
+    }
+    best.and_then(|(d, uv, at_end)| (!at_end).then_some((d, uv)))
+}
+
+/// Where the new pass (points `uv`, each offset `dists[k]` from its source)
+/// lies farther from the current pass than the two half-widths allow, it
+/// is pulled in: points and, recursively, chord midpoints are moved towards
+/// their nearest point on the current pass to that distance. Lee's point
+/// offsets leave such gaps at the inner side of pass corners (the offsets
+/// of the two legs cross and the loop between them is cut out) and between
+/// offset points that spread apart; a gap there is a scallop above h.
+fn pull_in(
+    surface: &NurbsSurface,
+    front: &[FrontPoint],
+    uv: &mut Vec<Vector2<f64>>,
+    aways: &mut Vec<Vector3<f64>>,
+    travels: &mut Vec<Vector3<f64>>,
+    dists: &[f64],
+    region: &Region,
+) {
+    const SLACK: f64 = 1.01;
+    const MAX_PULL: f64 = 1.35;
+    const DEPTH: usize = 5;
+    let _ = region;
+    let front_xyz: Vec<_> = front.iter().map(|f| f.c.point()).collect();
+    let front_uv: Vec<_> = front.iter().map(|f| f.c.uv()).collect();
+    let pull = |q: Vector2<f64>, r: f64| -> Option<Vector2<f64>> {
+        let p = surface.point(q.x, q.y);
+        let (d, s_uv) = nearest_on_front(&front_xyz, &front_uv, &p)?;
+        // A gap wider than a third of the spacing is not a chord between
+        // neighbouring offsets (the front ends or folds there): left alone.
+        if d <= r * SLACK || d <= 0.0 || d > r * MAX_PULL {
+            return None;
+        }
+        // Linear in (u, v) between the nearest front point and q, then
+        // corrected once with the distance actually reached.
+        let mut f = r / d;
+        let mut m = s_uv + (q - s_uv) * f;
+        for _ in 0..2 {
+            let pm = surface.point(m.x, m.y);
+            let dm = (pm - surface.point(s_uv.x, s_uv.y)).norm();
+            if dm <= 0.0 {
+                break;
+            }
+            f *= r / dm;
+            m = s_uv + (q - s_uv) * f;
+        }
+        let (u, v) = surface.clamp_uv(m.x, m.y);
+        Some(Vector2::new(u, v))
+    };
+    let n = uv.len();
+    let mut out_uv = Vec::with_capacity(n);
+    let mut out_away = Vec::with_capacity(n);
+    let mut out_travel = Vec::with_capacity(n);
+    for k in 0..n {
+        let r = dists.get(k).copied().unwrap_or(0.0);
+        // The offset points themselves lie at their distance from their
+        // source point, so at most that far from the front.
+        let q = uv[k];
+        if k > 0 {
+            // Chord midpoints between the previous (already placed) point and this one.
+            let r_seg = dists[k - 1].min(r);
+            let a = out_uv.last().copied().unwrap_or(q);
+            let mut mids = Vec::new();
+            subdivide(&pull, a, q, r_seg, DEPTH, &mut mids);
+            for m in mids {
+                out_uv.push(m);
+                out_away.push(aways[k]);
+                out_travel.push(travels[k]);
+            }
+        }
+        out_uv.push(q);
+        out_away.push(aways[k]);
+        out_travel.push(travels[k]);
+    }
+    // Pulled points must still advance along the travel (no back-steps).
+    let mut keep = vec![true; out_uv.len()];
+    let mut last: Option<nalgebra::Point3<f64>> = None;
+    for k in 0..out_uv.len() {
+        let p = surface.point(out_uv[k].x, out_uv[k].y);
+        if let Some(a) = last {
+            if (p - a).dot(&out_travel[k]) <= 1e-6 {
+                keep[k] = false;
+                continue;
+            }
+        }
+        last = Some(p);
+    }
+    let mut it = keep.iter();
+    out_uv.retain(|_| *it.next().unwrap_or(&true));
+    let mut it = keep.iter();
+    out_away.retain(|_| *it.next().unwrap_or(&true));
+    let mut it = keep.iter();
+    out_travel.retain(|_| *it.next().unwrap_or(&true));
+    *uv = out_uv;
+    *aways = out_away;
+    *travels = out_travel;
+}
+
+/// Pulled-in midpoints between `a` and `b`, in order.
+fn subdivide(
+    pull: &dyn Fn(Vector2<f64>, f64) -> Option<Vector2<f64>>,
+    a: Vector2<f64>,
+    b: Vector2<f64>,
+    r: f64,
+    depth: usize,
+    out: &mut Vec<Vector2<f64>>,
+) {
+    if depth == 0 {
+        return;
+    }
+    let m = (a + b) * 0.5;
+    if let Some(p) = pull(m, r) {
+        subdivide(pull, a, p, r, depth - 1, out);
+        out.push(p);
+        subdivide(pull, p, b, r, depth - 1, out);
+    }
 }

@@ -2,10 +2,12 @@
 //! the separatrices of each trisector along the optimal feed field to the
 //! boundary or another degenerate point, then split the parameter domain
 //! into the faces of the planar graph formed by the separatrices and the
-//! domain boundary. Also the field-line tracer the initial passes use.
+//! domain boundary. Also the field-line tracing the initial passes use (on
+//! the shared tracer in geometry::field_trace).
 
 use super::degenerate_points::{DegeneratePoint, Kind};
 use super::strip_width::feed_at;
+use crate::geometry::field_trace::{trace_field_until, TraceOptions, TraceStop};
 use crate::geometry::{LocalGeometry, NurbsSurface};
 use nalgebra::{Point3, Vector2, Vector3};
 
@@ -28,52 +30,14 @@ pub struct Trace {
     pub end: TraceEnd,
 }
 
-/// Unit feed direction in parameter space (maps to a unit 3-D tangent),
-/// oriented along `prev` (3-D), with the 3-D tangent.
-fn oriented_feed(
-    surface: &NurbsSurface,
-    uv: Vector2<f64>,
-    k_b: f64,
-    prev: Vector3<f64>,
-) -> Option<(Vector2<f64>, Vector3<f64>)> {
-    let g = LocalGeometry::at(surface, uv.x, uv.y)?;
-    let f = feed_at(&g, k_b)?;
-    if f.feed.dot(&prev) < 0.0 {
-        Some((-f.feed_uv, -f.feed))
-    } else {
-        Some((f.feed_uv, f.feed))
-    }
-}
-
 fn inside_domain(surface: &NurbsSurface, uv: Vector2<f64>) -> bool {
     let ((u0, u1), (v0, v1)) = surface.domain();
     uv.x >= u0 && uv.x <= u1 && uv.y >= v0 && uv.y <= v1
 }
 
-/// Clips the segment a -> b (a inside) at the domain boundary.
-fn clip_to_domain(surface: &NurbsSurface, a: Vector2<f64>, b: Vector2<f64>) -> Vector2<f64> {
-    let ((u0, u1), (v0, v1)) = surface.domain();
-    let d = b - a;
-    let mut t = 1.0f64;
-    if d.x > 0.0 {
-        t = t.min((u1 - a.x) / d.x);
-    } else if d.x < 0.0 {
-        t = t.min((u0 - a.x) / d.x);
-    }
-    if d.y > 0.0 {
-        t = t.min((v1 - a.y) / d.y);
-    } else if d.y < 0.0 {
-        t = t.min((v0 - a.y) / d.y);
-    }
-    let p = a + d * t.clamp(0.0, 1.0);
-    let (u, v) = surface.clamp_uv(p.x, p.y);
-    Vector2::new(u, v)
-}
-
-/// Traces the feed field line from `start` in the 3-D direction `dir` with
-/// midpoint steps of `step` mm, until the domain boundary, a degenerate point
-/// (within `snap` mm, other than the first `skip` of them... none skipped
-/// once `away` mm have been travelled), `stop(uv)`, or `max_len` mm.
+/// Feed field lines: traced with steps of at most `step` mm until the domain
+/// boundary, a degenerate point (within `snap` mm; not the one the line
+/// starts from), `stop(uv)`, or `max_len` mm.
 pub struct Tracer<'a> {
     pub surface: &'a NurbsSurface,
     pub k_b: f64,
@@ -85,6 +49,9 @@ pub struct Tracer<'a> {
 }
 
 impl Tracer<'_> {
+    /// Traces the feed field line from `start` heading along the 3-D tangent
+    /// `dir`, with the shared field tracer (Dormand-Prince, error control in
+    /// mm on the surface, exact stop on the domain boundary).
     pub fn trace(
         &self,
         start: Vector2<f64>,
@@ -92,65 +59,70 @@ impl Tracer<'_> {
         stop: &dyn Fn(Vector2<f64>) -> bool,
     ) -> Trace {
         let s = self.surface;
-        let mut uv = start;
-        let mut pts = vec![uv];
-        let mut prev = dir;
+        let k_b = self.k_b;
+        let field = |x: Vector2<f64>| {
+            let g = LocalGeometry::at(s, x.x, x.y)?;
+            feed_at(&g, k_b).map(|f| f.feed_uv)
+        };
+        let Some(g0) = LocalGeometry::at(s, start.x, start.y) else {
+            return Trace {
+                uv: vec![start],
+                end: TraceEnd::Lost,
+            };
+        };
+        let direction = g0.tangent_to_uv(dir);
         let start_xyz = s.point(start.x, start.y);
-        let mut travelled = 0.0;
-        while travelled < self.max_len {
-            let Some((k1, t1)) = oriented_feed(s, uv, self.k_b, prev) else {
-                return Trace {
-                    uv: pts,
-                    end: TraceEnd::Lost,
-                };
-            };
-            let mid = uv + k1 * (0.5 * self.step);
-            let (mu, mv) = s.clamp_uv(mid.x, mid.y);
-            let Some((k2, t2)) = oriented_feed(s, Vector2::new(mu, mv), self.k_b, t1) else {
-                return Trace {
-                    uv: pts,
-                    end: TraceEnd::Lost,
-                };
-            };
-            let next = uv + k2 * self.step;
-            prev = t2;
-            travelled += self.step;
-            if !inside_domain(s, next) {
-                let b = clip_to_domain(s, uv, next);
-                if (b - uv).norm() > 0.0 {
-                    pts.push(b);
-                }
-                return Trace {
-                    uv: pts,
-                    end: TraceEnd::Boundary,
-                };
+        let hit = std::cell::Cell::new(None);
+        // A degenerate point within `snap` ends the line there (not the one
+        // it starts from: it leaves that one radially).
+        let near_degenerate = |p: &Point3<f64>, within: f64| -> Option<usize> {
+            self.degenerate.iter().position(|d| {
+                let from_start =
+                    (d - start_xyz).norm() < self.snap && (p - start_xyz).norm() < 4.0 * self.snap;
+                !from_start && (p - d).norm() < within
+            })
+        };
+        let until = |uv: Vector2<f64>, p: &Point3<f64>| {
+            if let Some(k) = near_degenerate(p, self.snap) {
+                hit.set(Some(k));
+                return true;
             }
-            let p = s.point(next.x, next.y);
-            for (k, d) in self.degenerate.iter().enumerate() {
-                // Not the point the trace started from (it leaves it radially).
-                if (d - start_xyz).norm() < self.snap && (p - start_xyz).norm() < 4.0 * self.snap {
-                    continue;
+            stop(uv)
+        };
+        let options = TraceOptions {
+            max_length: self.max_len,
+            tolerance: 1e-5,
+            initial_step: self.step,
+            max_step: self.step,
+            min_step: 1e-7,
+            oriented: false,
+            max_points: 1_000_000,
+        };
+        let tr = trace_field_until(s, field, start, direction, &options, &until);
+        let mut uv: Vec<Vector2<f64>> = tr.uv.iter().map(|p| Vector2::new(p[0], p[1])).collect();
+        let end = match tr.stop {
+            TraceStop::Boundary => TraceEnd::Boundary,
+            TraceStop::Stopped => match hit.get() {
+                Some(k) => {
+                    uv.pop();
+                    TraceEnd::Degenerate(k)
                 }
-                if (p - d).norm() < self.snap {
-                    return Trace {
-                        uv: pts,
-                        end: TraceEnd::Degenerate(k),
-                    };
+                None => TraceEnd::Stopped,
+            },
+            // The field turns too fast or vanishes right at an umbilic.
+            TraceStop::FieldUndefined | TraceStop::StepTooSmall => {
+                let last = tr.xyz.last().map(|p| Point3::new(p[0], p[1], p[2]));
+                match last.and_then(|p| near_degenerate(&p, 4.0 * self.snap)) {
+                    Some(k) => TraceEnd::Degenerate(k),
+                    None => TraceEnd::Lost,
                 }
             }
-            pts.push(next);
-            if stop(next) {
-                return Trace {
-                    uv: pts,
-                    end: TraceEnd::Stopped,
-                };
-            }
-            uv = next;
+            TraceStop::MaxLength | TraceStop::MaxPoints => TraceEnd::Lost,
+        };
+        if uv.is_empty() {
+            uv.push(start);
         }
-        Trace {
-            uv: pts,
-            end: TraceEnd::Lost,
-        }
+        Trace { uv, end }
     }
 }
 

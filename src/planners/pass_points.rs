@@ -206,7 +206,10 @@ pub fn sample_curve(
 /// Walks on the surface from `uv` along the 3-D tangent direction `dir`
 /// (re-projected on the tangent plane each sub-step, midpoint rule) for `dist`
 /// mm. Returns the end, the carried direction there, and whether the domain
-/// boundary stopped the walk (the end then lies on it).
+/// boundary stopped the walk (the end then lies on it). Not a field line:
+/// the heading is carried along the walk (the offset distance of the
+/// iso-scallop offsetting is measured along it), so it is not traced with
+/// geometry::field_trace.
 pub fn walk_on_surface(
     surface: &NurbsSurface,
     uv: Vector2<f64>,

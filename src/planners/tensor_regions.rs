@@ -19,6 +19,8 @@ use nalgebra::{Point3, Vector2, Vector3};
 
 /// Grid cells per direction for the degenerate-point search.
 const DEGENERATE_GRID: usize = 48;
+/// Largest share of the surface area the regions may miss or double-count.
+const TILING_TOLERANCE: f64 = 0.005;
 /// Samples per direction when looking for a region's widest-strip point.
 const WIDEST_GRID: usize = 48;
 
@@ -38,7 +40,21 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
         (vec![whole_domain(surface)], Vec::new())
     } else {
         let p = partition(surface, k_b, &analysis.points, step);
-        (p.regions, p.separatrices_uv)
+        // The regions must tile the surface: where the separatrix graph did
+        // not close into faces covering it (separatrices ending near each
+        // other or on a wedge), planning the faces found would leave the rest
+        // uncut. Then the whole surface is one region.
+        let whole = whole_domain(surface);
+        let covered: f64 = p.regions.iter().map(|r| r.area_mm2).sum();
+        if (covered - whole.area_mm2).abs() > TILING_TOLERANCE * whole.area_mm2 {
+            result.warnings.push(format!(
+                "the separatrices split the surface into regions covering {covered:.0} of {:.0} mm^2: planned as one region",
+                whole.area_mm2
+            ));
+            (vec![whole], p.separatrices_uv)
+        } else {
+            (p.regions, p.separatrices_uv)
+        }
     };
     progress.set(0.2);
     let mut passes = Vec::new();
