@@ -2,7 +2,8 @@
 //! surfaces, for a 5-axis mill and a 6-axis belt grinder, and 2.5-axis pockets.
 //!
 //! Layers, each depending only on those listed before it:
-//! 1. `error`, `geometry` (NURBS, differential geometry, pockets), `tools`
+//! 1. `error`, `parallel` (deterministic chunked threads), `geometry` (NURBS,
+//!    differential geometry, pockets), `tools`
 //! 2. `formats` (surface, pocket, job and result files), `samples`
 //! 3. `planners` (one module per method)
 //! 4. `simulation` (scallop simulator, material removal)
@@ -15,6 +16,7 @@
 
 pub mod error;
 pub mod geometry;
+pub mod parallel;
 pub mod tools;
 
 pub mod formats;

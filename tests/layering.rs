@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 /// Layer rank of a top-level module (lib.rs order); same rank may use each other.
 fn rank(module: &str) -> Option<u32> {
     Some(match module {
-        "error" => 0,
+        "error" | "parallel" => 0,
         "geometry" | "tools" => 1,
         "formats" | "samples" => 2,
         "planners" => 3,

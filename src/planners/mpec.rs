@@ -33,6 +33,10 @@ pub const POINT_SPACING: f64 = 1.5;
 /// Narrowest usable half strip, mm: below it the passes could not advance.
 const MIN_HALF_WIDTH: f64 = 0.05;
 
+/// Drive points per parallel chunk of a pass (each chunk's first point is
+/// solved without a neighbour's warm start).
+const PASS_CHUNK: usize = 32;
+
 /// The tool's second reference frame at a drive point.
 #[derive(Clone, Copy, Debug)]
 pub struct Frame {
@@ -469,12 +473,22 @@ impl<'a> Planner<'a> {
         out
     }
 
-    /// Positions every drive point of the pass at cross parameter `t`.
+    /// Positions every drive point of the pass at cross parameter `t`, in
+    /// chunks of [`PASS_CHUNK`] points on the machine's cores. Each chunk
+    /// warm-starts its searches from its own previous point, so the answer is
+    /// the same on any number of threads.
     pub fn pass(&self, t: f64, samples: &[(f64, bool)]) -> Result<Vec<DrivePoint>> {
-        let mut out: Vec<DrivePoint> = Vec::with_capacity(samples.len());
-        for &(s, inside) in samples {
-            let point = self.drive_point(s, t, out.last(), inside)?;
-            out.push(point);
+        let parts = crate::parallel::map_chunks(samples, PASS_CHUNK, |chunk| {
+            let mut out: Vec<DrivePoint> = Vec::with_capacity(chunk.len());
+            for &(s, inside) in chunk {
+                let point = self.drive_point(s, t, out.last(), inside)?;
+                out.push(point);
+            }
+            Ok(out)
+        });
+        let mut out = Vec::with_capacity(samples.len());
+        for part in parts {
+            out.extend(part?);
         }
         Ok(out)
     }

@@ -618,61 +618,23 @@ impl<'a> Simulator<'a> {
     }
 
     fn residuals(&self, frames: &[Frame]) -> Vec<Option<f64>> {
-        let threads = std::thread::available_parallelism()
-            .map_or(1, |n| n.get())
-            .clamp(1, 16);
-        let chunk = frames.len().div_ceil(threads * 8).max(64);
-        let chunks: Vec<&[Frame]> = frames.chunks(chunk).collect();
-        let next = std::sync::atomic::AtomicUsize::new(0);
-        let mut parts: Vec<Vec<Option<f64>>> = vec![Vec::new(); chunks.len()];
-        std::thread::scope(|scope| {
-            let handles: Vec<_> = (0..threads)
-                .map(|_| {
-                    let chunks = &chunks;
-                    let next = &next;
-                    scope.spawn(move || {
-                        let mut done = Vec::new();
-                        let mut scratch = Vec::new();
-                        loop {
-                            let c = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                            let Some(frames) = chunks.get(c) else { break };
-                            let out: Vec<Option<f64>> = frames
-                                .iter()
-                                .map(|f| {
-                                    f.as_ref()
-                                        .and_then(|(p, n, _)| self.residual(p, n, &mut scratch))
-                                })
-                                .collect();
-                            done.push((c, out));
-                        }
-                        done
-                    })
-                })
-                .collect();
-            for h in handles {
-                // A panicking worker is a bug; its chunks stay empty and are recomputed below.
-                if let Ok(done) = h.join() {
-                    for (c, out) in done {
-                        if let Some(slot) = parts.get_mut(c) {
-                            *slot = out;
-                        }
-                    }
-                }
-            }
-        });
-        let mut scratch = Vec::new();
-        let mut all = Vec::with_capacity(frames.len());
-        for (c, part) in parts.into_iter().enumerate() {
-            if part.len() == chunks[c].len() {
-                all.extend(part);
-            } else {
-                all.extend(chunks[c].iter().map(|f| {
+        let chunk = frames
+            .len()
+            .div_ceil(crate::parallel::threads() * 8)
+            .max(64);
+        crate::parallel::map_chunks(frames, chunk, |frames| {
+            let mut scratch = Vec::new();
+            frames
+                .iter()
+                .map(|f| {
                     f.as_ref()
                         .and_then(|(p, n, _)| self.residual(p, n, &mut scratch))
-                }));
-            }
-        }
-        all
+                })
+                .collect::<Vec<_>>()
+        })
+        .into_iter()
+        .flatten()
+        .collect()
     }
 
     /// Refines the grid's extreme residual (`sign` 1: max, -1: min) by compass
