@@ -13,13 +13,6 @@ use toolpath_planner::planners::NoProgress;
 use toolpath_planner::simulation::removal::simulate_on_grid;
 use toolpath_planner::tools::Tool;
 
-fn plan_only() -> RunOptions {
-    RunOptions {
-        skip_verify: true,
-        no_timing: true,
-    }
-}
-
 fn belt_plans(c: &mut Criterion) {
     let mut g = c.benchmark_group("belt_plan");
     g.sample_size(10).measurement_time(Duration::from_secs(5));
@@ -28,7 +21,10 @@ fn belt_plans(c: &mut Criterion) {
             let mut job = toolpath_planner::samples::job(name).expect("sample");
             job.strategy = strategy;
             g.bench_function(format!("{name}/{}", strategy.name()), |b| {
-                b.iter(|| pipeline::run(black_box(&job), &NoProgress, plan_only()).expect("plan"))
+                b.iter(|| {
+                    pipeline::run(black_box(&job), &NoProgress, RunOptions::PLAN_ONLY)
+                        .expect("plan")
+                })
             });
         }
     }
@@ -38,7 +34,7 @@ fn belt_plans(c: &mut Criterion) {
 fn hamann_egg_crate(c: &mut Criterion) {
     let mut job = toolpath_planner::samples::job("egg_crate").expect("sample");
     job.strategy = Strategy::BeltIsoPlanar;
-    let result = pipeline::run(&job, &NoProgress, plan_only()).expect("plan");
+    let result = pipeline::run(&job, &NoProgress, RunOptions::PLAN_ONLY).expect("plan");
     let Tool::Belt {
         width,
         wheel_radius,

@@ -17,6 +17,14 @@ pub struct RunOptions {
     pub no_timing: bool,
 }
 
+impl RunOptions {
+    /// Plan only: no simulator, compute_ms 0 (benches, tests, edges that verify elsewhere).
+    pub const PLAN_ONLY: RunOptions = RunOptions {
+        skip_verify: true,
+        no_timing: true,
+    };
+}
+
 /// Plans `job` and fills the statistics every result carries.
 pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<PlanResult> {
     let start = Instant::now();

@@ -44,14 +44,7 @@ fn job(
 
 fn run(surface: NurbsSurface, file: JobFile) -> toolpath_planner::Result<PlanResult> {
     let job = Job::new(file, Shape::Surface(surface))?;
-    pipeline::run(
-        &job,
-        &NoProgress,
-        RunOptions {
-            skip_verify: true,
-            no_timing: true,
-        },
-    )
+    pipeline::run(&job, &NoProgress, RunOptions::PLAN_ONLY)
 }
 
 fn cc_len(p: &toolpath_planner::formats::Pass) -> f64 {
@@ -425,15 +418,8 @@ fn belt_sample_jobs_plan_with_both_strategies() {
         for strategy in [Strategy::BeltIsoParametric, Strategy::BeltIsoPlanar] {
             let mut job = toolpath_planner::samples::job(name).unwrap();
             job.strategy = strategy;
-            let r = pipeline::run(
-                &job,
-                &NoProgress,
-                RunOptions {
-                    skip_verify: true,
-                    no_timing: true,
-                },
-            )
-            .unwrap_or_else(|e| panic!("{name} {strategy:?}: {e}"));
+            let r = pipeline::run(&job, &NoProgress, RunOptions::PLAN_ONLY)
+                .unwrap_or_else(|e| panic!("{name} {strategy:?}: {e}"));
             assert!(
                 r.passes.len() >= 2 && r.stats.max_gouge_mm.is_some(),
                 "{name}"
@@ -589,15 +575,7 @@ fn hamann_removal_on_a_flat_part_matches_the_model() {
 #[test]
 fn simulation_rejects_bad_settings() {
     let mut job = toolpath_planner::samples::job("sine_wave").unwrap();
-    let r = pipeline::run(
-        &job,
-        &NoProgress,
-        RunOptions {
-            skip_verify: true,
-            no_timing: true,
-        },
-    )
-    .unwrap();
+    let r = pipeline::run(&job, &NoProgress, RunOptions::PLAN_ONLY).unwrap();
     job.simulation_resolution = Some(1e-4);
     let e = toolpath_planner::simulation::removal::simulate_job(&job, &r).unwrap_err();
     assert!(e.to_string().contains("simulation_resolution"), "{e}");
@@ -614,15 +592,7 @@ fn simulate_command_writes_the_map_and_prints_the_stats() {
     let dir = tempfile::tempdir().unwrap();
     let mut job = toolpath_planner::samples::job("sine_wave").unwrap();
     job.simulation_resolution = Some(0.5);
-    let result = pipeline::run(
-        &job,
-        &NoProgress,
-        RunOptions {
-            skip_verify: true,
-            no_timing: true,
-        },
-    )
-    .unwrap();
+    let result = pipeline::run(&job, &NoProgress, RunOptions::PLAN_ONLY).unwrap();
     let (jp, rp, mp) = (
         dir.path().join("job.json"),
         dir.path().join("result.json"),

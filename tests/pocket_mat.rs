@@ -352,10 +352,7 @@ fn bad_input_gives_clear_errors() {
 #[test]
 fn result_fields_and_determinism() {
     let job = samples::job("pocket_with_hole").unwrap();
-    let opts = toolpath_planner::pipeline::RunOptions {
-        skip_verify: true,
-        no_timing: true,
-    };
+    let opts = toolpath_planner::pipeline::RunOptions::PLAN_ONLY;
     let a = toolpath_planner::pipeline::run(&job, &NoProgress, opts).unwrap();
     let b = toolpath_planner::pipeline::run(&job, &NoProgress, opts).unwrap();
     assert_eq!(formats::to_json_pretty(&a), formats::to_json_pretty(&b));

@@ -192,14 +192,6 @@ fn pipeline_fills_scallop_stats_from_the_simulator() {
     );
     let area = report.uncovered_area_mm2 + report.machined_area_mm2;
     assert!((area - 600.0).abs() < 1e-6, "{area}");
-    let skipped = pipeline::run(
-        &job,
-        &NoProgress,
-        RunOptions {
-            skip_verify: true,
-            no_timing: true,
-        },
-    )
-    .unwrap();
+    let skipped = pipeline::run(&job, &NoProgress, RunOptions::PLAN_ONLY).unwrap();
     assert_eq!(skipped.stats.max_scallop_mm, None);
 }

@@ -77,10 +77,7 @@ fn bench_job(job_id: &str, surface: NurbsSurface) -> Result<Job> {
 }
 
 fn points_of(job: &Job) -> Result<usize> {
-    let options = RunOptions {
-        skip_verify: true,
-        no_timing: true,
-    };
+    let options = RunOptions::PLAN_ONLY;
     Ok(pipeline::run(job, &NoProgress, options)?.point_count())
 }
 

@@ -174,10 +174,7 @@ fn remove_old_bag(bag: &Path) -> Result<()> {
 
 /// Re-plans `job` locally and draws it to `path` (with the residual map for milling).
 fn plot_sample(job: &Job, node_points: Option<u32>, path: &Path) -> Result<()> {
-    let options = RunOptions {
-        skip_verify: true,
-        no_timing: true,
-    };
+    let options = RunOptions::PLAN_ONLY;
     let result = pipeline::run(job, &NoProgress, options)?;
     let local_points = result.passes.iter().map(|p| p.points.len()).sum::<usize>()
         + result
