@@ -35,16 +35,8 @@ struct Node {
 }
 
 impl Node {
-    fn start(dir: &Path, bag_name: &str, domain: u16) -> Node {
-        let config = dir.join(format!("{bag_name}.yaml"));
-        std::fs::write(
-            &config,
-            format!(
-                "recording:\n  enabled: true\n  directory: \"{}\"\n  bag_name: {bag_name}\n",
-                dir.display()
-            ),
-        )
-        .unwrap();
+    /// `toolpath node --config CONFIG` on `domain`, and its first stdout line.
+    fn spawn(config: &Path, domain: u16) -> (Node, String) {
         let mut child = Command::new(BIN)
             .args(["node", "--config", config.to_str().unwrap()])
             .env("ROS_DOMAIN_ID", domain.to_string())
@@ -57,7 +49,20 @@ impl Node {
         BufReader::new(child.stdout.take().unwrap())
             .read_line(&mut line)
             .unwrap();
-        let node = Node { child, domain };
+        (Node { child, domain }, line)
+    }
+
+    fn start(dir: &Path, bag_name: &str, domain: u16) -> Node {
+        let config = dir.join(format!("{bag_name}.yaml"));
+        std::fs::write(
+            &config,
+            format!(
+                "recording:\n  enabled: true\n  directory: \"{}\"\n  bag_name: {bag_name}\n",
+                dir.display()
+            ),
+        )
+        .unwrap();
+        let (node, line) = Node::spawn(&config, domain);
         assert!(line.starts_with("ready"), "node did not start: {line:?}");
         assert!(
             line.contains(&format!("recording to {}", dir.join(bag_name).display())),
@@ -269,19 +274,7 @@ fn the_node_publishes_every_toolpath_over_iceoryx2() {
     .unwrap();
     let d = domain(4);
     let sub = ToolpathSubscriber::with_prefix(&service, Some(&prefix)).unwrap();
-    let mut child = Command::new(BIN)
-        .args(["node", "--config", config.to_str().unwrap()])
-        .env("ROS_DOMAIN_ID", d.to_string())
-        .env("RUST_LOG", "off")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let node = Node { child, domain: d };
+    let (node, line) = Node::spawn(&config, d);
     assert!(
         line.contains(&format!("iceoryx2 service {service}")),
         "{line}"
