@@ -32,12 +32,9 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     let passes = cover(surface, &settings, &region, &initial)?;
     let mut result = PlanResult::new(&job.job_id, job.strategy.name());
     result.passes = passes;
-    result.stats.path_length_lower_bound_mm = Some(super::strip_width::path_length_lower_bound(
-        surface,
-        &settings.cutter,
-        job.scallop()?,
-        super::LOWER_BOUND_CELLS,
-    )?);
+    result.stats.path_length_lower_bound_mm = Some(
+        super::strip_width::job_path_length_lower_bound(job, surface, &settings.cutter)?,
+    );
     Ok(result)
 }
 

@@ -387,6 +387,16 @@ const GAUSS3: [(f64, f64); 3] = [
     (0.887_298_334_620_741_7, 5.0 / 18.0),
 ];
 
+/// [`path_length_lower_bound`] of a milling job at its own scallop, on the
+/// grid every strip-width planner reports it with.
+pub fn job_path_length_lower_bound(
+    job: &Job,
+    surface: &NurbsSurface,
+    cutter: &Cutter,
+) -> Result<f64> {
+    path_length_lower_bound(surface, cutter, job.scallop()?, super::LOWER_BOUND_CELLS)
+}
+
 /// Lower bound of the path length for scallop h: the integral over the
 /// surface of dA / w_max(p). No set of passes can be shorter, since each unit
 /// of length clears at most w_max of area. `cells` per parameter direction.

@@ -95,12 +95,9 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
             })
             .collect(),
     );
-    result.stats.path_length_lower_bound_mm = Some(super::strip_width::path_length_lower_bound(
-        surface,
-        &settings.cutter,
-        job.scallop()?,
-        super::LOWER_BOUND_CELLS,
-    )?);
+    result.stats.path_length_lower_bound_mm = Some(
+        super::strip_width::job_path_length_lower_bound(job, surface, &settings.cutter)?,
+    );
     Ok(result)
 }
 
