@@ -12,8 +12,11 @@
 //! DDS delivery of the job and of the toolpath: job sent to toolpath received,
 //! minus planning. Target: node overhead p99 < 20 ms at 10 000 points.
 //!
-//! Burst: `--burst` jobs on a small surface published back to back; every job
-//! must get exactly one final status (target: none lost).
+//! Burst: `--bursts` rounds of `--burst` jobs on a small surface, each round
+//! published back to back; every job must get exactly one final status
+//! (target: none lost); the figure is the median time from the first job sent
+//! to the last final status. [`burst`] is the same client for a running node
+//! (tests/node_burst.rs).
 
 use super::demo::{demo_domain, start_node_with};
 use crate::error::{Error, Result};
@@ -27,6 +30,7 @@ use crate::ros::node::{qos, topics, RosNode, TIMING_TAG};
 use crate::tools::Tool;
 use futures::StreamExt;
 use ros2_client::qos::{History, WhenFull};
+use ros2_client::{MessageInfo, Publisher, Subscription};
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
 use std::net::{IpAddr, Ipv4Addr};
@@ -141,24 +145,56 @@ struct Figures {
     node_overhead_ms: Vec<f64>,
     client_overhead_ms: Vec<f64>,
     planning_ms: Vec<f64>,
-    burst_sent: usize,
-    burst_answered: usize,
-    burst_duplicates: usize,
-    burst_states: BTreeMap<&'static str, usize>,
-    burst_s: f64,
+    bursts: Vec<BurstOutcome>,
 }
 
-/// Runs the benchmark and prints the table.
-pub fn run(jobs: usize, points: usize, burst: usize) -> Result<()> {
-    if jobs == 0 || points == 0 {
-        return Err(Error::invalid("--jobs/--points", "must be at least 1"));
+/// What one burst got back.
+#[derive(Clone, Debug)]
+pub struct BurstOutcome {
+    /// Jobs published back to back.
+    pub sent: usize,
+    /// Jobs with at least one final status.
+    pub answered: usize,
+    /// Jobs with more than one final status.
+    pub duplicates: usize,
+    /// First final state of each answered job, by state name.
+    pub states: BTreeMap<&'static str, usize>,
+    /// First job published to last final status received (to the timeout
+    /// when some are missing), s.
+    pub seconds: f64,
+}
+
+impl BurstOutcome {
+    pub fn lost(&self) -> usize {
+        self.sent - self.answered
+    }
+    /// Every job answered exactly once, and SUCCEEDED.
+    pub fn all_succeeded_once(&self) -> bool {
+        self.lost() == 0
+            && self.duplicates == 0
+            && self.states.get("SUCCEEDED").copied() == Some(self.sent)
+    }
+}
+
+/// Runs the benchmark and prints the table: `jobs` timed jobs (0: none),
+/// then `bursts` bursts of `burst` jobs (0: none).
+pub fn run(jobs: usize, points: usize, burst: usize, bursts: usize) -> Result<()> {
+    if points == 0 || (jobs == 0 && (burst == 0 || bursts == 0)) {
+        return Err(Error::invalid(
+            "--jobs/--points/--burst/--bursts",
+            "nothing to measure: give --points >= 1 and --jobs >= 1 or --burst and --bursts >= 1",
+        ));
     }
     super::node::init_logging_with("off");
-    let (surface, actual_points) = sized_surface(points)?;
+    let (surface, actual_points) = if jobs > 0 {
+        sized_surface(points)?
+    } else {
+        (rectangle(10.0)?, 0)
+    };
     let dir = std::env::temp_dir().join(format!("toolpath_bench_node_{}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(dir.display().to_string(), e))?;
     let config = dir.join("node.yaml");
-    let written = std::fs::write(&config, "node:\n  verify: false\n  workers: 1\n")
+    let written = std::fs::write(&config, NODE_CONFIG)
         .map_err(|e| Error::io(config.display().to_string(), e));
     let domain = demo_domain();
     let started = written.and_then(|_| {
@@ -183,75 +219,112 @@ pub fn run(jobs: usize, points: usize, burst: usize) -> Result<()> {
             }
         });
     }
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .map_err(|e| Error::planning(format!("cannot start the async runtime: {e}")))?;
-    let figures = runtime.block_on(client(
-        domain,
-        surface,
-        actual_points,
-        jobs,
-        burst,
-        timing_rx,
-    ));
-    drop(runtime);
+    let figures = runtime().and_then(|rt| {
+        rt.block_on(client(
+            domain,
+            surface,
+            actual_points,
+            jobs,
+            (burst, bursts),
+            timing_rx,
+        ))
+    });
     node.stop(Duration::from_secs(10));
     let f = figures?;
     print_table(&f, domain);
     Ok(())
 }
 
-fn print_table(f: &Figures, domain: u16) {
-    println!(
-        "node overhead: {} jobs of {} points (iso_parametric, mill5), one at a time, node and client on loopback (domain {domain})",
-        f.node_overhead_ms.len(),
-        f.points
-    );
-    println!(
-        "{:<52} {:>9} {:>9} {:>9} {:>9}",
-        "ms", "p50", "p90", "p99", "max"
-    );
-    for (name, v) in [
-        (
-            "node: job received -> toolpath published - planning",
-            &f.node_overhead_ms,
-        ),
-        (
-            "client: job sent -> toolpath received - planning",
-            &f.client_overhead_ms,
-        ),
-        ("planning (pipeline::run, no simulator)", &f.planning_ms),
-    ] {
-        let [a, b, c, d] = percentiles(v);
-        println!("{name:<52} {a:>9.2} {b:>9.2} {c:>9.2} {d:>9.2}");
-    }
-    let p99 = percentiles(&f.node_overhead_ms)[2];
-    println!(
-        "target: node overhead p99 < {OVERHEAD_P99_TARGET_MS} ms at 10 000 points: {}",
-        if p99 < OVERHEAD_P99_TARGET_MS {
-            "met"
-        } else {
-            "MISSED"
+/// The launch config the benchmark runs the node with: planning only, one
+/// worker (the figures are the node's, not the planners' parallelism).
+pub const NODE_CONFIG: &str = "node:\n  verify: false\n  workers: 1\n";
+
+fn runtime() -> Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(|e| Error::planning(format!("cannot start the async runtime: {e}")))
+}
+
+/// The burst half of the benchmark against a node already running on
+/// `domain` (loopback), as a ROS 2 client built on ros2-client: `rounds`
+/// bursts of `n` small jobs each, every burst published back to back and
+/// waited for until every job has a final status or `timeout` passes.
+pub fn burst(domain: u16, n: usize, rounds: usize, timeout: Duration) -> Result<Vec<BurstOutcome>> {
+    runtime()?.block_on(async {
+        let c = Client::connect(domain).await?;
+        let mut statuses = Box::pin(c.status_sub.async_stream());
+        let mut out = Vec::with_capacity(rounds);
+        for round in 0..rounds {
+            out.push(burst_round(&c.job_pub, &mut statuses, round, n, timeout).await?);
         }
-    );
-    if f.burst_sent > 0 {
-        let states: Vec<String> = f
-            .burst_states
-            .iter()
-            .map(|(k, v)| format!("{v} {k}"))
-            .collect();
-        let lost = f.burst_sent - f.burst_answered;
+        Ok(out)
+    })
+}
+
+fn print_table(f: &Figures, domain: u16) {
+    if !f.node_overhead_ms.is_empty() {
         println!(
-            "burst: {} jobs sent back to back, {} final statuses ({}), {lost} lost, {} duplicate finals, {:.1} s ({:.1} jobs/s); target 0 lost: {}",
-            f.burst_sent,
-            f.burst_answered,
-            states.join(", "),
-            f.burst_duplicates,
-            f.burst_s,
-            f.burst_answered as f64 / f.burst_s.max(1e-9),
-            if lost == 0 && f.burst_duplicates == 0 {
+            "node overhead: {} jobs of {} points (iso_parametric, mill5), one at a time, node and client on loopback (domain {domain})",
+            f.node_overhead_ms.len(),
+            f.points
+        );
+        println!(
+            "{:<52} {:>9} {:>9} {:>9} {:>9}",
+            "ms", "p50", "p90", "p99", "max"
+        );
+        for (name, v) in [
+            (
+                "node: job received -> toolpath published - planning",
+                &f.node_overhead_ms,
+            ),
+            (
+                "client: job sent -> toolpath received - planning",
+                &f.client_overhead_ms,
+            ),
+            ("planning (pipeline::run, no simulator)", &f.planning_ms),
+        ] {
+            let [a, b, c, d] = percentiles(v);
+            println!("{name:<52} {a:>9.2} {b:>9.2} {c:>9.2} {d:>9.2}");
+        }
+        let p99 = percentiles(&f.node_overhead_ms)[2];
+        println!(
+            "target: node overhead p99 < {OVERHEAD_P99_TARGET_MS} ms at 10 000 points: {}",
+            if p99 < OVERHEAD_P99_TARGET_MS {
+                "met"
+            } else {
+                "MISSED"
+            }
+        );
+    }
+    if let Some(first) = f.bursts.first() {
+        println!(
+            "burst: {} x {} jobs published back to back (domain {domain}); per burst: final statuses, lost, duplicate finals, s",
+            f.bursts.len(),
+            first.sent
+        );
+        for (k, b) in f.bursts.iter().enumerate() {
+            let states: Vec<String> = b.states.iter().map(|(k, v)| format!("{v} {k}")).collect();
+            println!(
+                "  burst {k}: {} ({}), {} lost, {} duplicates, {:.2} s ({:.1} jobs/s)",
+                b.answered,
+                states.join(", "),
+                b.lost(),
+                b.duplicates,
+                b.seconds,
+                b.answered as f64 / b.seconds.max(1e-9)
+            );
+        }
+        let seconds: Vec<f64> = f.bursts.iter().map(|b| b.seconds).collect();
+        let [p50, _, _, max] = percentiles(&seconds);
+        let lost: usize = f.bursts.iter().map(BurstOutcome::lost).sum();
+        let duplicates: usize = f.bursts.iter().map(|b| b.duplicates).sum();
+        println!(
+            "burst of {}: median {p50:.2} s, max {max:.2} s ({:.1} jobs/s at the median), {lost} lost, {duplicates} duplicate finals; target every job exactly one final status (0 lost): {}",
+            first.sent,
+            first.sent as f64 / p50.max(1e-9),
+            if lost == 0 && duplicates == 0 {
                 "met"
             } else {
                 "MISSED"
@@ -271,43 +344,136 @@ fn header() -> msgs::Header {
     }
 }
 
+/// Surface id of the small surface the burst jobs use.
+const BURST_SURFACE: &str = "bench_small";
+
+/// The benchmark's ROS 2 client: a participant on loopback with the job and
+/// surface publishers and the status and toolpath readers.
+struct Client {
+    ros: RosNode,
+    surface_pub: Publisher<msgs::Surface>,
+    job_pub: Publisher<msgs::Job>,
+    status_sub: Subscription<msgs::JobStatus>,
+    toolpath_sub: Subscription<msgs::Toolpath>,
+}
+
+impl Client {
+    /// Connects to the node on `domain` and publishes the burst surface.
+    async fn connect(domain: u16) -> Result<Self> {
+        let mut ros = RosNode::new(
+            "toolpath_bench_node",
+            "/",
+            domain,
+            Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]),
+        )?;
+        let surface_pub = ros.publisher::<msgs::Surface>(topics::SURFACE, qos::shapes())?;
+        // Reliable with a history as deep as the node's job reader, as a real
+        // client sending bursts would; RustDDS keeps unacknowledged samples
+        // for repair regardless, the depth only matters before matching.
+        let job_qos = qos::job()
+            .reliability_reliable(WhenFull::Wait(Duration::from_secs(30)))
+            .history(History::KeepLast {
+                depth: qos::JOB_READER_DEPTH,
+            });
+        let job_pub = ros.publisher::<msgs::Job>(topics::JOB, job_qos)?;
+        let status_sub =
+            ros.subscription::<msgs::JobStatus>(topics::JOB_STATUS, qos::status_reader())?;
+        let toolpath_sub = ros.subscription::<msgs::Toolpath>(topics::TOOLPATH, qos::results())?;
+        tokio::time::timeout(
+            Duration::from_secs(30),
+            job_pub.wait_for_subscription(&ros.node),
+        )
+        .await
+        .map_err(|_| {
+            Error::planning("the node's job subscription was not discovered within 30 s")
+        })?;
+        let small = crate::samples::surfaces::plane();
+        surface_pub
+            .publish(convert::surface_to_msg(BURST_SURFACE, &small, header()))
+            .map_err(send_error)?;
+        Ok(Self {
+            ros,
+            surface_pub,
+            job_pub,
+            status_sub,
+            toolpath_sub,
+        })
+    }
+}
+
+/// Publishes `n` small jobs (ids `burst{round}_NNNN`) back to back and
+/// collects their final statuses from `statuses` until every job has one and
+/// 500 ms more have passed quietly (to catch duplicates), or `timeout` passes.
+async fn burst_round<S, E>(
+    job_pub: &Publisher<msgs::Job>,
+    statuses: &mut S,
+    round: usize,
+    n: usize,
+    timeout: Duration,
+) -> Result<BurstOutcome>
+where
+    S: futures::Stream<Item = std::result::Result<(JobStatus, MessageInfo), E>> + Unpin,
+{
+    let prefix = format!("burst{round}_");
+    let ids: Vec<String> = (0..n).map(|k| format!("{prefix}{k:04}")).collect();
+    let small = crate::samples::surfaces::plane();
+    let mut finals: BTreeMap<String, Vec<u8>> = BTreeMap::new();
+    let t0 = Instant::now();
+    for id in &ids {
+        let job = bench_job(id, small.clone())?;
+        job_pub
+            .publish(convert::job_to_msg(&job, BURST_SURFACE, header()))
+            .map_err(send_error)?;
+    }
+    let deadline = t0 + timeout;
+    let mut seconds = None;
+    let mut quiet_until: Option<Instant> = None;
+    loop {
+        // Once all are answered, listen a little longer for duplicates.
+        if quiet_until.is_none() && ids.iter().all(|id| finals.contains_key(id)) {
+            seconds = Some(t0.elapsed().as_secs_f64());
+            quiet_until = Some(Instant::now() + Duration::from_millis(500));
+        }
+        let until = quiet_until.unwrap_or(deadline).min(deadline);
+        let left = until.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            break;
+        }
+        tokio::select! {
+            Some(Ok((m, _))) = statuses.next() => {
+                if m.is_final() && m.job_id.starts_with(&prefix) {
+                    finals.entry(m.job_id.clone()).or_default().push(m.state);
+                }
+            }
+            _ = tokio::time::sleep(left) => {}
+        }
+    }
+    let mut states = BTreeMap::new();
+    for v in finals.values() {
+        if let Some(&s) = v.first() {
+            *states.entry(JobStatus::state_name(s)).or_default() += 1;
+        }
+    }
+    Ok(BurstOutcome {
+        sent: n,
+        answered: ids.iter().filter(|id| finals.contains_key(*id)).count(),
+        duplicates: finals.values().filter(|v| v.len() > 1).count(),
+        states,
+        seconds: seconds.unwrap_or_else(|| t0.elapsed().as_secs_f64()),
+    })
+}
+
 async fn client(
     domain: u16,
     surface: NurbsSurface,
     points: usize,
     jobs: usize,
-    burst: usize,
+    (burst, bursts): (usize, usize),
     timings: mpsc::Receiver<(String, Timing)>,
 ) -> Result<Figures> {
-    let mut ros = RosNode::new(
-        "toolpath_bench_node",
-        "/",
-        domain,
-        Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]),
-    )?;
-    let surface_pub = ros.publisher::<msgs::Surface>(topics::SURFACE, qos::shapes())?;
-    // Keep every job of a burst until the node has it.
-    let job_qos = qos::job()
-        .reliability_reliable(WhenFull::Wait(Duration::from_secs(30)))
-        .history(History::KeepLast { depth: burst + 10 });
-    let job_pub = ros.publisher::<msgs::Job>(topics::JOB, job_qos)?;
-    let status_sub = ros.subscription::<msgs::JobStatus>(topics::JOB_STATUS, qos::status())?;
-    let toolpath_sub = ros.subscription::<msgs::Toolpath>(topics::TOOLPATH, qos::results())?;
-    tokio::time::timeout(
-        Duration::from_secs(30),
-        job_pub.wait_for_subscription(&ros.node),
-    )
-    .await
-    .map_err(|_| Error::planning("the node's job subscription was not discovered within 30 s"))?;
-    surface_pub
-        .publish(convert::surface_to_msg("bench_rect", &surface, header()))
-        .map_err(send_error)?;
-    let small = crate::samples::surfaces::plane();
-    surface_pub
-        .publish(convert::surface_to_msg("bench_small", &small, header()))
-        .map_err(send_error)?;
-    let mut statuses = Box::pin(status_sub.async_stream());
-    let mut toolpaths = Box::pin(toolpath_sub.async_stream());
+    let c = Client::connect(domain).await?;
+    let mut statuses = Box::pin(c.status_sub.async_stream());
+    let mut toolpaths = Box::pin(c.toolpath_sub.async_stream());
     let job_timeout = Duration::from_secs(300);
 
     let mut figures = Figures {
@@ -315,18 +481,19 @@ async fn client(
         node_overhead_ms: Vec::new(),
         client_overhead_ms: Vec::new(),
         planning_ms: Vec::new(),
-        burst_sent: 0,
-        burst_answered: 0,
-        burst_duplicates: 0,
-        burst_states: BTreeMap::new(),
-        burst_s: 0.0,
+        bursts: Vec::new(),
     };
-    let warmup = 3;
+    if jobs > 0 {
+        c.surface_pub
+            .publish(convert::surface_to_msg("bench_rect", &surface, header()))
+            .map_err(send_error)?;
+    }
+    let warmup = if jobs > 0 { 3 } else { 0 };
     for k in 0..warmup + jobs {
         let id = format!("overhead_{k:04}");
         let job = bench_job(&id, surface.clone())?;
         let t0 = Instant::now();
-        job_pub
+        c.job_pub
             .publish(convert::job_to_msg(&job, "bench_rect", header()))
             .map_err(send_error)?;
         let deadline = Instant::now() + job_timeout;
@@ -378,55 +545,19 @@ async fn client(
             .push(timing.received_to_published_ms - timing.planning_ms);
         figures.client_overhead_ms.push(e2e_ms - timing.planning_ms);
     }
-
-    if burst > 0 {
-        let ids: Vec<String> = (0..burst).map(|k| format!("burst_{k:04}")).collect();
-        let mut finals: BTreeMap<String, Vec<u8>> = BTreeMap::new();
-        let t0 = Instant::now();
-        for id in &ids {
-            let job = bench_job(id, small.clone())?;
-            job_pub
-                .publish(convert::job_to_msg(&job, "bench_small", header()))
-                .map_err(send_error)?;
-        }
-        let deadline = Instant::now() + Duration::from_secs(1800);
-        let mut quiet_until: Option<Instant> = None;
-        loop {
-            let all = ids.iter().all(|id| finals.contains_key(id));
-            // Once all are answered, listen a little longer for duplicates.
-            if all && quiet_until.is_none() {
-                figures.burst_s = t0.elapsed().as_secs_f64();
-                quiet_until = Some(Instant::now() + Duration::from_millis(500));
-            }
-            let until = quiet_until.unwrap_or(deadline).min(deadline);
-            let left = until.saturating_duration_since(Instant::now());
-            if left.is_zero() {
-                break;
-            }
-            tokio::select! {
-                Some(Ok((m, _))) = statuses.next() => {
-                    if m.is_final() && m.job_id.starts_with("burst_") {
-                        finals.entry(m.job_id.clone()).or_default().push(m.state);
-                    }
-                }
-                _ = tokio::time::sleep(left) => {}
-            }
-        }
-        if figures.burst_s == 0.0 {
-            figures.burst_s = t0.elapsed().as_secs_f64();
-        }
-        figures.burst_sent = burst;
-        figures.burst_answered = ids.iter().filter(|id| finals.contains_key(*id)).count();
-        figures.burst_duplicates = finals.values().filter(|v| v.len() > 1).count();
-        for v in finals.values() {
-            if let Some(&s) = v.first() {
-                *figures
-                    .burst_states
-                    .entry(JobStatus::state_name(s))
-                    .or_default() += 1;
-            }
+    // The burst's toolpaths are not needed; their reader just drops them.
+    drop(toolpaths);
+    let burst_timeout = Duration::from_secs(600);
+    for round in 0..if burst > 0 { bursts } else { 0 } {
+        let b = burst_round(&c.job_pub, &mut statuses, round, burst, burst_timeout).await?;
+        let complete = b.lost() == 0;
+        figures.bursts.push(b);
+        if !complete {
+            // Later bursts would only queue behind the missing jobs.
+            break;
         }
     }
+    drop(c.ros);
     Ok(figures)
 }
 

@@ -1,7 +1,7 @@
 //! The `toolpath` command line. One module per subcommand; this file only
 //! parses arguments and maps errors to exit codes (2 for bad input).
 
-mod bench_node;
+pub mod bench_node;
 mod compare;
 mod compare_milling;
 mod compare_mpec;
@@ -102,7 +102,7 @@ pub enum Command {
     },
     /// Benchmark the node on loopback: overhead beyond planning (p50/p90/p99) and a job burst.
     BenchNode {
-        /// Jobs timed one at a time (after 3 warm-up jobs).
+        /// Jobs timed one at a time (after 3 warm-up jobs; 0: burst only).
         #[arg(long, default_value_t = 200)]
         jobs: usize,
         /// Points per timed toolpath (about).
@@ -111,6 +111,9 @@ pub enum Command {
         /// Jobs sent back to back in the burst (0: no burst).
         #[arg(long, default_value_t = 200)]
         burst: usize,
+        /// How many bursts (the figure is their median time).
+        #[arg(long, default_value_t = 5)]
+        bursts: usize,
     },
     /// Run the ROS 2 node.
     Node {
@@ -196,7 +199,8 @@ pub fn run() -> i32 {
             jobs,
             points,
             burst,
-        } => bench_node::run(jobs, points, burst),
+            bursts,
+        } => bench_node::run(jobs, points, burst, bursts),
         Command::Record {
             job,
             output,

@@ -63,13 +63,41 @@ pub mod qos {
     pub fn job() -> QosProfile {
         reliable(Durability::Volatile, History::KeepLast { depth: 100 })
     }
-    /// What the node's own readers of `profile` use: the same, but keeping
-    /// every sample until the node has taken it. History is not part of QoS
-    /// matching, so publishers still see the documented profile; a burst of
-    /// more jobs (or shapes) than the depth arriving while the node is busy
-    /// would otherwise be overwritten in the reader's cache and lost.
-    pub fn reader(profile: QosProfile) -> QosProfile {
-        profile.history(History::KeepAll)
+    /// Samples the node's `job` reader holds before the node has taken them.
+    ///
+    /// The depth is what bounds the reader's cache in RustDDS 0.15: a KEEP_ALL
+    /// reader without RESOURCE_LIMITS (which ros2-client's `QosProfile` cannot
+    /// carry) is capped at 64 samples, and the cache evicts the oldest samples
+    /// over the cap whether or not the reader has taken them, after the RTPS
+    /// reader has acknowledged them, so the writer never repairs them. A burst
+    /// arrives as a few 64 KB datagrams of ~350 coalesced jobs, each inserted
+    /// under one lock, so the node cannot take in between: a burst of more than
+    /// ~128 jobs lost jobs with KEEP_ALL (docs/architecture.md, "Job bursts").
+    /// Jobs are a few hundred bytes, so 10 000 cost a few MB.
+    pub const JOB_READER_DEPTH: usize = 10_000;
+    /// The node's reader of `job`: [`job`] with [`JOB_READER_DEPTH`]. History
+    /// is not part of QoS matching, so publishers still see the documented
+    /// profile.
+    pub fn job_reader() -> QosProfile {
+        job().history(History::KeepLast {
+            depth: JOB_READER_DEPTH,
+        })
+    }
+    /// The node's readers of `surface` and `pocket`: the documented keep-last
+    /// 100 (not KEEP_ALL, which RustDDS caps at 64, see [`JOB_READER_DEPTH`]);
+    /// a transient-local writer of depth 100 offers no more to a late joiner,
+    /// and read samples stay in the cache up to the depth, which for large
+    /// surfaces is memory.
+    pub fn shapes_reader() -> QosProfile {
+        shapes()
+    }
+    /// A client's reader of `job_status` that must see every status of a
+    /// burst (about four per job) even when it reads late: deep like
+    /// [`JOB_READER_DEPTH`].
+    pub fn status_reader() -> QosProfile {
+        status().history(History::KeepLast {
+            depth: JOB_READER_DEPTH,
+        })
     }
     /// `job_status`: transient-local, depth 1000 (a burst's statuses are not overwritten).
     pub fn status() -> QosProfile {
@@ -597,10 +625,9 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         domain,
         config.interfaces()?,
     )?;
-    let surfaces =
-        ros.subscription::<msgs::Surface>(topics::SURFACE, qos::reader(qos::shapes()))?;
-    let pockets = ros.subscription::<msgs::Pocket>(topics::POCKET, qos::reader(qos::shapes()))?;
-    let jobs = ros.subscription::<msgs::Job>(topics::JOB, qos::reader(qos::job()))?;
+    let surfaces = ros.subscription::<msgs::Surface>(topics::SURFACE, qos::shapes_reader())?;
+    let pockets = ros.subscription::<msgs::Pocket>(topics::POCKET, qos::shapes_reader())?;
+    let jobs = ros.subscription::<msgs::Job>(topics::JOB, qos::job_reader())?;
     let recorder = if config.recording.enabled {
         Some(Arc::new(Recorder::start(
             &config.recording,
