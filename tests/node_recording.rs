@@ -221,6 +221,8 @@ fn bench_node_prints_its_table() {
             "600",
             "--burst",
             "5",
+            "--bursts",
+            "2",
         ])
         .env("ROS_DOMAIN_ID", domain(3).to_string())
         .output()
@@ -235,8 +237,16 @@ fn bench_node_prints_its_table() {
         stdout.contains("node: job received -> toolpath published - planning"),
         "{stdout}"
     );
+    for k in 0..2 {
+        assert!(
+            stdout.contains(&format!("burst {k}: 5 (5 SUCCEEDED), 0 lost, 0 duplicates")),
+            "{stdout}"
+        );
+    }
     assert!(
-        stdout.contains("burst: 5 jobs sent back to back, 5 final statuses (5 SUCCEEDED), 0 lost, 0 duplicate finals"),
+        stdout.contains(
+            "0 lost, 0 duplicate finals; target every job exactly one final status (0 lost): met"
+        ),
         "{stdout}"
     );
 }
