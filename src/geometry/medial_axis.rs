@@ -36,6 +36,43 @@ const SAMPLE_STEP_MM: f64 = 0.25;
 /// Integer resolution of the Voronoi input: 1e-4 mm.
 const UNITS_PER_MM: f64 = 1e4;
 
+/// Where the pocket's centre goes in boostvoronoi's integer frame (fast path).
+/// The library accepts a circle event computed in floating point when its
+/// error bound is within 64 ulps of the event's coordinates, else recomputes
+/// it with big integers. Far from 0 the coordinates' ulps are larger while the
+/// (patched, locally framed) predicates' absolute error is not, so the lazy
+/// values pass on a finely sampled outline too: 2^30, with the pocket within
+/// +-2^29 of it, keeps every coordinate inside i32 and every product the
+/// library forms inside i64. The diagram is the same, translated.
+const VORONOI_ORIGIN: i32 = 1 << 30;
+
+/// How the Voronoi diagram is computed. Both give the exact diagram of the
+/// same integer input; `Upstream` (boostvoronoi's unpatched predicates, input
+/// centred on 0) is the slow reference the fast path is tested against.
+#[doc(hidden)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VoronoiPath {
+    Fast,
+    Upstream,
+}
+
+/// Sets boostvoronoi's predicate mode for this thread and restores the fast
+/// mode when dropped (also on early return).
+struct PredicateMode;
+
+impl PredicateMode {
+    fn set(path: VoronoiPath) -> Self {
+        boostvoronoi::set_upstream_predicates(path == VoronoiPath::Upstream);
+        PredicateMode
+    }
+}
+
+impl Drop for PredicateMode {
+    fn drop(&mut self) {
+        boostvoronoi::set_upstream_predicates(false);
+    }
+}
+
 /// One medial-axis branch: a chain of (x, y, r) between two nodes (branch
 /// points or end points), or a closed loop (`start == end`, no branch point).
 #[derive(Clone, Debug, PartialEq)]
@@ -134,10 +171,12 @@ struct Boundary {
     loop_of: Vec<(usize, usize)>,
     center: Point2,
     scale: f64,
+    /// Added to the integer coordinates handed to boostvoronoi.
+    origin: i32,
 }
 
 impl Boundary {
-    fn new(pocket: &Pocket) -> Result<Self> {
+    fn new(pocket: &Pocket, path: VoronoiPath) -> Result<Self> {
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
         for p in pocket.outer.iter() {
             for t in 0..2 {
@@ -147,7 +186,8 @@ impl Boundary {
         }
         let center = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
         let half = 0.5 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
-        // Keep |coordinates| below 2^29 so boostvoronoi's i32 predicates stay exact.
+        // Keep |coordinates| within 2^29 of the centre: with VORONOI_ORIGIN added they
+        // stay inside i32 and boostvoronoi's i64 products cannot overflow.
         let scale = UNITS_PER_MM.min((1u64 << 29) as f64 / half.max(1e-9));
         let mut segs = Vec::new();
         let mut ints = Vec::new();
@@ -198,6 +238,10 @@ impl Boundary {
             loop_of,
             center,
             scale,
+            origin: match path {
+                VoronoiPath::Fast => VORONOI_ORIGIN,
+                VoronoiPath::Upstream => 0,
+            },
         })
     }
 
@@ -312,12 +356,26 @@ fn voronoi_error(e: impl std::fmt::Display) -> Error {
 
 /// Computes the interior medial axis of `pocket`.
 pub fn medial_axis(pocket: &Pocket) -> Result<MedialAxis> {
-    let bd = Boundary::new(pocket)?;
-    let lines: Vec<Line<i32>> = bd.ints.iter().map(|&s| Line::from(s)).collect();
-    let diagram: Diagram = Builder::<i32>::default()
-        .with_segments(lines.iter())
-        .and_then(|b| b.build())
-        .map_err(voronoi_error)?;
+    medial_axis_with(pocket, VoronoiPath::Fast)
+}
+
+/// [`medial_axis`] with the Voronoi diagram computed the given way.
+#[doc(hidden)]
+pub fn medial_axis_with(pocket: &Pocket, path: VoronoiPath) -> Result<MedialAxis> {
+    let bd = Boundary::new(pocket, path)?;
+    let o = bd.origin;
+    let lines: Vec<Line<i32>> = bd
+        .ints
+        .iter()
+        .map(|&[x0, y0, x1, y1]| Line::from([x0 + o, y0 + o, x1 + o, y1 + o]))
+        .collect();
+    let diagram: Diagram = {
+        let _mode = PredicateMode::set(path);
+        Builder::<i32>::default()
+            .with_segments(lines.iter())
+            .and_then(|b| b.build())
+            .map_err(voronoi_error)?
+    };
     let step = SAMPLE_STEP_MM * bd.scale;
     let cells = diagram.cells();
     let vertices = diagram.vertices();
@@ -327,7 +385,9 @@ pub fn medial_axis(pocket: &Pocket) -> Result<MedialAxis> {
         let (idx, cat) = c.source_index_2();
         Some((idx.usize(), cat, bd.site(idx.usize(), cat)?))
     };
-    let vpos = |v: usize| -> Option<Point2> { vertices.get(v).map(|v| [v.x(), v.y()]) };
+    // Back to the centred frame: exact, the difference is a multiple of the coordinates' ulp.
+    let (ox, oy) = (f64::from(o), f64::from(o));
+    let vpos = |v: usize| -> Option<Point2> { vertices.get(v).map(|v| [v.x() - ox, v.y() - oy]) };
 
     let mut kept: Vec<KeptEdge> = Vec::new();
     // Largest inscribed circle over every interior Voronoi vertex (pruning-independent).
