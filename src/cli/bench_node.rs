@@ -146,6 +146,8 @@ struct Figures {
     client_overhead_ms: Vec<f64>,
     planning_ms: Vec<f64>,
     bursts: Vec<BurstOutcome>,
+    /// Planning time of each burst job, from the node's timing lines.
+    burst_planning_ms: Vec<f64>,
 }
 
 /// What one burst got back.
@@ -330,6 +332,13 @@ fn print_table(f: &Figures, domain: u16) {
                 "MISSED"
             }
         );
+        if !f.burst_planning_ms.is_empty() {
+            let [p50, _, _, max] = percentiles(&f.burst_planning_ms);
+            println!(
+                "burst jobs: planning p50 {p50:.1} ms, max {max:.1} ms each (one worker plans them one after another: {:.2} s per burst at p50)",
+                p50 * first.sent as f64 / 1e3
+            );
+        }
     }
 }
 
@@ -482,6 +491,7 @@ async fn client(
         client_overhead_ms: Vec::new(),
         planning_ms: Vec::new(),
         bursts: Vec::new(),
+        burst_planning_ms: Vec::new(),
     };
     if jobs > 0 {
         c.surface_pub
@@ -557,6 +567,13 @@ async fn client(
             break;
         }
     }
+    // The node logs each job's timing line before its SUCCEEDED, so every
+    // answered burst job's line is in the channel by now.
+    figures.burst_planning_ms = timings
+        .try_iter()
+        .filter(|(id, _)| id.starts_with("burst"))
+        .map(|(_, t)| t.planning_ms)
+        .collect();
     drop(c.ros);
     Ok(figures)
 }
