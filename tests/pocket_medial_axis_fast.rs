@@ -1,11 +1,11 @@
-//! The fast medial-axis path (patched boostvoronoi predicates, input moved
-//! to 2^30) against the previous one (upstream predicates, input centred on
-//! 0) on random outlines of the kinds the fast path is for: smooth blobs,
-//! blobs with holes, fine arcs next to sharp corners, jagged outlines. Both
-//! are the exact Voronoi diagram of the same integer input, so the axes must
-//! agree far inside the acceptance tolerances (Dmax 0.01 mm, branch points
-//! 0.05 mm; see `check_same`), and every medial point of the fast path must be
-//! as far from the boundary as its radius says (brute force over all segments).
+//! The fast medial-axis path (outline simplified within the 1e-4 mm
+//! resolution, patched boostvoronoi predicates, input moved to 2^30) against
+//! the previous one (every vertex, upstream predicates, input centred on 0)
+//! on random outlines of the kinds the fast path is for: smooth blobs,
+//! blobs with holes, fine arcs next to sharp corners, jagged outlines. The
+//! axes must agree inside the acceptance tolerances (see `check_same`), and
+//! every medial point of the fast path must be as far from the given boundary
+//! as its radius says (brute force over all segments).
 
 use proptest::prelude::*;
 use std::f64::consts::TAU;
@@ -28,6 +28,27 @@ fn blob(centre: [f64; 2], r0: f64, harmonics: &[(f64, f64)], n: usize) -> Vec<[f
             [centre[0] + r * t.cos(), centre[1] + r * t.sin()]
         })
         .collect()
+}
+
+/// Smallest curvature radius of the exact blob curve (dense sampling of the
+/// analytic curvature): the radius where its medial axis ends at the sharpest lobe.
+fn blob_min_curvature_radius(r0: f64, harmonics: &[(f64, f64)]) -> f64 {
+    let m = 100_000;
+    let mut kmax = 0.0_f64;
+    for i in 0..m {
+        let t = TAU * i as f64 / m as f64;
+        let (mut w, mut w1, mut w2) = (0.0, 0.0, 0.0);
+        for (k, &(a, phi)) in harmonics.iter().enumerate() {
+            let f = (k + 2) as f64;
+            w += a * (f * t + phi).sin();
+            w1 += a * f * (f * t + phi).cos();
+            w2 -= a * f * f * (f * t + phi).sin();
+        }
+        let (r, r1, r2) = (r0 * (1.0 + w), r0 * w1, r0 * w2);
+        let kappa = (r * r + 2.0 * r1 * r1 - r * r2) / (r * r + r1 * r1).powf(1.5);
+        kmax = kmax.max(kappa);
+    }
+    1.0 / kmax
 }
 
 /// Rectangle w x h whose corners alternate between sharp and rounded with
@@ -103,22 +124,33 @@ fn axis_distance(ma: &MedialAxis, q: [f64; 3]) -> f64 {
     best
 }
 
-/// Both paths compute an exact Voronoi diagram of the same integer input, but
-/// boostvoronoi orders circle events that agree to 64 ulps as ties, and ulps
-/// depend on where the input sits: where hundreds of bisectors meet (the
-/// centre of a finely sampled arc) the two may resolve the cluster into
-/// different micro-edges, shorter than 1e-4 mm. So the axes are compared as
-/// geometry, not as node lists: Dmax and the smallest corner radius, every
-/// branch point against the other path's branch points, and every medial point
-/// against the other axis, all far inside the acceptance tolerances (Dmax
-/// 0.01 mm, branch points 0.05 mm).
+/// The fast path merges segments within the 1e-4 mm resolution
+/// (Douglas-Peucker) and moves the input, and boostvoronoi orders circle
+/// events that agree to 64 ulps as ties. Where the axis is ill-conditioned
+/// (hundreds of bisectors meeting at the centre of a finely sampled arc or of
+/// a near-circle, whose axis a 1e-4 mm change of the wall moves by far more)
+/// the two resolve the cluster into different micro-edges. So the axes are
+/// compared as geometry, not as node lists, to the acceptance tolerances:
+/// Dmax to 1e-3 mm (acceptance 0.01), and the smallest corner radius, every
+/// branch point against the other path's branch points and every medial point
+/// against the other axis (x, y, r) to 0.05 mm (the branch-point acceptance).
+/// (On near-circles the previous path's corner radius is itself a few 0.01 mm
+/// off; the blob test checks the fast one against the exact curve to 0.01 mm.)
 fn check_same(pocket: &Pocket, what: &str) {
+    check(pocket, what, true);
+}
+
+/// `both_ways` false: only the fast axis is checked against the exact one
+/// (every fast branch point and medial point near the exact axis), for
+/// outlines where the exact path shows rounding artefacts (see
+/// `ultra_fine_arcs`).
+fn check(pocket: &Pocket, what: &str, both_ways: bool) {
     let fast = medial_axis(pocket).unwrap();
     let exact = medial_axis_with(pocket, VoronoiPath::Upstream).unwrap();
     assert!(!fast.branches.is_empty(), "{what}: empty medial axis");
-    let tol = 1e-4;
+    let tol = 0.05;
     assert!(
-        (fast.dmax - exact.dmax).abs() < 1e-6,
+        (fast.dmax - exact.dmax).abs() < 1e-3,
         "{what}: dmax {} vs {}",
         fast.dmax,
         exact.dmax
@@ -129,7 +161,8 @@ fn check_same(pocket: &Pocket, what: &str) {
         fast.min_corner_radius,
         exact.min_corner_radius
     );
-    for (a, b, name) in [(&fast, &exact, "fast"), (&exact, &fast, "exact")] {
+    let pairs = [(&fast, &exact, "fast"), (&exact, &fast, "exact")];
+    for &(a, b, name) in &pairs[..if both_ways { 2 } else { 1 }] {
         for n in a.branch_points() {
             let gap = b
                 .branch_points()
@@ -174,7 +207,12 @@ proptest! {
     #[test]
     fn smooth_blob_fast_equals_exact(h in harmonics(), n in 1500usize..4000, r0 in 5.0..80.0f64) {
         let outer = blob([3.0, -7.0], r0, &h, n);
-        check_same(&Pocket::new(&outer, &[]).unwrap(), &format!("blob n {n} r0 {r0}"));
+        let p = Pocket::new(&outer, &[]).unwrap();
+        check_same(&p, &format!("blob n {n} r0 {r0}"));
+        // The axis ends at the curvature centre of the sharpest lobe.
+        let want = blob_min_curvature_radius(r0, &h);
+        let got = medial_axis(&p).unwrap().min_corner_radius;
+        prop_assert!((got - want).abs() < 0.01, "blob n {} r0 {}: min corner radius {} vs exact curve {}", n, r0, got, want);
     }
 
     #[test]
@@ -192,9 +230,24 @@ proptest! {
     }
 
     #[test]
-    fn fine_arcs_fast_equals_exact(w in 20.0..120.0f64, h in 15.0..60.0f64, rc in 0.3..6.0f64, per_arc in 200usize..1500) {
+    fn fine_arcs_fast_equals_exact(w in 20.0..120.0f64, h in 15.0..60.0f64, rc in 0.3..6.0f64, seg in 0.005..0.05f64) {
+        // Segments of 5 to 50 um along the round (50 to 500 integer units).
+        let per_arc = (rc * std::f64::consts::FRAC_PI_2 / seg).ceil() as usize;
         let outer = fine_arcs(w, h, rc, per_arc);
         check_same(&Pocket::new(&outer, &[]).unwrap(), &format!("fine arcs {w} x {h} rc {rc} x {per_arc}"));
+    }
+
+    /// Rounds sampled below 5 um (down to 5 integer units per segment): rounding
+    /// the vertices to the 1e-4 mm grid turns them by several degrees, and the
+    /// previous path keeps medial branches into those jags (object angle over
+    /// 10 degrees). The fast path's simplification within the resolution
+    /// removes them, so here only the fast axis is checked against the
+    /// previous one, plus Dmax and the corner radius.
+    #[test]
+    fn ultra_fine_arcs_fast_within_exact(rc in 0.3..2.0f64, units in 5.0..50.0f64) {
+        let per_arc = (rc * std::f64::consts::FRAC_PI_2 / (units * 1e-4)).ceil() as usize;
+        let outer = fine_arcs(20.0, 15.0, rc, per_arc);
+        check(&Pocket::new(&outer, &[]).unwrap(), &format!("ultra-fine arcs rc {rc} x {per_arc}"), false);
     }
 
     #[test]

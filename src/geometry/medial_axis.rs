@@ -46,6 +46,14 @@ const UNITS_PER_MM: f64 = 1e4;
 /// library forms inside i64. The diagram is the same, translated.
 const VORONOI_ORIGIN: i32 = 1 << 30;
 
+/// Douglas-Peucker tolerance of the fast path, in integer units (one unit,
+/// 1e-4 mm): consecutive segments that a single segment replaces within the
+/// integer resolution are merged before the Voronoi diagram. A finely sampled
+/// smooth curve loses most of its vertices there (each costs boostvoronoi
+/// ~10 us), corners and anything coarser than the resolution stay. The given
+/// vertices are kept for the lobe ends (`lobe_centre`).
+const SIMPLIFY_TOLERANCE_UNITS: f64 = 1.0;
+
 /// How the Voronoi diagram is computed. Both give the exact diagram of the
 /// same integer input; `Upstream` (boostvoronoi's unpatched predicates, input
 /// centred on 0) is the slow reference the fast path is tested against.
@@ -135,7 +143,8 @@ fn cross(a: Point2, b: Point2) -> f64 {
     a[0] * b[1] - a[1] * b[0]
 }
 fn norm(a: Point2) -> f64 {
-    a[0].hypot(a[1])
+    // No overflow to guard against at these magnitudes (below 2^31): sqrt, not hypot.
+    (a[0] * a[0] + a[1] * a[1]).sqrt()
 }
 
 impl Site {
@@ -160,15 +169,64 @@ impl Site {
     }
 }
 
+/// Indices of the vertices of the closed loop `pts` that Douglas-Peucker keeps
+/// with tolerance `tol` (every dropped vertex lies within `tol` of the segment
+/// that replaces it), in order; all of them if fewer than 3 would remain.
+fn simplify_loop(pts: &[Point2], tol: f64) -> Vec<usize> {
+    let n = pts.len();
+    let all = || (0..n).collect::<Vec<_>>();
+    let Some(&p0) = pts.first() else {
+        return all();
+    };
+    // Anchors: vertex 0 and the vertex farthest from it.
+    let far = (1..n)
+        .max_by(|&i, &j| norm(sub(pts[i], p0)).total_cmp(&norm(sub(pts[j], p0))))
+        .unwrap_or(0);
+    if n < 4 || far == 0 {
+        return all();
+    }
+    let mut keep = vec![false; n];
+    keep[0] = true;
+    keep[far] = true;
+    // Ranges [a, b] of the loop (b may be n, meaning vertex 0 again).
+    let mut stack = vec![(0, far), (far, n)];
+    while let Some((a, b)) = stack.pop() {
+        if b < a + 2 {
+            continue;
+        }
+        let chord = Site::Segment(pts[a], pts[b % n]);
+        let (mut worst, mut at) = (0.0, a);
+        for (k, &p) in pts.iter().enumerate().take(b).skip(a + 1) {
+            let d = chord.distance(p);
+            if d > worst {
+                (worst, at) = (d, k);
+            }
+        }
+        if worst > tol {
+            keep[at] = true;
+            stack.push((a, at));
+            stack.push((at, b));
+        }
+    }
+    let kept: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
+    if kept.len() < 3 {
+        all()
+    } else {
+        kept
+    }
+}
+
 /// Boundary segments of all loops, in the scaled integer frame.
 struct Boundary {
     /// Per segment: (a, b, vertex before a, vertex after b) in scaled coordinates.
     segs: Vec<(Point2, Point2, Point2, Point2)>,
     ints: Vec<[i32; 4]>,
-    /// Per segment: its start vertex in mm (unrounded) and its loop's first
-    /// segment index and length.
-    start_mm: Vec<Point2>,
-    loop_of: Vec<(usize, usize)>,
+    /// Per loop: its vertices in mm as given (unrounded, not simplified; only
+    /// repeats at the integer resolution dropped).
+    loops_mm: Vec<Vec<Point2>>,
+    /// Per segment: its loop and the indices in `loops_mm` of its start and
+    /// end vertex (more than one apart where the simplification merged).
+    seg_loop: Vec<(usize, usize, usize)>,
     center: Point2,
     scale: f64,
     /// Added to the integer coordinates handed to boostvoronoi.
@@ -191,8 +249,8 @@ impl Boundary {
         let scale = UNITS_PER_MM.min((1u64 << 29) as f64 / half.max(1e-9));
         let mut segs = Vec::new();
         let mut ints = Vec::new();
-        let mut start_mm = Vec::new();
-        let mut loop_of = Vec::new();
+        let mut loops_mm = Vec::new();
+        let mut seg_loop = Vec::new();
         let loops = std::iter::once(&pocket.outer).chain(pocket.holes.iter());
         for (l, poly) in loops.enumerate() {
             let mut q: Vec<[i32; 2]> = Vec::with_capacity(poly.len());
@@ -220,22 +278,33 @@ impl Boundary {
                     "loop collapses below 1e-4 mm resolution",
                 ));
             }
-            let n = q.len();
+            let keep: Vec<usize> = match path {
+                VoronoiPath::Fast => {
+                    let scaled: Vec<Point2> = qmm
+                        .iter()
+                        .map(|p| [(p[0] - center[0]) * scale, (p[1] - center[1]) * scale])
+                        .collect();
+                    simplify_loop(&scaled, SIMPLIFY_TOLERANCE_UNITS)
+                }
+                VoronoiPath::Upstream => (0..q.len()).collect(),
+            };
+            let n = keep.len();
             let f = |v: [i32; 2]| [v[0] as f64, v[1] as f64];
-            let first = segs.len();
-            start_mm.extend(qmm);
-            loop_of.extend(std::iter::repeat_n((first, n), n));
+            let vertex = |i: usize| q[keep[i % n]];
             for i in 0..n {
-                let (a, b, prev, next) = (q[i], q[(i + 1) % n], q[(i + n - 1) % n], q[(i + 2) % n]);
+                let (a, b, prev, next) =
+                    (vertex(i), vertex(i + 1), vertex(i + n - 1), vertex(i + 2));
                 segs.push((f(a), f(b), f(prev), f(next)));
                 ints.push([a[0], a[1], b[0], b[1]]);
+                seg_loop.push((l, keep[i], keep[(i + 1) % n]));
             }
+            loops_mm.push(qmm);
         }
         Ok(Self {
             segs,
             ints,
-            start_mm,
-            loop_of,
+            loops_mm,
+            seg_loop,
             center,
             scale,
             origin: match path {
@@ -338,14 +407,16 @@ fn sample_edge(p0: Point2, p1: Point2, curved: bool, s1: Site, s2: Site, step: f
     }
 }
 
-/// Object angle at p: angle between the directions to the two foot points.
-fn object_angle(p: Point2, s1: Site, s2: Site) -> f64 {
+/// Cosine of the object angle at p (the angle between the directions to the
+/// two foot points); 1 where a foot is at p. The largest angle along an edge
+/// is the acos of the smallest cosine: one acos per edge.
+fn object_angle_cos(p: Point2, s1: Site, s2: Site) -> f64 {
     let (f1, f2) = (sub(s1.foot(p), p), sub(s2.foot(p), p));
     let (n1, n2) = (norm(f1), norm(f2));
     if n1 <= 1e-9 * (1.0 + n2) || n2 <= 1e-9 * (1.0 + n1) {
-        return 0.0;
+        return 1.0;
     }
-    (dot(f1, f2) / (n1 * n2)).clamp(-1.0, 1.0).acos()
+    (dot(f1, f2) / (n1 * n2)).clamp(-1.0, 1.0)
 }
 
 fn voronoi_error(e: impl std::fmt::Display) -> Error {
@@ -411,12 +482,12 @@ pub fn medial_axis_with(pocket: &Pocket, path: VoronoiPath) -> Result<MedialAxis
         let (Some(p0), Some(p1)) = (vpos(v0.usize()), vpos(v1.usize())) else {
             continue;
         };
-        let pts = sample_edge(p0, p1, e.is_curved(), s1, s2, step);
-        let mid = pts[pts.len() / 2];
-        let probe = if pts.len() > 2 {
-            mid
-        } else {
-            [0.5 * (p0[0] + p1[0]), 0.5 * (p0[1] + p1[1])]
+        // Side test before sampling: a straight edge by its midpoint; a curved
+        // (parabolic) edge lies wholly on its point site's side of the segment's
+        // line, so that point decides (exactly: integer coordinates).
+        let probe = match (e.is_curved(), s1, s2) {
+            (true, Site::Point(q), _) | (true, _, Site::Point(q)) => q,
+            _ => [0.5 * (p0[0] + p1[0]), 0.5 * (p0[1] + p1[1])],
         };
         let inside = match (s1, s2) {
             (Site::Segment(..), _) => bd.inside(i1, k1, probe),
@@ -426,6 +497,7 @@ pub fn medial_axis_with(pocket: &Pocket, path: VoronoiPath) -> Result<MedialAxis
         if !inside {
             continue;
         }
+        let pts = sample_edge(p0, p1, e.is_curved(), s1, s2, step);
         for p in [p0, p1] {
             let r = s1.distance(p);
             if r > best.0 {
@@ -435,11 +507,16 @@ pub fn medial_axis_with(pocket: &Pocket, path: VoronoiPath) -> Result<MedialAxis
         if e.is_secondary() {
             continue;
         }
+        // Two-point edges also at their midpoint (longer ones have a sample there).
+        let midpoint = [0.5 * (p0[0] + p1[0]), 0.5 * (p0[1] + p1[1])];
+        let extra = (pts.len() <= 2).then_some(midpoint);
         let angle = pts
             .iter()
-            .chain([&probe])
-            .map(|&p| object_angle(p, s1, s2))
-            .fold(0.0, f64::max);
+            .copied()
+            .chain(extra)
+            .map(|p| object_angle_cos(p, s1, s2))
+            .fold(1.0, f64::min)
+            .acos();
         if angle < MIN_OBJECT_ANGLE {
             continue;
         }
@@ -668,22 +745,23 @@ fn extend_smooth_ends(
 /// Centre and radius of curvature (x, y, r) at the curvature maximum of the
 /// boundary between segments `segs` (same loop, the shorter way round).
 fn lobe_centre(bd: &Boundary, segs: [usize; 2]) -> Option<[f64; 3]> {
-    let (&(f0, n), &(f1, n1)) = (bd.loop_of.get(segs[0])?, bd.loop_of.get(segs[1])?);
-    if f0 != f1 || n < 3 || n1 != n {
+    let (&(l0, a, a_end), &(l1, b, b_end)) = (bd.seg_loop.get(segs[0])?, bd.seg_loop.get(segs[1])?);
+    let verts = bd.loops_mm.get(l0)?;
+    let n = verts.len();
+    if l0 != l1 || n < 3 {
         return None;
     }
-    let (i, j) = (segs[0] - f0, segs[1] - f0);
-    // Vertices strictly after segment `from` up to the start of segment `to`.
-    let fwd = (j + n - i) % n;
-    let (from, count) = if fwd <= n - fwd {
-        (i, fwd)
-    } else {
-        (j, n - fwd)
-    };
+    // The given vertices strictly after the first given segment inside
+    // segment a up to the start of the last one inside segment b (or the
+    // other way round, whichever is shorter): with no simplification, the
+    // vertices after segment a up to the start of segment b.
+    let fwd = (b_end + n - 1 - a) % n;
+    let bwd = (a_end + n - 1 - b) % n;
+    let (from, count) = if fwd <= bwd { (a, fwd) } else { (b, bwd) };
     if count == 0 || count > n / 2 {
         return None;
     }
-    let vertex = |k: usize| bd.start_mm.get(f0 + k % n).copied();
+    let vertex = |k: usize| verts.get(k % n).copied();
     // Circle through vertices k-1, k, k+1: (centre, curvature); None unless turning left.
     let circle = |k: usize| -> Option<(Point2, f64)> {
         let (a, b, c) = (vertex(k + n - 1)?, vertex(k)?, vertex(k + 1)?);

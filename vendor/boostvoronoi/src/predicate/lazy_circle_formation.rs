@@ -175,6 +175,18 @@ fn to_global(local: rf::RobustFpt, origin: f64) -> rf::RobustFpt {
     rf::RobustFpt::new(value, if re.is_nan() { f64::INFINITY } else { re })
 }
 
+type Triple = (rf::RobustFpt, rf::RobustFpt, rf::RobustFpt);
+type Vec2 = (rf::RobustFpt, rf::RobustFpt);
+
+/// Does an event computed in the local frame pass the budget once moved back?
+/// Only then do the refinements below run.
+fn within_budget(lazy: Triple, origin: (f64, f64)) -> bool {
+    let ulps = ULPSX2 as f64;
+    to_global(lazy.0, origin.0).ulp() <= ulps
+        && to_global(lazy.1, origin.1).ulp() <= ulps
+        && to_global(lazy.2, origin.0).ulp() <= ulps
+}
+
 /// The pss circle event when the point is an end point of one of the two
 /// segments ("own" segment S, other segment T), refined with a formula that
 /// stays accurate where the general one cancels. toolpath_planner patch.
@@ -194,10 +206,10 @@ fn pss_on_own_segment<I: InputType>(
     point: Point<I>,
     site2: &vse::SiteEvent<I>,
     site3: &vse::SiteEvent<I>,
-    lazy: (rf::RobustFpt, rf::RobustFpt, rf::RobustFpt),
-) -> (rf::RobustFpt, rf::RobustFpt, rf::RobustFpt) {
-    let ulps = ULPSX2 as f64;
-    if upstream_predicates() || (lazy.0.ulp() <= ulps && lazy.1.ulp() <= ulps && lazy.2.ulp() <= ulps) {
+    lazy: Triple,
+    origin: (f64, f64),
+) -> Triple {
+    if upstream_predicates() || within_budget(lazy, origin) {
         return lazy;
     }
     let on = |s: &vse::SiteEvent<I>| point == s.point0() || point == s.point1();
@@ -267,6 +279,237 @@ fn pss_on_own_segment<I: InputType>(
         [a, Some(b)] if near(&b, 2.0) && !a.as_ref().is_some_and(|a| near(a, 8.0)) => b,
         _ => lazy,
     }
+}
+
+/// The root among `roots` that lies inside the general formula's error
+/// interval while no other root comes near it; else the general values.
+fn pick_root(lazy: Triple, roots: &[Option<Triple>]) -> Triple {
+    let near = |c: &Triple, slack: f64| {
+        let close = |a: rf::RobustFpt, b: rf::RobustFpt| {
+            let bound = (a.fpv().abs() * a.ulp() + b.fpv().abs() * b.ulp() + a.fpv().abs())
+                * f64::EPSILON
+                * slack;
+            (a.fpv() - b.fpv()).abs() <= bound
+        };
+        close(lazy.0, c.0) && close(lazy.1, c.1)
+    };
+    let mut found = None;
+    for (k, root) in roots.iter().enumerate() {
+        let Some(root) = root else { continue };
+        if near(root, 8.0) {
+            if found.is_some() || !near(root, 2.0) {
+                return lazy;
+            }
+            found = Some(k);
+        }
+    }
+    match found.and_then(|k| roots[k]) {
+        Some(root) => root,
+        None => lazy,
+    }
+}
+
+/// Integer inputs of the refinements must stay below 2^30 in magnitude, so
+/// that the squares and cross products below are exact in i64.
+fn small_enough(values: &[i64]) -> bool {
+    values.iter().all(|v| v.abs() < (1_i64 << 30))
+}
+
+/// One rounding from an exact integer.
+fn exact_fpt(v: i64) -> rf::RobustFpt {
+    rf::RobustFpt::new(v as f64, 1_f64)
+}
+
+/// Unit vector along the integer vector d (None for a zero vector).
+fn unit(d: (i64, i64)) -> Option<Vec2> {
+    let l2 = exact_fpt(d.0 * d.0 + d.1 * d.1);
+    if l2.fpv() == 0.0 {
+        return None;
+    }
+    let l = l2.sqrt();
+    Some((exact_fpt(d.0) / l, exact_fpt(d.1) / l))
+}
+
+/// The two bisector directions (unit) of the lines along integer vectors a
+/// and b, each with the sine |cross(u_a, bisector)| (the distance to line a per
+/// unit length along the bisector) and its square's complement
+/// (u_a . bisector)^2, formed without cancellation from the exact cross
+/// product.
+fn bisectors(a: (i64, i64), b: (i64, i64)) -> Option<[(Vec2, rf::RobustFpt, rf::RobustFpt); 2]> {
+    let (ua, ub) = (unit(a)?, unit(b)?);
+    let la = exact_fpt(a.0 * a.0 + a.1 * a.1).sqrt();
+    let lb = exact_fpt(b.0 * b.0 + b.1 * b.1).sqrt();
+    let dot = exact_fpt(a.0 * b.0 + a.1 * b.1) / (la * lb);
+    let cross = exact_fpt(a.0 * b.1 - a.1 * b.0) / (la * lb);
+    // s = u_a + sigma u_b with sigma making u_a . (sigma u_b) = d >= 0.
+    let (sigma, d) = if dot.is_neg() { (-1_f64, -dot) } else { (1_f64, dot) };
+    let one = rf::RobustFpt::from(1_f64);
+    let one_d = one + d;
+    let s_len = (rf::RobustFpt::from(2_f64) * one_d).sqrt();
+    let sig = rf::RobustFpt::from(sigma);
+    let b1 = ((ua.0 + sig * ub.0) / s_len, (ua.1 + sig * ub.1) / s_len);
+    let b2 = (-b1.1, b1.0);
+    let abs = |v: rf::RobustFpt| if v.is_neg() { -v } else { v };
+    let half = rf::RobustFpt::from(0.5_f64);
+    // Along b1: sine |cross| / |s|, complement (1 + d) / 2.
+    let k1 = abs(cross) / s_len;
+    let a1 = one_d * half;
+    // Along b2 (perpendicular): sine (1 + d) / |s|, complement cross^2 / |s|^2.
+    let k2 = one_d / s_len;
+    let a2 = (cross * cross) / (s_len * s_len);
+    Some([(b1, k1, a1), (b2, k2, a2)])
+}
+
+/// The pss circle event when the two segments share an end point V and the
+/// point P is elsewhere (toolpath_planner patch): along two nearly collinear
+/// neighbours of a finely sampled curve the general formula cancels. The
+/// centre lies on a bisector of the two lines through V, c = V + u b, and
+/// |c - P| = u k (k the bisector's sine): a u^2 + 2 (w . b) u + |w|^2 = 0 with
+/// w = V - P and a = 1 - k^2 from `bisectors`, solved in the stable form. The
+/// root inside the general formula's error interval is taken (`pick_root`).
+fn pss_shared_vertex<I: InputType>(
+    point: Point<I>,
+    site2: &vse::SiteEvent<I>,
+    site3: &vse::SiteEvent<I>,
+    lazy: Triple,
+    origin: (f64, f64),
+) -> Triple {
+    if upstream_predicates() || within_budget(lazy, origin) {
+        return lazy;
+    }
+    let i = |v: I| cast::<I, i64>(v);
+    let pt = |p: Point<I>| (i(p.x), i(p.y));
+    let (s0, s1, t0, t1) = (
+        pt(site2.point0()),
+        pt(site2.point1()),
+        pt(site3.point0()),
+        pt(site3.point1()),
+    );
+    let p = pt(point);
+    if p == s0 || p == s1 || p == t0 || p == t1 {
+        return lazy;
+    }
+    // The shared vertex and the two directions away from it.
+    let (v, ds, dt) = if s0 == t0 {
+        (s0, (s1.0 - s0.0, s1.1 - s0.1), (t1.0 - t0.0, t1.1 - t0.1))
+    } else if s0 == t1 {
+        (s0, (s1.0 - s0.0, s1.1 - s0.1), (t0.0 - t1.0, t0.1 - t1.1))
+    } else if s1 == t0 {
+        (s1, (s0.0 - s1.0, s0.1 - s1.1), (t1.0 - t0.0, t1.1 - t0.1))
+    } else if s1 == t1 {
+        (s1, (s0.0 - s1.0, s0.1 - s1.1), (t0.0 - t1.0, t0.1 - t1.1))
+    } else {
+        return lazy;
+    };
+    let w = (v.0 - p.0, v.1 - p.1);
+    if !small_enough(&[ds.0, ds.1, dt.0, dt.1, w.0, w.1, v.0, v.1, p.0, p.1]) {
+        return lazy;
+    }
+    let Some(bis) = bisectors(ds, dt) else {
+        return lazy;
+    };
+    let gamma = exact_fpt(w.0 * w.0 + w.1 * w.1);
+    let (wx, wy) = (exact_fpt(w.0), exact_fpt(w.1));
+    let (vx, vy) = (exact_fpt(v.0), exact_fpt(v.1));
+    let mut roots: [Option<Triple>; 4] = [None; 4];
+    for (k, (b, sine, a)) in bis.into_iter().enumerate() {
+        let beta = wx * b.0 + wy * b.1;
+        let disc = beta * beta - a * gamma;
+        if disc.is_neg() || !disc.fpv().is_finite() {
+            continue;
+        }
+        let sq = disc.sqrt();
+        let q = if beta.is_neg() { sq - beta } else { -(beta + sq) };
+        let centre = |u: rf::RobustFpt| -> Triple {
+            let c_x = vx + u * b.0;
+            let c_y = vy + u * b.1;
+            let r = (if u.is_neg() { -u } else { u }) * sine;
+            (c_x, c_y, c_x + r)
+        };
+        if a.fpv() != 0.0 {
+            roots[2 * k] = Some(centre(q / a));
+        }
+        if q.fpv() != 0.0 {
+            roots[2 * k + 1] = Some(centre(gamma / q));
+        }
+    }
+    pick_root(lazy, &roots)
+}
+
+/// The sss circle event of three consecutive segments (the middle one shares
+/// an end point with each of the others; toolpath_planner patch): the centre
+/// is where a bisector through one shared vertex X meets a bisector through
+/// the other, Y: c = X + u bX, u = cross(Y - X, bY) / cross(bX, bY), with
+/// r = u kX. Nearly collinear neighbours make the bisectors nearly parallel,
+/// which costs 1/angle here instead of the general formula's ~1/angle^2. The
+/// root inside the general formula's error interval is taken (`pick_root`).
+fn sss_consecutive<I: InputType>(
+    site1: &vse::SiteEvent<I>,
+    site2: &vse::SiteEvent<I>,
+    site3: &vse::SiteEvent<I>,
+    lazy: Triple,
+    origin: (f64, f64),
+) -> Triple {
+    if upstream_predicates() || within_budget(lazy, origin) {
+        return lazy;
+    }
+    let i = |v: I| cast::<I, i64>(v);
+    let ends = |s: &vse::SiteEvent<I>| {
+        (
+            (i(s.point0().x), i(s.point0().y)),
+            (i(s.point1().x), i(s.point1().y)),
+        )
+    };
+    let segs = [ends(site1), ends(site2), ends(site3)];
+    // (shared point, direction of m away from it, direction of o away from it)
+    let shared = |m: ((i64, i64), (i64, i64)), o: ((i64, i64), (i64, i64))| {
+        let away = |from: (i64, i64), to: (i64, i64)| (to.0 - from.0, to.1 - from.1);
+        for (pm, qm) in [(m.0, m.1), (m.1, m.0)] {
+            for (po, qo) in [(o.0, o.1), (o.1, o.0)] {
+                if pm == po {
+                    return Some((pm, away(pm, qm), away(po, qo)));
+                }
+            }
+        }
+        None
+    };
+    let mut joints = None;
+    for mid in 0..3 {
+        let (o1, o2) = ((mid + 1) % 3, (mid + 2) % 3);
+        if let (Some(x), Some(y)) = (shared(segs[mid], segs[o1]), shared(segs[mid], segs[o2])) {
+            if x.0 != y.0 {
+                joints = Some((x, y));
+                break;
+            }
+        }
+    }
+    let Some(((x, dmx, dox), (y, dmy, doy))) = joints else {
+        return lazy;
+    };
+    if !small_enough(&[x.0, x.1, y.0, y.1, dmx.0, dmx.1, dox.0, dox.1, dmy.0, dmy.1, doy.0, doy.1])
+    {
+        return lazy;
+    }
+    let (Some(bx), Some(by)) = (bisectors(dmx, dox), bisectors(dmy, doy)) else {
+        return lazy;
+    };
+    let (xx, xy) = (exact_fpt(x.0), exact_fpt(x.1));
+    let (yx, yy) = (exact_fpt(y.0 - x.0), exact_fpt(y.1 - x.1));
+    let mut roots: [Option<Triple>; 4] = [None; 4];
+    for (k, (b1, sine, _)) in bx.into_iter().enumerate() {
+        for (l, (b2, _, _)) in by.into_iter().enumerate() {
+            let den = b1.0 * b2.1 - b1.1 * b2.0;
+            if den.fpv() == 0.0 {
+                continue;
+            }
+            let u = (yx * b2.1 - yy * b2.0) / den;
+            let c_x = xx + u * b1.0;
+            let c_y = xy + u * b1.1;
+            let r = (if u.is_neg() { -u } else { u }) * sine;
+            roots[2 * k + l] = Some((c_x, c_y, c_x + r));
+        }
+    }
+    pick_root(lazy, &roots)
 }
 
 /// Lazy evaluation of point, point, segment circle events
@@ -653,12 +896,9 @@ pub(crate) fn pss<I: InputType>(
         } else {
             lower_x += rf::RobustFpt::from(0.5) * c / a.sqrt();
         }
-        let (c_x, c_y, lower_x) = pss_on_own_segment(
-            point1,
-            site2,
-            site3,
-            (c_x.dif(), c_y.dif(), lower_x.dif()),
-        );
+        let lazy = (c_x.dif(), c_y.dif(), lower_x.dif());
+        let lazy = pss_on_own_segment(point1, site2, site3, lazy, origin);
+        let (c_x, c_y, lower_x) = pss_shared_vertex(point1, site2, site3, lazy, origin);
         let c_x = to_global(c_x, origin.0);
         let c_y = to_global(c_y, origin.1);
         let lower_x = to_global(lower_x, origin.0);
@@ -835,12 +1075,9 @@ pub(crate) fn pss<I: InputType>(
             lower_x
         );
 
-        let (c_x, c_y, lower_x) = pss_on_own_segment(
-            point1,
-            site2,
-            site3,
-            (c_x.dif(), c_y.dif(), lower_x.dif()),
-        );
+        let lazy = (c_x.dif(), c_y.dif(), lower_x.dif());
+        let lazy = pss_on_own_segment(point1, site2, site3, lazy, origin);
+        let (c_x, c_y, lower_x) = pss_shared_vertex(point1, site2, site3, lazy, origin);
         let c_x = to_global(c_x, origin.0);
         let c_y = to_global(c_y, origin.1);
         let lower_x = to_global(lower_x, origin.0);
@@ -999,6 +1236,8 @@ pub(crate) fn sss<I: InputType>(
     let c_x_dif = c_x.dif() / denom_dif;
     let c_y_dif = c_y.dif() / denom_dif;
     let lower_x_dif = lower_x.dif() / denom_dif;
+    let (c_x_dif, c_y_dif, lower_x_dif) =
+        sss_consecutive(site1, site2, site3, (c_x_dif, c_y_dif, lower_x_dif), origin);
     let c_x_dif = to_global(c_x_dif, origin.0);
     let c_y_dif = to_global(c_y_dif, origin.1);
     let lower_x_dif = to_global(lower_x_dif, origin.0);
