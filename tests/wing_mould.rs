@@ -145,8 +145,9 @@ fn second_freeform_surface_is_cut_without_gouge_or_gaps() {
 /// Where offset passes end obliquely at region boundaries and surface edges
 /// (the monkey saddle's regions meet its edges at 30 deg), the corners left
 /// between pass ends must be cut: no uncovered area, and no tool-radius
-/// deep residue (the earlier plan left 2.5 mm there). The residue at the
-/// edges is not yet within h everywhere: 2h is asserted (README, open).
+/// deep residue (the earlier plan left 2.5 mm there). The residue where
+/// passes meet the edges at 23 deg is not yet within h everywhere (0.057):
+/// 1.2 h is asserted (README, open).
 #[test]
 fn monkey_saddle_regions_leave_no_uncut_corners() {
     let job = samples::job("monkey_saddle").unwrap();
@@ -167,7 +168,7 @@ fn monkey_saddle_regions_leave_no_uncut_corners() {
         report.max_gouge_mm
     );
     assert!(
-        report.max_scallop_mm <= 2.0 * H,
+        report.max_scallop_mm <= 1.2 * H,
         "scallop {}",
         report.max_scallop_mm
     );

@@ -582,9 +582,11 @@ fn extend_ends(
         let mut at = p;
         let mut outside = 0.0;
         let step = s.point_step.min(s.cutter.radius);
-        // The gap to close is at most about a strip width: never extend
-        // further (a short run's direction is not to be trusted far).
-        let mut budget = 2.0 * s.cutter.radius;
+        // The gap to close is at most about a strip width across the pass:
+        // along a pass meeting the boundary at 30 deg (below that, offset
+        // points on the boundary are kept as pass points) twice that. Never
+        // further: a short run's direction is not to be trusted far.
+        let mut budget = 4.0 * s.cutter.radius;
         for _ in 0..10_000 {
             if budget <= 0.0 {
                 break;

@@ -321,9 +321,11 @@ pub fn extend_pass(
     Ok(())
 }
 
-/// Longest straight run past a surface edge, in tool radii (the tool has
-/// then cleared the edge; harness checks allow about one radius).
-pub const RUN_OUT_MAX: f64 = 1.15;
+/// Longest straight run past a surface edge, in tool radii: a pass meeting
+/// the edge at 35 deg needs half-width x cot(35 deg) plus the lag (up to
+/// about 2.3 R) before the far side of its strip has crossed the edge;
+/// shorter caps left scallops above h along oblique edges.
+pub const RUN_OUT_MAX: f64 = 2.3;
 
 /// The points to add after the last (`at_end`) or before the first point,
 /// in order away from the pass.
@@ -361,7 +363,8 @@ fn extension(
             .map(|e| {
                 let c = t.dot(e).abs().min(1.0);
                 let sn = (1.0 - c * c).sqrt().max(1e-3);
-                (hw * c / sn).min(r)
+                // Up to 2R (shallower passes run along the edge instead).
+                (hw * c / sn).min(2.0 * r)
             })
             .fold(0.0, f64::max)
     };
@@ -463,8 +466,13 @@ fn extension(
         let base = c.path_point(s)?;
         let run = (need - done).min(RUN_OUT_MAX * r);
         let n = (run / step).ceil().max(1.0) as usize;
+        // Where the surface is concave along the run, it rises above the
+        // tangent plane behind the contact: the run lifts with that
+        // curvature so the heel of the tilted disc stays clear of the edge.
+        let lift = 0.5 * c.k.feed.max(0.0);
         for k in 1..=n {
-            let cc = g.point() + t * (run * k as f64 / n as f64);
+            let d = run * k as f64 / n as f64;
+            let cc = g.point() + t * d + g.n * (lift * d * d);
             let (cl, axis) = s.cutter.pose(cc, g.n, travel_t);
             out.push(PathPoint {
                 cc: cc.into(),
