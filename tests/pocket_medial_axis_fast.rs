@@ -125,24 +125,24 @@ fn axis_distance(ma: &MedialAxis, q: [f64; 3]) -> f64 {
 }
 
 /// The fast path merges segments within the 1e-4 mm resolution
-/// (Douglas-Peucker) and moves the input, and boostvoronoi orders circle
+/// (`simplify_loop`) and moves the input, and boostvoronoi orders circle
 /// events that agree to 64 ulps as ties. Where the axis is ill-conditioned
 /// (hundreds of bisectors meeting at the centre of a finely sampled arc or of
 /// a near-circle, whose axis a 1e-4 mm change of the wall moves by far more)
-/// the two resolve the cluster into different micro-edges. So the axes are
-/// compared as geometry, not as node lists, to the acceptance tolerances:
-/// Dmax to 1e-3 mm (acceptance 0.01), and the smallest corner radius, every
-/// branch point against the other path's branch points and every medial point
-/// against the other axis (x, y, r) to 0.05 mm (the branch-point acceptance).
-/// (On near-circles the previous path's corner radius is itself a few 0.01 mm
+/// the two resolve it differently. So the axes are compared as the acceptance
+/// states: Dmax to 1e-3 mm (acceptance 0.01), the smallest corner radius and
+/// every branch point against the other path's branch points to 0.05 mm (the
+/// branch-point acceptance); every medial point of the fast path must be as
+/// far from the given walls as its r says (brute force, 1e-3 mm). (On
+/// near-circles the previous path's corner radius is itself a few 0.01 mm
 /// off; the blob test checks the fast one against the exact curve to 0.01 mm.)
 fn check_same(pocket: &Pocket, what: &str) {
     check(pocket, what, true);
 }
 
 /// `both_ways` false: only the fast axis is checked against the exact one
-/// (every fast branch point and medial point near the exact axis), for
-/// outlines where the exact path shows rounding artefacts (see
+/// (every fast branch point, and every fast medial point near the exact
+/// axis), for outlines where the exact path shows rounding artefacts (see
 /// `ultra_fine_arcs`).
 fn check(pocket: &Pocket, what: &str, both_ways: bool) {
     let fast = medial_axis(pocket).unwrap();
@@ -172,6 +172,13 @@ fn check(pocket: &Pocket, what: &str, both_ways: bool) {
                 gap < tol,
                 "{what}: {name} branch point {n:?} is {gap} mm from the other's"
             );
+        }
+        // Every medial point near the other axis: only one way, and only where
+        // asked (`both_ways` false). On near-circles the axis is so ill-conditioned
+        // that a 1e-4 mm change of the wall moves stretches of it by more than
+        // 0.05 mm; there the brute-force check below is what holds.
+        if both_ways {
+            continue;
         }
         for br in &a.branches {
             for &q in br.points.iter().step_by(3) {
