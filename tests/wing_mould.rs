@@ -3,7 +3,8 @@
 //! the scallop simulator (swept exact cutter), not with the planners' own
 //! width model.
 //!
-//! What is asserted is what the planners meet today; the README lists the
+//! What is asserted is what the planners meet today (the offset planners'
+//! scallop within 1.25 h on wing_mould, not yet h); the README lists the
 //! acceptance figures still open (simulated scallop of iso_scallop and
 //! tensor_regions, the path-length ratio).
 
@@ -73,13 +74,19 @@ fn wing_mould_three_strategies_against_the_simulator() {
             report.max_gouge_mm
         );
         assert_eq!(report.uncovered_area_mm2, 0.0, "{name}: uncovered area");
-        if strategy == Strategy::IsoParametric {
-            assert!(
-                report.max_scallop_mm <= H,
-                "{name}: scallop {}",
-                report.max_scallop_mm
-            );
-        }
+        // The offset planners are not yet within h everywhere (README,
+        // issue 3 open: 0.061 / 0.059 at edge hooks and pass corners); this
+        // keeps them from sliding back.
+        let limit = if strategy == Strategy::IsoParametric {
+            H
+        } else {
+            1.25 * H
+        };
+        assert!(
+            report.max_scallop_mm <= limit,
+            "{name}: scallop {}",
+            report.max_scallop_mm
+        );
         if strategy == Strategy::TensorRegions {
             assert_eq!(result.regions.as_ref().map(Vec::len), Some(3));
             let d = result.degenerate_points.as_ref().unwrap();
@@ -132,6 +139,13 @@ fn second_freeform_surface_is_cut_without_gouge_or_gaps() {
         // strip-width planners adapt and must stay near the bound.
         if strategy != Strategy::IsoParametric {
             assert!(len < 1.5 * lb, "{name}: {len} vs bound {lb}");
+            // Not yet within h (0.060 / 0.070, README): no sliding back
+            // (a corner run-out without overrun once left 0.113 here).
+            assert!(
+                report.max_scallop_mm <= 1.5 * H,
+                "{name}: scallop {}",
+                report.max_scallop_mm
+            );
         } else {
             assert!(
                 report.max_scallop_mm <= H,

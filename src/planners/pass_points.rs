@@ -362,11 +362,8 @@ fn extension(
             .iter()
             .map(|e| {
                 let c = t.dot(e).abs().min(1.0);
-                // An edge the pass runs along (at a corner) is not crossed.
-                if c >= 20f64.to_radians().cos() {
-                    return 0.0;
-                }
-                let sn = (1.0 - c * c).sqrt();
+                let sn = (1.0 - c * c).sqrt().max(1e-3);
+                // Up to 2R (shallower passes run along the edge instead).
                 (hw * c / sn).min(2.0 * r)
             })
             .fold(0.0, f64::max)
