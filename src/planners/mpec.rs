@@ -17,7 +17,7 @@
 //! (Newton on (u, v)), which is slower but general.
 
 use super::mpec_error_curve::{
-    self as ec, LeadSearch, LocalHeight, SolveError, Status, TorusCutter,
+    self as ec, IllinoisBracket, LeadSearch, LocalHeight, SolveError, Status, TorusCutter,
 };
 use super::Progress;
 use crate::error::{Error, Result};
@@ -565,30 +565,16 @@ impl<'a> Planner<'a> {
         if g_end <= 0.0 {
             return end;
         }
-        let (mut a, mut b, mut ga, mut gb) = (from, end, -target, g_end);
-        let mut side = 0i8;
+        let mut br = IllinoisBracket::new(from, -target, end, g_end);
         for _ in 0..100 {
-            if ga > -1e-6 || (b - a).abs() <= 1e-12 * (1.0 + a.abs()) {
+            if br.ga > -1e-6 || (br.b - br.a).abs() <= 1e-12 * (1.0 + br.a.abs()) {
                 break;
             }
-            let w = (gb / (gb - ga)).clamp(0.01, 0.99);
-            let m = b - w * (b - a);
-            let gm = g(m);
-            if gm <= 0.0 {
-                (a, ga) = (m, gm);
-                if side == -1 {
-                    gb *= 0.5;
-                }
-                side = -1;
-            } else {
-                (b, gb) = (m, gm);
-                if side == 1 {
-                    ga *= 0.5;
-                }
-                side = 1;
-            }
+            let w = (br.gb / (br.gb - br.ga)).clamp(0.01, 0.99);
+            let m = br.b - w * (br.b - br.a);
+            br.narrow(m, g(m));
         }
-        a
+        br.a
     }
 
     /// Places the pass after `from` so that `fixed` (the facing half-width of

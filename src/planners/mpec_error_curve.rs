@@ -414,33 +414,63 @@ fn outer_crossings_near(
 /// regula falsi with the Illinois modification (bisection while g(b) is not
 /// finite). Returns the inner end once within 1e-9 mm of the level or 1e-6 mm
 /// of the crossing.
-fn crossing(mut a: f64, mut ga: f64, mut b: f64, mut gb: f64, g: impl Fn(f64) -> f64) -> f64 {
-    let mut side = 0i8;
+fn crossing(a: f64, ga: f64, b: f64, gb: f64, g: impl Fn(f64) -> f64) -> f64 {
+    let mut br = IllinoisBracket::new(a, ga, b, gb);
     for _ in 0..60 {
-        if ga > -1e-9 || (b - a).abs() < 1e-6 {
+        if br.ga > -1e-9 || (br.b - br.a).abs() < 1e-6 {
             break;
         }
-        let m = if gb.is_finite() {
-            (a * gb - b * ga) / (gb - ga)
+        let m = if br.gb.is_finite() {
+            (br.a * br.gb - br.b * br.ga) / (br.gb - br.ga)
         } else {
-            0.5 * (a + b)
+            0.5 * (br.a + br.b)
         };
-        let gm = g(m);
-        if gm <= 0.0 {
-            (a, ga) = (m, gm);
-            if side == -1 {
-                gb *= 0.5;
-            }
-            side = -1;
-        } else {
-            (b, gb) = (m, gm);
-            if side == 1 {
-                ga *= 0.5;
-            }
-            side = 1;
+        br.narrow(m, g(m));
+    }
+    br.a
+}
+
+/// A bracket of a root of g, g(a) <= 0 < g(b), narrowed by regula falsi
+/// with the Illinois modification: when the same end is kept twice running,
+/// the other end's g is halved, so the bracket closes from both sides. The
+/// caller picks each trial point and when to stop.
+#[derive(Clone, Copy, Debug)]
+pub struct IllinoisBracket {
+    pub a: f64,
+    pub ga: f64,
+    pub b: f64,
+    pub gb: f64,
+    /// -1: the last trial replaced a, 1: b, 0: none yet.
+    side: i8,
+}
+
+impl IllinoisBracket {
+    pub fn new(a: f64, ga: f64, b: f64, gb: f64) -> Self {
+        Self {
+            a,
+            ga,
+            b,
+            gb,
+            side: 0,
         }
     }
-    a
+
+    /// Replaces the end on the trial point's side of the root by (m, g(m)).
+    pub fn narrow(&mut self, m: f64, gm: f64) {
+        if gm <= 0.0 {
+            (self.a, self.ga) = (m, gm);
+            if self.side == -1 {
+                self.gb *= 0.5;
+            }
+            self.side = -1;
+        } else {
+            (self.b, self.gb) = (m, gm);
+            if self.side == 1 {
+                self.ga *= 0.5;
+            }
+            self.side = 1;
+        }
+    }
 }
 
 /// How a drive point was positioned.
