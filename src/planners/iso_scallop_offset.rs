@@ -126,7 +126,7 @@ impl Coverage {
                         if dd <= 0.0 {
                             continue;
                         }
-                        let f = ((p - a).dot(&d) / dd).clamp(0.0, 1.0);
+                        let f = segment_parameter(a, b, p);
                         let dist = (a + d * f - p).norm();
                         if best.is_none_or(|(bd, _)| dist < bd) {
                             best = Some((dist, d / dd.sqrt()));
@@ -148,14 +148,7 @@ impl Coverage {
             if id == exclude {
                 return false;
             }
-            let d = b - a;
-            let dd = d.norm_squared();
-            let f = if dd > 0.0 {
-                ((p - a).dot(&d) / dd).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            (a + d * f - p).norm() < self.share * w
+            (a + (b - a) * segment_parameter(a, b, p) - p).norm() < self.share * w
         })
     }
 }
@@ -167,6 +160,25 @@ const FOLD_SHARE: f64 = 0.9;
 /// passes: neighbouring strips meet at their half-widths, so a point
 /// farther than this from every pass is a gap, not a scallop ridge.
 const GAP_SHARE: f64 = 1.04;
+
+/// Parameter in [0, 1] of the point of segment ab nearest to `p` (0 for a
+/// degenerate segment).
+fn segment_parameter(a: Point3<f64>, b: Point3<f64>, p: Point3<f64>) -> f64 {
+    let d = b - a;
+    let dd = d.norm_squared();
+    if dd > 0.0 {
+        ((p - a).dot(&d) / dd).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+fn too_many_passes(region: &Region) -> Error {
+    Error::planning(format!(
+        "region {} needs more than {MAX_PASSES} passes: the scallop is too small for the surface",
+        region.id
+    ))
+}
 
 fn singular(uv: Vector2<f64>) -> Error {
     Error::planning(format!(
@@ -262,10 +274,7 @@ pub fn cover(
             for run in offset_front(surface, s, region, &coverage, front_id, &front)? {
                 total += 1;
                 if total > MAX_PASSES {
-                    return Err(Error::planning(format!(
-                        "region {} needs more than {MAX_PASSES} passes: the scallop is too small for the surface",
-                        region.id
-                    )));
+                    return Err(too_many_passes(region));
                 }
                 let contacts: Vec<Contact> = run.iter().map(|f| f.c).collect();
                 coverage.add(s, total, &contacts);
@@ -337,10 +346,7 @@ pub fn cover(
         reached.add_points(passes.len(), &strip_of(&pass));
         passes.push(pass);
         if passes.len() > MAX_PASSES {
-            return Err(Error::planning(format!(
-                "region {} needs more than {MAX_PASSES} passes: the scallop is too small for the surface",
-                region.id
-            )));
+            return Err(too_many_passes(region));
         }
     }
     Ok(passes)
@@ -778,14 +784,8 @@ fn nearest_on_front(
         } else {
             (a, ua)
         };
-        let d = b - a;
-        let dd = d.norm_squared();
-        let f = if dd > 0.0 {
-            ((p - a).dot(&d) / dd).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let dist = (a + d * f - p).norm();
+        let f = segment_parameter(a, b, *p);
+        let dist = (a + (b - a) * f - p).norm();
         let at_end = (k == 0 && f <= 0.0) || (k + 1 >= last && f >= 1.0) || last == 0;
         if best.is_none_or(|(bd, _, _)| dist < bd) {
             best = Some((dist, ua + (ub - ua) * f, at_end));
