@@ -9,12 +9,14 @@
 //! benchmark's client. Everything stays on loopback, on domains of their own;
 //! the node is killed by pid.
 
+#[path = "common/node_process.rs"]
+mod node_process;
+
 use futures::StreamExt;
+use node_process::NodeProcess;
 use ros2_client::qos::{History, WhenFull};
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader};
 use std::net::{IpAddr, Ipv4Addr};
-use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 use toolpath_planner::cli::bench_node;
 use toolpath_planner::ros::msgs;
@@ -103,36 +105,14 @@ fn job_reader_keeps_every_job_of_a_burst_from_a_rustdds_writer() {
     );
 }
 
-/// `toolpath node` with the benchmark's launch config; killed by pid on drop.
-struct Node(Child);
-
-impl Drop for Node {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 #[test]
 fn node_answers_every_job_of_a_200_burst_from_the_rust_client() {
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("node.yaml");
     std::fs::write(&config, bench_node::NODE_CONFIG).unwrap();
     let d = domain(1);
-    let mut child = Command::new(env!("CARGO_BIN_EXE_toolpath"))
-        .arg("node")
-        .arg("--config")
-        .arg(&config)
-        .env("ROS_DOMAIN_ID", d.to_string())
-        .env("RUST_LOG", "off")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let stdout = child.stdout.take().unwrap();
-    let _node = Node(child);
-    let mut ready = String::new();
-    BufReader::new(stdout).read_line(&mut ready).unwrap();
+    // The benchmark's launch config; killed by pid on drop.
+    let (_node, ready) = NodeProcess::spawn(&config, d);
     assert!(ready.starts_with("ready"), "node said {ready:?}");
 
     // 200 tiny jobs take about 13 s in the dev profile on one worker.

@@ -6,9 +6,12 @@
 //!
 //! Every node runs on loopback on a domain of its own and is stopped by pid.
 
-use std::io::{BufRead, BufReader};
+#[path = "common/node_process.rs"]
+mod node_process;
+
+use node_process::NodeProcess;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 use toolpath_planner::machines::Machines;
 use toolpath_planner::recording::read_bag;
@@ -30,26 +33,15 @@ fn domain(offset: u32) -> u16 {
 
 /// `toolpath node` with recording into `dir/bag_name`; killed by pid on drop.
 struct Node {
-    child: Child,
+    process: NodeProcess,
     domain: u16,
 }
 
 impl Node {
     /// `toolpath node --config CONFIG` on `domain`, and its first stdout line.
     fn spawn(config: &Path, domain: u16) -> (Node, String) {
-        let mut child = Command::new(BIN)
-            .args(["node", "--config", config.to_str().unwrap()])
-            .env("ROS_DOMAIN_ID", domain.to_string())
-            .env("RUST_LOG", "off")
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().unwrap())
-            .read_line(&mut line)
-            .unwrap();
-        (Node { child, domain }, line)
+        let (process, line) = NodeProcess::spawn(config, domain);
+        (Node { process, domain }, line)
     }
 
     fn start(dir: &Path, bag_name: &str, domain: u16) -> Node {
@@ -82,24 +74,17 @@ impl Node {
 
     /// SIGTERM, then wait (the node writes the bag's summary and metadata.yaml).
     fn terminate(mut self) {
-        let pid = nix::unistd::Pid::from_raw(self.child.id() as i32);
+        let pid = nix::unistd::Pid::from_raw(self.process.child.id() as i32);
         nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).unwrap();
         let t0 = Instant::now();
         while t0.elapsed() < Duration::from_secs(30) {
-            if let Ok(Some(status)) = self.child.try_wait() {
+            if let Ok(Some(status)) = self.process.child.try_wait() {
                 assert!(status.success(), "node exit: {status}");
                 return;
             }
             std::thread::sleep(Duration::from_millis(20));
         }
         panic!("the node did not stop within 30 s of SIGTERM");
-    }
-}
-
-impl Drop for Node {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
     }
 }
 

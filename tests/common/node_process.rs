@@ -1,0 +1,37 @@
+//! `toolpath node` as a child process for the node tests: started on a
+//! domain of its own with a launch config, killed by pid when dropped.
+
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+
+pub struct NodeProcess {
+    pub child: Child,
+}
+
+impl NodeProcess {
+    /// `toolpath node --config CONFIG` on `domain`, and its first stdout
+    /// line (the ready line).
+    pub fn spawn(config: &Path, domain: u16) -> (NodeProcess, String) {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_toolpath"))
+            .args(["node", "--config", config.to_str().unwrap()])
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("RUST_LOG", "off")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        (NodeProcess { child }, line)
+    }
+}
+
+impl Drop for NodeProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
