@@ -150,14 +150,16 @@ fn a_killed_node_leaves_its_finished_jobs_readable() {
     let tmp = tempfile::tempdir().unwrap();
     let node = Node::start(tmp.path(), "killed", domain(1));
     assert_same(&node.replay_publish(&golden("iso_parametric_plane")));
-    // The chunk of a finished job is written once the recorder's queue is empty.
+    // The chunk of a finished job is written once the recorder's queue is
+    // empty, which can fall between the toolpath and the final status: the
+    // job is finished in the bag once both are there.
     let file = tmp.path().join("killed/killed_0.mcap");
     let t0 = Instant::now();
     loop {
-        let bag = read_bag(&file);
+        let bag = runs::Recorded::read(&file);
         if bag
             .as_ref()
-            .is_ok_and(|b| b.messages_on(runs::TOOLPATH).count() == 1)
+            .is_ok_and(|b| b.toolpaths.len() == 1 && b.statuses.iter().any(|s| s.is_final()))
         {
             break;
         }
