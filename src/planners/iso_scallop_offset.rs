@@ -23,19 +23,35 @@ struct FrontPoint {
     away: Vector3<f64>,
 }
 
+/// Offset runs shorter than this many cutter radii are not passes.
+const MIN_RUN_SPAN: f64 = 2.0;
+
 /// Passes cannot exceed this count per region (a guard against runaway offsetting).
 const MAX_PASSES: usize = 5_000;
 
-/// Whether `travel` is within 30 deg of the domain edge through `uv`.
-fn runs_along_boundary(surface: &NurbsSurface, uv: Vector2<f64>, travel: Vector3<f64>) -> bool {
+/// Whether `travel` is within 30 deg of a domain edge through `uv` that a
+/// walk heading `exit` (3-D tangent) leaves the domain through. Only the
+/// edge that stopped the walk counts: at a corner, an offset stopped by the
+/// edge across the pass is not a point of a pass along the other edge (it
+/// was, and every pass after it then hooked round into that edge).
+fn runs_along_boundary(
+    surface: &NurbsSurface,
+    uv: Vector2<f64>,
+    exit: Vector3<f64>,
+    travel: Vector3<f64>,
+) -> bool {
     let ((u0, u1), (v0, v1)) = surface.domain();
-    let d = surface.derivs(uv.x, uv.y);
+    let Some(g) = crate::geometry::LocalGeometry::at(surface, uv.x, uv.y) else {
+        return false;
+    };
+    let out = g.tangent_to_uv(exit);
+    let d = &g.derivs;
     let tol = 1e-9 * ((u1 - u0) + (v1 - v0));
     let mut edges = Vec::new();
-    if (uv.x - u0).abs() <= tol || (uv.x - u1).abs() <= tol {
+    if ((uv.x - u0).abs() <= tol && out.x < 0.0) || ((uv.x - u1).abs() <= tol && out.x > 0.0) {
         edges.push(d.sv);
     }
-    if (uv.y - v0).abs() <= tol || (uv.y - v1).abs() <= tol {
+    if ((uv.y - v0).abs() <= tol && out.y < 0.0) || ((uv.y - v1).abs() <= tol && out.y > 0.0) {
         edges.push(d.su);
     }
     edges.iter().any(|e| {
@@ -195,6 +211,8 @@ struct Offset {
     /// The walk hit the domain boundary: the point is not a pass point (the
     /// pass is extended to the boundary along its own direction instead).
     clipped: bool,
+    /// The walk reached the domain boundary (this point or a clipped neighbour).
+    at_edge: bool,
     /// Distance walked from the front point, mm (the two half-widths).
     dist: f64,
 }
@@ -231,12 +249,13 @@ fn offset_point(
     // A point stopped by the boundary is a pass point only where the pass
     // runs along that boundary (the last pass of a side); where the pass
     // meets the boundary at an angle, it ends there instead.
-    let clipped = end.2 && !runs_along_boundary(surface, end.0, fp.c.travel);
+    let clipped = end.2 && !runs_along_boundary(surface, end.0, end.1, fp.c.travel);
     Ok(Offset {
         uv: end.0,
         away: end.1,
         needed,
         clipped,
+        at_edge: end.2,
         dist,
     })
 }
@@ -684,6 +703,14 @@ fn offset_front(
     // Runs of needed points, each extended by one neighbour at both ends.
     // Clipped points are not pass points; their need passes to the neighbours.
     for k in 0..kept.len() {
+        if kept[k].0.clipped {
+            if k > 0 {
+                kept[k - 1].0.at_edge = true;
+            }
+            if k + 1 < kept.len() {
+                kept[k + 1].0.at_edge = true;
+            }
+        }
         if kept[k].0.clipped && kept[k].0.needed {
             if k > 0 {
                 kept[k - 1].0.needed = true;
@@ -707,7 +734,19 @@ fn offset_front(
             j += 1;
         }
         let (a, b) = (i.saturating_sub(1), (j + 1).min(n - 1));
-        if b > a {
+        // A run shorter than the cutter diameter inside the surface is a
+        // fragment of a folding front: its direction is not to be trusted
+        // for extending and offsetting it again (that cascades into
+        // crossing passes); what it would cut is left to the gap passes.
+        // At the surface edge a short run is a corner's last pass: kept.
+        let span: f64 = (a..b)
+            .map(|k| {
+                let (p, q) = (kept[k].0.uv, kept[k + 1].0.uv);
+                (surface.point(q.x, q.y) - surface.point(p.x, p.y)).norm()
+            })
+            .sum();
+        let at_edge = kept[a..=b].iter().any(|(o, _)| o.at_edge);
+        if b > a && (span >= MIN_RUN_SPAN * s.cutter.radius || at_edge) {
             let keep = smooth_indices(
                 surface,
                 &kept[a..=b].iter().map(|(o, _)| o.uv).collect::<Vec<_>>(),
