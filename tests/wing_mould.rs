@@ -225,9 +225,12 @@ fn iso_scallop_finishes_on_a_strongly_anisotropic_bowl() {
     );
     assert_eq!(report.uncovered_area_mm2, 0.0, "uncovered area");
     assert!(len > lb && len < 2.5 * lb, "{len} vs bound {lb}");
-    // No gouge inside the surface. (Along the steep u = 1 wall, where the
-    // last pass runs along the edge with the tool tilted 70 deg, the next
-    // pass's turn gouges up to 0.08 mm: open, README.)
+    // Along the steep u = 1 wall the last pass leaves the edge at a shallow
+    // angle with the tool tilted 70 deg; its straight run-out, lifted only
+    // for the heel, gouged 0.08 mm into the wall beside it. Now within
+    // 0.006 mm at the edges (second-order surface model of the lift), and
+    // no gouge inside the surface.
+    assert!(report.max_gouge_mm <= 0.01, "gouge {}", report.max_gouge_mm);
     let surface = job.surface().unwrap();
     let sim = Simulator::new(surface, &job.tool, &result).unwrap();
     let n = 120;

@@ -466,13 +466,19 @@ fn extension(
         let base = c.path_point(s)?;
         let run = (need - done).min(RUN_OUT_MAX * r);
         let n = (run / step).ceil().max(1.0) as usize;
-        // Where the surface is concave along the run, it rises above the
-        // tangent plane behind the contact: the run lifts with that
-        // curvature so the heel of the tilted disc stays clear of the edge.
-        let lift = 0.5 * c.k.feed.max(0.0);
+        // Where the surface is concave round the run, it rises above the
+        // tangent plane: behind the contact along the run (the heel) and,
+        // where the run leaves the edge at a shallow angle, under the rest
+        // of the disc too. The run lifts by the most any point of the
+        // tilted disc would dip into the surface's second-order
+        // approximation round the edge contact, beyond what it already
+        // clears at the contact.
+        let heel = 0.5 * c.k.feed.max(0.0);
+        let dip0 = disc_dip(&g, s, t, travel_t, 0.0).max(0.0);
         for k in 1..=n {
             let d = run * k as f64 / n as f64;
-            let cc = g.point() + t * d + g.n * (lift * d * d);
+            let lift = (heel * d * d).max(disc_dip(&g, s, t, travel_t, d) - dip0);
+            let cc = g.point() + t * d + g.n * lift;
             let (cl, axis) = s.cutter.pose(cc, g.n, travel_t);
             out.push(PathPoint {
                 cc: cc.into(),
@@ -483,6 +489,42 @@ fn extension(
         }
     }
     Ok(out)
+}
+
+/// How far the bottom of the flat end, its heel at `d` along `t` from the
+/// contact of `g` and tilted by the lead angle towards `travel`, lies below
+/// the surface's second-order approximation there, at its worst point (the
+/// bottom disc's rim; negative: clear). Zero for the ball, whose run-outs
+/// only follow the heel.
+fn disc_dip(
+    g: &LocalGeometry,
+    s: &PassSettings,
+    t: Vector3<f64>,
+    travel: Vector3<f64>,
+    d: f64,
+) -> f64 {
+    const RIM: usize = 36;
+    if s.cutter.ball {
+        return 0.0;
+    }
+    let r = s.cutter.radius;
+    let sin_lead = s.cutter.lead.sin();
+    let cross = g.n.cross(&travel);
+    (0..RIM)
+        .map(|m| {
+            let psi = std::f64::consts::TAU * m as f64 / RIM as f64;
+            // Forward of the heel x (the disc rises x sin(lead)), aside y.
+            let (x, y) = (r * (1.0 - psi.cos()), r * psi.sin());
+            let v = t * d + travel * (x * s.cutter.lead.cos()) + cross * y;
+            let rho2 = v.norm_squared();
+            let k = if rho2 > 1e-18 {
+                g.normal_curvature(v)
+            } else {
+                0.0
+            };
+            0.5 * k * rho2 - x * sin_lead
+        })
+        .fold(f64::NEG_INFINITY, f64::max)
 }
 
 #[cfg(test)]
