@@ -4,7 +4,7 @@
 //! width model.
 //!
 //! What is asserted is what the planners meet today (tensor_regions'
-//! scallop within 1.25 h on wing_mould, not yet h); the README lists the
+//! scallop within 1.1 h on wing_mould, not yet h); the README lists the
 //! acceptance figures still open (simulated scallop of tensor_regions, the
 //! path-length ratio).
 
@@ -75,11 +75,12 @@ fn wing_mould_three_strategies_against_the_simulator() {
         );
         assert_eq!(report.uncovered_area_mm2, 0.0, "{name}: uncovered area");
         // tensor_regions is not yet within h everywhere (README, issue 3
-        // open: 0.059 at pass corners in region 1); this keeps it from
-        // sliding back. iso_scallop's passes once hooked round into the
-        // u = 0 edge (0.061 between the hooks).
+        // open: 0.054 along the line of pass corners in region 1, 0.059
+        // before the corner spikes); this keeps it from sliding back.
+        // iso_scallop's passes once hooked round into the u = 0 edge (0.061
+        // between the hooks).
         let limit = if strategy == Strategy::TensorRegions {
-            1.25 * H
+            1.1 * H
         } else {
             H
         };

@@ -310,8 +310,9 @@ pub fn cover(
             points: Vec::with_capacity(contacts.len() + 1),
             min_strip_width: None,
         };
+        let spikes = corner_spikes(s, contacts)?;
         let mut prev: Option<Contact> = None;
-        for c in contacts {
+        for (i, c) in contacts.iter().enumerate() {
             if let Some(a) = prev {
                 // Offset points follow the front, not the chord tolerance
                 // (points clipped onto an edge can lie far apart): contacts
@@ -332,6 +333,9 @@ pub fn cover(
                 pivot(&last, c, s, &mut pass.points)?;
             }
             pass.points.push(c.path_point(s)?);
+            if let Some((dir, len)) = spikes[i] {
+                spike(surface, s, c, dir, len, &mut pass.points)?;
+            }
             prev = Some(*c);
         }
         extend_pass(surface, &mut pass.points, s)?;
@@ -488,6 +492,119 @@ fn gap_line(
     }
     extend_ends(surface, s, region, &mut line);
     Some(line)
+}
+
+/// Least turn of a pass, deg, over a cutter radius either side of a
+/// contact, that makes it a corner with a spike.
+const SPIKE_MIN_TURN_DEG: f64 = 30.0;
+
+/// Length of a corner spike in shifts of the corner that would close the
+/// gap outside it by the discs' geometry, d (1 - s) / (2 s): the sideways
+/// spike cuts only the band behind its contact line, so it has to reach
+/// farther. Measured with the simulator on wing_mould (max scallop of
+/// tensor_regions 0.0585 mm without spikes; 0.0545 / 0.0538 with 1 / 4
+/// shifts and no longer path, 4 to 10 shifts the same; the other spots
+/// along region 1's corner line then dominate).
+const SPIKE_SHARE: f64 = 4.0;
+
+/// A corner spike: unit direction out of the corner and length, mm.
+type Spike = (Vector3<f64>, f64);
+
+/// Spikes at the sharp corners of a pass: (unit direction out of the
+/// corner, length, mm) at the contact where the turn peaks. Outside a
+/// corner whose legs meet at theta, the material next to the corner lies
+/// farther than the half-width from this pass and from the neighbouring
+/// pass across the corner: d / (1 + s) instead of d / 2 (s = sin(theta / 2),
+/// d the strip width) when the neighbour is the exact offset (7 % at
+/// 120 deg), more where it was itself smoothed. The tool runs out along the
+/// corner's outer bisector and back.
+fn corner_spikes(s: &PassSettings, contacts: &[Contact]) -> Result<Vec<Option<Spike>>> {
+    let n = contacts.len();
+    let r = s.cutter.radius;
+    let xyz: Vec<Point3<f64>> = contacts.iter().map(|c| c.point()).collect();
+    let turns: Vec<Option<(f64, Vector3<f64>)>> = (0..n)
+        .map(|j| {
+            let back = (0..j).rev().find(|&k| (xyz[j] - xyz[k]).norm() >= r)?;
+            let ahead = (j + 1..n).find(|&k| (xyz[k] - xyz[j]).norm() >= r)?;
+            let d_in = (xyz[j] - xyz[back]).try_normalize(1e-12)?;
+            let d_out = (xyz[ahead] - xyz[j]).try_normalize(1e-12)?;
+            let turn = d_in.dot(&d_out).clamp(-1.0, 1.0).acos();
+            let out = (d_in - d_out).try_normalize(1e-12)?;
+            Some((turn, out))
+        })
+        .collect();
+    let min_turn = SPIKE_MIN_TURN_DEG.to_radians();
+    let mut spikes = vec![None; n];
+    for j in 0..n {
+        let Some((turn, out)) = turns[j] else {
+            continue;
+        };
+        if turn < min_turn {
+            continue;
+        }
+        // The peak of the turn within a cutter radius (first of equals).
+        let peak = (0..n).all(|k| {
+            k == j
+                || (xyz[k] - xyz[j]).norm() >= r
+                || turns[k].is_none_or(|(t, _)| t < turn || (t == turn && k > j))
+        });
+        if !peak {
+            continue;
+        }
+        let half = 0.5 * turn;
+        let sn = half.cos();
+        let w = 2.0 * contacts[j].half_width_towards(s, out)?;
+        spikes[j] = Some((out, SPIKE_SHARE * w * (1.0 - sn) / (2.0 * sn)));
+    }
+    Ok(spikes)
+}
+
+/// Runs the tool out of a corner at `c` along `dir` (tangent) for `len` on
+/// the surface and back, swivelling at both ends.
+fn spike(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    c: &Contact,
+    dir: Vector3<f64>,
+    len: f64,
+    out: &mut Vec<crate::formats::PathPoint>,
+) -> Result<()> {
+    // The tool keeps the corner's heading (across the spike, on the side
+    // of the travel here): a sideways move of a few tenths of a mm, with no
+    // swivel at its tip (a reversed heading would swing the lead-tilted
+    // tool round the contact, 2 R of motion each way).
+    let mut heading = c.g.n.cross(&dir);
+    if heading.dot(&c.travel) < 0.0 {
+        heading = -heading;
+    }
+    let Some(c_side) = Contact::from_geometry(c.g, heading) else {
+        return Ok(());
+    };
+    let steps = ((len / s.point_step).ceil() as usize).max(1);
+    let mut path = vec![c_side];
+    let mut at = c.uv();
+    let mut d = dir;
+    for _ in 0..steps {
+        let Some((next, nd, clipped)) = walk(surface, at, d, len / steps as f64) else {
+            break;
+        };
+        let Some(p) = Contact::new(surface, next, heading) else {
+            break;
+        };
+        path.push(p);
+        at = next;
+        d = nd;
+        if clipped {
+            break;
+        }
+    }
+    pivot(c, &c_side, s, out)?;
+    for p in path.iter().skip(1).chain(path.iter().rev().skip(1)) {
+        out.push(p.path_point(s)?);
+    }
+    pivot(&c_side, c, s, out)?;
+    out.push(c.path_point(s)?);
+    Ok(())
 }
 
 /// Where the travel turns sharply between two contacts (a corner of an
