@@ -8,7 +8,7 @@
 //! current pass still leaves region material uncut.
 
 use super::partition::Region;
-use super::pass_points::{extend_pass, walk_on_surface as walk, Contact, PassSettings};
+use super::pass_points::{edges_at, extend_pass, walk_on_surface as walk, Contact, PassSettings};
 use crate::error::{Error, Result};
 use crate::formats::Pass;
 use crate::geometry::NurbsSurface;
@@ -40,24 +40,15 @@ fn runs_along_boundary(
     exit: Vector3<f64>,
     travel: Vector3<f64>,
 ) -> bool {
-    let ((u0, u1), (v0, v1)) = surface.domain();
     let Some(g) = crate::geometry::LocalGeometry::at(surface, uv.x, uv.y) else {
         return false;
     };
-    let out = g.tangent_to_uv(exit);
-    let d = &g.derivs;
-    let tol = 1e-9 * ((u1 - u0) + (v1 - v0));
-    let mut edges = Vec::new();
-    if ((uv.x - u0).abs() <= tol && out.x < 0.0) || ((uv.x - u1).abs() <= tol && out.x > 0.0) {
-        edges.push(d.sv);
-    }
-    if ((uv.y - v0).abs() <= tol && out.y < 0.0) || ((uv.y - v1).abs() <= tol && out.y > 0.0) {
-        edges.push(d.su);
-    }
-    edges.iter().any(|e| {
-        let n = e.norm() * travel.norm();
-        n > 0.0 && (e.dot(&travel) / n).abs() > 30f64.to_radians().cos()
-    })
+    let Some(t) = travel.try_normalize(1e-300) else {
+        return false;
+    };
+    edges_at(surface, uv, Some(g.tangent_to_uv(exit)))
+        .iter()
+        .any(|e| e.dot(&t).abs() > 30f64.to_radians().cos())
 }
 
 /// The strips of the passes placed so far in a region, so that an offset

@@ -258,14 +258,29 @@ pub fn walk_on_surface(
 
 /// Unit 3-D tangents of the domain edges `uv` lies on (none inside).
 fn boundary_edges(surface: &NurbsSurface, uv: Vector2<f64>) -> Vec<Vector3<f64>> {
+    edges_at(surface, uv, None)
+}
+
+/// Unit 3-D tangents of the domain edges `uv` lies on; with `heading` (a
+/// parameter-space direction) only those it leaves the domain through.
+pub fn edges_at(
+    surface: &NurbsSurface,
+    uv: Vector2<f64>,
+    heading: Option<Vector2<f64>>,
+) -> Vec<Vector3<f64>> {
     let ((u0, u1), (v0, v1)) = surface.domain();
     let d = surface.derivs(uv.x, uv.y);
     let tol = 1e-9 * ((u1 - u0) + (v1 - v0));
+    let leaves = |at_lo: bool, at_hi: bool, h: f64| match heading {
+        None => at_lo || at_hi,
+        Some(_) => (at_lo && h < 0.0) || (at_hi && h > 0.0),
+    };
+    let h = heading.unwrap_or_default();
     let mut edges = Vec::new();
-    if (uv.x - u0).abs() <= tol || (uv.x - u1).abs() <= tol {
+    if leaves((uv.x - u0).abs() <= tol, (uv.x - u1).abs() <= tol, h.x) {
         edges.extend(d.sv.try_normalize(1e-300));
     }
-    if (uv.y - v0).abs() <= tol || (uv.y - v1).abs() <= tol {
+    if leaves((uv.y - v0).abs() <= tol, (uv.y - v1).abs() <= tol, h.y) {
         edges.extend(d.su.try_normalize(1e-300));
     }
     edges
