@@ -210,7 +210,7 @@ fn harmonics() -> impl Strategy<Value = Vec<(f64, f64)>> {
 
 proptest! {
     // A fixed seed: the same cases on every run (a random one once drew the
-    // ignored case above and failed CI at random).
+    // ignored case below and failed CI at random).
     #![proptest_config(ProptestConfig {
         cases: 6,
         rng_seed: proptest::test_runner::RngSeed::Fixed(20_261_122),
@@ -292,7 +292,7 @@ fn annulus_fast_equals_exact() {
     check_same(&Pocket::new(&outer, &[hole]).unwrap(), "annulus");
 }
 
-/// Found by the random cases below (session 4): a round of radius 0.4246
+/// Found by the random cases above (session 4): a round of radius 0.4246
 /// sampled with 845 segments (7.9 integer units each). The fast path keeps a
 /// cluster of degree-3 branch points within 0.5 um of the round's centre
 /// (spurs between far-apart segments of the arc, object angle over 10 deg),
