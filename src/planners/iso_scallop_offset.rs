@@ -551,7 +551,7 @@ fn corner_spikes(s: &PassSettings, contacts: &[Contact]) -> Result<Vec<Option<Sp
 }
 
 /// Runs the tool out of a corner at `c` along `dir` (tangent) for `len` on
-/// the surface and back, swivelling at both ends.
+/// the surface and back, swivelling at `c` to the spike's heading and back.
 fn spike(
     surface: &NurbsSurface,
     s: &PassSettings,
@@ -811,20 +811,14 @@ fn offset_front(
     // Runs of needed points, each extended by one neighbour at both ends.
     // Clipped points are not pass points; their need passes to the neighbours.
     for k in 0..kept.len() {
-        if kept[k].0.clipped {
-            if k > 0 {
-                kept[k - 1].0.at_edge = true;
-            }
-            if k + 1 < kept.len() {
-                kept[k + 1].0.at_edge = true;
-            }
+        let (clipped, needed) = (kept[k].0.clipped, kept[k].0.needed);
+        if !clipped {
+            continue;
         }
-        if kept[k].0.clipped && kept[k].0.needed {
-            if k > 0 {
-                kept[k - 1].0.needed = true;
-            }
-            if k + 1 < kept.len() {
-                kept[k + 1].0.needed = true;
+        for m in [k.checked_sub(1), Some(k + 1)].into_iter().flatten() {
+            if let Some((o, _)) = kept.get_mut(m) {
+                o.at_edge = true;
+                o.needed |= needed;
             }
         }
     }
