@@ -491,12 +491,21 @@ const SPIKE_MIN_TURN_DEG: f64 = 30.0;
 
 /// Length of a corner spike in shifts of the corner that would close the
 /// gap outside it by the discs' geometry, d (1 - s) / (2 s): the sideways
-/// spike cuts only the band behind its contact line, so it has to reach
-/// farther. Measured with the simulator on wing_mould (max scallop of
-/// tensor_regions 0.0585 mm without spikes; 0.0545 / 0.0538 with 1 / 4
-/// shifts and no longer path, 4 to 10 shifts the same; the other spots
-/// along region 1's corner line then dominate).
-const SPIKE_SHARE: f64 = 4.0;
+/// spike cuts only bands behind its contact lines, so it has to reach
+/// farther. Measured with the simulator on wing_mould, four legs
+/// (`SPIKE_LEGS`): max scallop of tensor_regions 0.0512 / 0.0493 / 0.0493 mm
+/// with 2 / 3 / 4 shifts, path 10939 / 10976 / 11013 mm.
+const SPIKE_SHARE: f64 = 3.0;
+
+/// Offsets of a spike's legs from the corner's outer bisector, in bands
+/// (h / sin(lead), the width a sideways-moving tilted flat bottom cuts
+/// within the scallop, behind its contact line), run out and back in turn
+/// (the last one back to the corner). The material outside a corner spreads
+/// to both sides of the bisector and, where the corners of successive passes
+/// do not line up along it, more to one side: on wing_mould one leg on the
+/// bisector left 0.0538 mm, out a band ahead and back on it 0.0504 (the
+/// highest spots then 0.6 mm behind it), these four legs (three bands) 0.0493.
+const SPIKE_LEGS: &[f64] = &[1.0, 0.0, -1.0, -1.0];
 
 /// A corner spike: unit direction out of the corner and length, mm.
 type Spike = (Vector3<f64>, f64);
@@ -515,8 +524,17 @@ fn corner_spikes(s: &PassSettings, contacts: &[Contact]) -> Result<Vec<Option<Sp
     let xyz: Vec<Point3<f64>> = contacts.iter().map(|c| c.point()).collect();
     let turns: Vec<Option<(f64, Vector3<f64>)>> = (0..n)
         .map(|j| {
-            let back = (0..j).rev().find(|&k| (xyz[j] - xyz[k]).norm() >= r)?;
-            let ahead = (j + 1..n).find(|&k| (xyz[k] - xyz[j]).norm() >= r)?;
+            // Near a pass end the leg is shorter than R but runs on in the
+            // run-in or run-out along its own direction: a quarter R will do.
+            let far = |k: usize| (xyz[j] - xyz[k]).norm() >= r;
+            let end = |k: usize| (xyz[j] - xyz[k]).norm() >= 0.25 * r;
+            let back = (0..j)
+                .rev()
+                .find(|&k| far(k))
+                .or_else(|| (j > 0 && end(0)).then_some(0))?;
+            let ahead = (j + 1..n)
+                .find(|&k| far(k))
+                .or_else(|| (j + 1 < n && end(n - 1)).then_some(n - 1))?;
             let d_in = (xyz[j] - xyz[back]).try_normalize(1e-12)?;
             let d_out = (xyz[ahead] - xyz[j]).try_normalize(1e-12)?;
             let turn = d_in.dot(&d_out).clamp(-1.0, 1.0).acos();
@@ -551,7 +569,8 @@ fn corner_spikes(s: &PassSettings, contacts: &[Contact]) -> Result<Vec<Option<Sp
 }
 
 /// Runs the tool out of a corner at `c` along `dir` (tangent) for `len` on
-/// the surface and back, swivelling at `c` to the spike's heading and back.
+/// the surface and back, in the legs of `SPIKE_LEGS`, swivelling at `c` to
+/// the spike's heading and back.
 fn spike(
     surface: &NurbsSurface,
     s: &PassSettings,
@@ -571,27 +590,86 @@ fn spike(
     let Some(c_side) = Contact::from_geometry(c.g, heading) else {
         return Ok(());
     };
+    // A tilted flat bottom moving sideways cuts only the band behind its
+    // contact line where the disc is within the scallop of the surface,
+    // h / sin(lead) wide (a ball cuts both sides: one leg on the bisector).
+    let band = if s.cutter.ball || s.cutter.lead <= 0.0 {
+        0.0
+    } else {
+        (s.scallop / s.cutter.lead.sin()).min(s.cutter.radius)
+    };
     let steps = ((len / s.point_step).ceil() as usize).max(1);
-    let mut path = vec![c_side];
-    let mut at = c.uv();
-    let mut d = dir;
-    for _ in 0..steps {
-        let Some((next, nd, clipped)) = walk(surface, at, d, len / steps as f64) else {
-            break;
-        };
-        let Some(p) = Contact::new(surface, next, heading) else {
-            break;
-        };
-        path.push(p);
-        at = next;
-        d = nd;
-        if clipped {
-            break;
+    let line = |from: Vector2<f64>, dir: Vector3<f64>| -> Vec<Contact> {
+        let mut path = Vec::with_capacity(steps);
+        let (mut at, mut d) = (from, dir);
+        for _ in 0..steps {
+            let Some((next, nd, clipped)) = walk(surface, at, d, len / steps as f64) else {
+                break;
+            };
+            let Some(p) = Contact::new(surface, next, heading) else {
+                break;
+            };
+            path.push(p);
+            at = next;
+            d = nd;
+            if clipped {
+                break;
+            }
         }
+        path
+    };
+    // A leg `offset` ahead of the bisector (along the heading; behind it
+    // when negative), starting at the corner's side.
+    let leg = |offset: f64| -> Vec<Contact> {
+        if offset == 0.0 {
+            return line(c.uv(), dir);
+        }
+        let (side, sign) = if offset > 0.0 {
+            (heading, 1.0)
+        } else {
+            (-heading, -1.0)
+        };
+        let Some((start, _, false)) = walk(surface, c.uv(), side, offset * sign) else {
+            return Vec::new();
+        };
+        let Some(p) = Contact::new(surface, start, heading) else {
+            return Vec::new();
+        };
+        let Some(mut d) = p.g.n.cross(&heading).try_normalize(1e-12) else {
+            return Vec::new();
+        };
+        if d.dot(&dir) < 0.0 {
+            d = -d;
+        }
+        let mut path = vec![p];
+        path.extend(line(start, d));
+        path
+    };
+    // Out and back in turn, a band apart; one leg on the bisector for a
+    // ball or where a leg would leave the surface.
+    let mut legs: Vec<Vec<Contact>> = if band > 0.0 {
+        SPIKE_LEGS.iter().map(|&k| leg(k * band)).collect()
+    } else {
+        Vec::new()
+    };
+    if legs.is_empty() || legs.iter().any(|l| l.is_empty()) {
+        legs = vec![line(c.uv(), dir)];
     }
     pivot(c, &c_side, s, out)?;
-    for p in path.iter().skip(1).chain(path.iter().rev().skip(1)) {
-        out.push(p.path_point(s)?);
+    for (k, l) in legs.iter().enumerate() {
+        let pts: Vec<&Contact> = if k % 2 == 0 {
+            l.iter().collect()
+        } else {
+            l.iter().rev().collect()
+        };
+        for p in pts {
+            out.push(p.path_point(s)?);
+        }
+    }
+    if legs.len() % 2 == 1 {
+        for p in legs[legs.len() - 1].iter().rev().skip(1) {
+            out.push(p.path_point(s)?);
+        }
     }
     pivot(&c_side, c, s, out)?;
     out.push(c.path_point(s)?);
