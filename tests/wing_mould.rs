@@ -191,7 +191,7 @@ fn monkey_saddle_regions_leave_no_uncut_corners() {
 /// vary fast along them, and Lee offsetting from one edge used to cascade
 /// into thousands of short crossing passes (more than 5 000: an error)
 /// from fragments of folded fronts. It must now finish, cut everything and
-/// not gouge inside the surface.
+/// not gouge.
 #[test]
 fn iso_scallop_finishes_on_a_strongly_anisotropic_bowl() {
     use toolpath_planner::geometry::interpolation::interpolate_height_field;
@@ -221,10 +221,21 @@ fn iso_scallop_finishes_on_a_strongly_anisotropic_bowl() {
     assert!(len > lb && len < 2.5 * lb, "{len} vs bound {lb}");
     // Along the steep u = 1 wall the last pass leaves the edge at a shallow
     // angle with the tool tilted 70 deg; its straight run-out, lifted only
-    // for the heel, gouged 0.08 mm into the wall beside it. Now within
-    // 0.006 mm at the edges (second-order surface model of the lift), and
-    // no gouge inside the surface.
-    assert!(report.max_gouge_mm <= 0.01, "gouge {}", report.max_gouge_mm);
+    // for the heel, gouged 0.08 mm into the wall beside it, lifted by a
+    // second-order model of the surface 0.006 mm. Lifted by the posed disc's
+    // depth below the surface itself: 0.0011 mm.
+    assert!(
+        report.max_gouge_mm <= GOUGE_LIMIT,
+        "gouge {}",
+        report.max_gouge_mm
+    );
+    // Not yet within h where fronts fold (0.078; 0.087 before passes ran in
+    // along an edge they start on): no sliding back.
+    assert!(
+        report.max_scallop_mm <= 1.7 * H,
+        "scallop {}",
+        report.max_scallop_mm
+    );
     let surface = job.surface().unwrap();
     let sim = Simulator::new(surface, &job.tool, &result).unwrap();
     let n = 120;

@@ -287,22 +287,54 @@ pub fn edges_at(
 }
 
 /// `next` moved back onto the domain edges `from` lies on.
-fn snap_to_edges(surface: &NurbsSurface, from: Vector2<f64>, next: Vector2<f64>) -> Vector2<f64> {
+/// The point `dist` along the domain edge through `uv` in the direction of
+/// the tangent `e` (the other parameter held on its bound: a walk in 3-D
+/// drifts off a curved edge line), stopping at a corner; `uv` itself where
+/// `uv` is on no edge.
+fn walk_along_edge(
+    surface: &NurbsSurface,
+    uv: Vector2<f64>,
+    e: Vector3<f64>,
+    dist: f64,
+) -> Vector2<f64> {
     let ((u0, u1), (v0, v1)) = surface.domain();
     let tol = 1e-9 * ((u1 - u0) + (v1 - v0));
-    let mut p = next;
-    if (from.x - u0).abs() <= tol {
-        p.x = u0;
-    } else if (from.x - u1).abs() <= tol {
-        p.x = u1;
+    let on_u = (uv.x - u0).abs() <= tol || (uv.x - u1).abs() <= tol;
+    let on_v = (uv.y - v0).abs() <= tol || (uv.y - v1).abs() <= tol;
+    // Moving along v on a u edge, along u on a v edge.
+    let along_v = if on_u && on_v {
+        let d = surface.derivs(uv.x, uv.y);
+        e.dot(&d.sv).abs() * d.su.norm() >= e.dot(&d.su).abs() * d.sv.norm()
+    } else if on_u || on_v {
+        on_u
+    } else {
+        return uv;
+    };
+    let speed = |p: Vector2<f64>| {
+        let d = surface.derivs(p.x, p.y);
+        let t = if along_v { d.sv } else { d.su };
+        (t.norm(), t.dot(&e).signum())
+    };
+    let (sp, sign) = speed(uv);
+    if sp <= 0.0 {
+        return uv;
     }
-    if (from.y - v0).abs() <= tol {
-        p.y = v0;
-    } else if (from.y - v1).abs() <= tol {
-        p.y = v1;
+    let step = |s: f64| {
+        let p = if along_v {
+            Vector2::new(uv.x, uv.y + sign * s)
+        } else {
+            Vector2::new(uv.x + sign * s, uv.y)
+        };
+        let (u, v) = surface.clamp_uv(p.x, p.y);
+        Vector2::new(u, v)
+    };
+    // Parameter step from the speed at the start, then at the midpoint.
+    let mut s = dist / sp;
+    let (sm, _) = speed((uv + step(s)) * 0.5);
+    if sm > 0.0 {
+        s = dist / sm;
     }
-    let (u, v) = surface.clamp_uv(p.x, p.y);
-    Vector2::new(u, v)
+    step(s)
 }
 
 /// Run-in and run-out of a pass, so that the whole strip is cut up to the
@@ -366,7 +398,21 @@ fn extension(
     let out_dir = if at_end { travel } else { -travel };
     let w = end.strip_width.unwrap_or(2.0 * r).min(2.0 * r);
     let hw = 0.5 * w;
-    let lag = if s.cutter.ball || !at_end {
+    // The disc lags behind the contact: at a pass end the far side of the
+    // strip is cut only once the contact has run on by this much. At a pass
+    // start it covers what lies behind the contact, except along an edge the
+    // pass starts on and runs along: the material on that edge behind the
+    // start is cut only within h / sin(lead) of it, so the start runs in by
+    // the same.
+    let along_edge = || {
+        let end_uv = Vector2::from(end.uv);
+        boundary_edges(surface, end_uv).iter().any(|e| {
+            // ... and the edge goes on behind the start (not a corner).
+            e.dot(&travel).abs() >= 20f64.to_radians().cos()
+                && walk_along_edge(surface, end_uv, -travel, 1e-3 * r) != end_uv
+        })
+    };
+    let lag = if s.cutter.ball || !(at_end || along_edge()) {
         0.0
     } else {
         let y = w.min(r);
@@ -411,12 +457,7 @@ fn extension(
                 // along a concave edge would cut below it).
                 Some(e) if guard < 9_999 => {
                     let e = if e.dot(&dir) < 0.0 { -e } else { e };
-                    let Some((nx, _, _)) = walk_on_surface(surface, uv, e, step.min(need - done))
-                    else {
-                        break;
-                    };
-                    // Keep the walk on the edge line exactly.
-                    let nx = snap_to_edges(surface, uv, nx);
+                    let nx = walk_along_edge(surface, uv, e, step.min(need - done));
                     let mv = (surface.point(nx.x, nx.y) - surface.point(uv.x, uv.y)).norm();
                     if mv <= 1e-6 * step {
                         // A corner: the edge ends here.
@@ -466,7 +507,33 @@ fn extension(
             need = done.max(lag) + oblique(uv, dir);
         }
     }
-    if at_edge && done < need {
+    // Heading along an edge (within 20 deg): follow it on the surface; a
+    // straight run in the tangent plane would leave a convex edge (and the
+    // material along it) or cut into a concave one.
+    while at_edge && done < need - 1e-9 && guard < 10_000 {
+        guard += 1;
+        let Some(e) = boundary_edges(surface, uv)
+            .into_iter()
+            .find(|e| e.dot(&dir).abs() >= 20f64.to_radians().cos())
+        else {
+            break;
+        };
+        let e = if e.dot(&dir) < 0.0 { -e } else { e };
+        let nx = walk_along_edge(surface, uv, e, step.min(need - done));
+        let mv = (surface.point(nx.x, nx.y) - surface.point(uv.x, uv.y)).norm();
+        if mv <= 1e-6 * step {
+            break;
+        }
+        done += mv;
+        uv = nx;
+        dir = e;
+        let t = if at_end { e } else { -e };
+        let Some(c) = Contact::new(surface, uv, t) else {
+            break;
+        };
+        out.push(c.path_point(s)?);
+    }
+    if at_edge && done < need - 1e-9 {
         // Straight past the edge in its tangent plane.
         let Some(g) = LocalGeometry::at(surface, uv.x, uv.y) else {
             return Ok(out);
@@ -483,16 +550,30 @@ fn extension(
         let n = (run / step).ceil().max(1.0) as usize;
         // Where the surface is concave round the run, it rises above the
         // tangent plane: along the run and, where the run leaves the edge at
-        // a shallow angle, beside it under the disc too. The run lifts by
-        // the curvature along it and at least by the dip of a cutter-sized
-        // disc into the surface's second-order approximation round the edge
-        // contact, beyond what it already clears there (`disc_dip`).
+        // a shallow angle, beside it under the disc too. Each run-out pose
+        // lifts along the edge normal by the deepest its bottom disc reaches
+        // below the surface itself (`disc_penetration`), beyond what the
+        // pose at the edge contact already does; the ball by the curvature
+        // along the run.
         let heel = 0.5 * c.k.feed.max(0.0);
-        let dip0 = disc_dip(&g, s, t, travel_t, 0.0).max(0.0);
+        let o = g.point();
+        let pen0 = disc_penetration(surface, s, &g, t, o, travel_t).max(0.0);
         for k in 1..=n {
             let d = run * k as f64 / n as f64;
-            let lift = (heel * d * d).max(disc_dip(&g, s, t, travel_t, d) - dip0);
-            let cc = g.point() + t * d + g.n * lift;
+            let mut cc = o + t * d;
+            let lift = if s.cutter.ball {
+                heel * d * d
+            } else {
+                // The penetration falls one for one with the lift (both
+                // along the edge normal); twice for the disc's new place.
+                let mut lift = 0.0f64;
+                for _ in 0..2 {
+                    let pen = disc_penetration(surface, s, &g, t, cc + g.n * lift, travel_t);
+                    lift = (lift + pen - pen0).max(lift);
+                }
+                lift
+            };
+            cc += g.n * lift;
             let (cl, axis) = s.cutter.pose(cc, g.n, travel_t);
             out.push(PathPoint {
                 cc: cc.into(),
@@ -505,49 +586,56 @@ fn extension(
     Ok(out)
 }
 
-/// How far a disc of the cutter's radius, its edge point at `d` along `t`
-/// from the contact of `g`, spread ahead of that point along `travel` and
-/// rising by the lead angle away from it, lies below the surface's
-/// second-order approximation round the contact, at its worst rim point
-/// (negative: clear). Zero for the ball, whose run-outs only follow the
-/// contact.
-///
-/// This is not the pose's disc: `Cutter::pose` puts the bottom disc behind
-/// the contact (towards the heel), this one ahead of it, which reaches
-/// farther from the edge contact and so lifts more on concave surfaces.
-/// The disc where the pose has it left 0.012 mm of gouge on the steep wall
-/// of the anisotropic bowl in tests/wing_mould.rs (this one <= 0.006 mm):
-/// the second-order model round the edge contact is not accurate enough
-/// there to lift by the true disc alone.
-fn disc_dip(
-    g: &LocalGeometry,
+/// How deep the bottom disc of the flat-end cutter posed at contact `cc`
+/// (travelling along `travel`, axis tilted from the normal of `g`) reaches
+/// below the surface, mm (negative: clear by that much), over rim and
+/// interior samples whose foot on the surface lies inside its domain or
+/// within a sample spacing of its edge (farther past the edge there is no
+/// material). Heights are taken along the normal of the
+/// edge contact `g`, over its tangent plane (`invert_in_frame`), so a lift
+/// along that normal lowers them one for one.
+fn disc_penetration(
+    surface: &NurbsSurface,
     s: &PassSettings,
+    g: &LocalGeometry,
     t: Vector3<f64>,
+    cc: Point3<f64>,
     travel: Vector3<f64>,
-    d: f64,
 ) -> f64 {
-    const RIM: usize = 36;
-    if s.cutter.ball {
-        return 0.0;
-    }
+    use crate::geometry::inversion::invert_in_frame;
+    const RINGS: [(f64, usize); 3] = [(1.0, 36), (0.6, 18), (0.25, 8)];
+    let o = g.point();
+    let e2 = g.n.cross(&t);
+    let (cl, axis) = s.cutter.pose(cc, g.n, travel);
+    let Some(a1) = (travel - axis * axis.dot(&travel)).try_normalize(1e-12) else {
+        return f64::NEG_INFINITY;
+    };
+    let a2 = axis.cross(&a1);
     let r = s.cutter.radius;
-    let sin_lead = s.cutter.lead.sin();
-    let cross = g.n.cross(&travel);
-    (0..RIM)
-        .map(|m| {
-            let psi = std::f64::consts::TAU * m as f64 / RIM as f64;
-            // Ahead of the edge point x (the disc rises x sin(lead)), aside y.
-            let (x, y) = (r * (1.0 - psi.cos()), r * psi.sin());
-            let v = t * d + travel * (x * s.cutter.lead.cos()) + cross * y;
-            let rho2 = v.norm_squared();
-            let k = if rho2 > 1e-18 {
-                g.normal_curvature(v)
-            } else {
-                0.0
-            };
-            0.5 * k * rho2 - x * sin_lead
-        })
-        .fold(f64::NEG_INFINITY, f64::max)
+    // Feet up to a rim sample spacing past the edge count too (on the
+    // surface continued past it): the material at the edge itself lies
+    // between the samples there.
+    let reach = std::f64::consts::TAU * r / RINGS[0].1 as f64;
+    let inside = |foot: &crate::geometry::inversion::FramePoint| {
+        let (u, v) = surface.clamp_uv(foot.uv.x, foot.uv.y);
+        (surface.point(u, v) - foot.derivs.p).norm() <= reach
+    };
+    let mut seed = g.uv;
+    let mut worst = f64::NEG_INFINITY;
+    for (share, count) in RINGS {
+        for m in 0..count {
+            let psi = std::f64::consts::TAU * m as f64 / count as f64;
+            let q = cl + (a1 * psi.cos() + a2 * psi.sin()) * (share * r);
+            let rel = q - o;
+            let foot = invert_in_frame(surface, &o, &t, &e2, [rel.dot(&t), rel.dot(&e2)], seed);
+            seed = foot.uv;
+            if inside(&foot) {
+                worst = worst.max(foot.height - rel.dot(&g.n));
+            }
+        }
+        seed = g.uv;
+    }
+    worst
 }
 
 #[cfg(test)]
