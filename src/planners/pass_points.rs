@@ -642,6 +642,52 @@ fn disc_penetration(
 mod tests {
     use super::*;
 
+    /// A walk along a curved edge (the edge line bends in 3-D) stays on it,
+    /// covers the asked arc length and stops at the corner; a 3-D walk
+    /// drifted off such an edge and was clipped at once.
+    #[test]
+    fn edge_walk_follows_a_curved_edge_to_the_corner() {
+        let surface = crate::geometry::interpolation::interpolate_height_field(
+            |x, y| 0.004 * x * x + 2e-4 * x * y * y + 0.02 * y * y,
+            (0.0, 100.0),
+            (0.0, 80.0),
+            (3, 3),
+            (3, 3),
+        )
+        .unwrap();
+        let start = Vector2::new(1.0, 0.3);
+        let d = surface.derivs(start.x, start.y);
+        let along = d.sv.normalize();
+        // Arc length along the edge by fine chords.
+        let arc = |a: f64, b: f64| -> f64 {
+            (0..2000)
+                .map(|k| {
+                    let (p, q) = (
+                        a + (b - a) * k as f64 / 2000.0,
+                        a + (b - a) * (k + 1) as f64 / 2000.0,
+                    );
+                    (surface.point(1.0, q) - surface.point(1.0, p)).norm()
+                })
+                .sum()
+        };
+        for dist in [0.5, 2.0, 6.0] {
+            let end = walk_along_edge(&surface, start, along, dist);
+            assert_eq!(end.x, 1.0, "left the edge: {end:?}");
+            assert!(end.y > start.y);
+            let walked = arc(start.y, end.y);
+            assert!((walked - dist).abs() < 0.01 * dist, "{walked} for {dist}");
+        }
+        let back = walk_along_edge(&surface, start, -along, 3.0);
+        assert!(back.y < start.y && back.x == 1.0);
+        assert_eq!(
+            walk_along_edge(&surface, start, along, 1e4),
+            Vector2::new(1.0, 1.0)
+        );
+        // Not on an edge: no walk.
+        let inner = Vector2::new(0.5, 0.5);
+        assert_eq!(walk_along_edge(&surface, inner, along, 1.0), inner);
+    }
+
     #[test]
     fn circle_sampling_keeps_the_chord_error() {
         let r = 50.0;
