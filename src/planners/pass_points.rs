@@ -557,10 +557,37 @@ fn extension(
         // along the run.
         let heel = 0.5 * c.k.feed.max(0.0);
         let o = g.point();
-        let pen0 = disc_penetration(surface, s, &g, t, o, travel_t).max(0.0);
+        let pen0 = disc_penetration(surface, s, &g, t, o, g.n, travel_t).max(0.0);
+        let duv = g.tangent_to_uv(t);
         for k in 1..=n {
             let d = run * k as f64 / n as f64;
-            let mut cc = o + t * d;
+            // Where the surface falls away from the tangent plane across
+            // the edge (convex along the run), the run follows the surface
+            // continued past the edge: straight, the tool would leave the
+            // material beside the edge uncut (0.061 mm on the anisotropic
+            // bowl's steep wall).
+            let ext = crate::geometry::inversion::extended_derivs(
+                surface,
+                g.uv.x + duv.x * d,
+                g.uv.y + duv.y * d,
+            );
+            let n_ext = ext.su.cross(&ext.sv).try_normalize(1e-300).map(|m| {
+                if m.dot(&g.n) < 0.0 {
+                    -m
+                } else {
+                    m
+                }
+            });
+            let below = (ext.p - (o + t * d)).dot(&g.n);
+            let (mut cc, n_pose, travel_k) = match n_ext {
+                Some(m) if !s.cutter.ball && below < 0.0 => {
+                    let tk = (travel_t - m * travel_t.dot(&m))
+                        .try_normalize(1e-12)
+                        .unwrap_or(travel_t);
+                    (ext.p, m, tk)
+                }
+                _ => (o + t * d, g.n, travel_t),
+            };
             let lift = if s.cutter.ball {
                 heel * d * d
             } else {
@@ -568,17 +595,20 @@ fn extension(
                 // along the edge normal); twice for the disc's new place.
                 let mut lift = 0.0f64;
                 for _ in 0..2 {
-                    let pen = disc_penetration(surface, s, &g, t, cc + g.n * lift, travel_t);
+                    let pen =
+                        disc_penetration(surface, s, &g, t, cc + g.n * lift, n_pose, travel_k);
                     lift = (lift + pen - pen0).max(lift);
                 }
                 lift
             };
             cc += g.n * lift;
-            let (cl, axis) = s.cutter.pose(cc, g.n, travel_t);
+            let (cl, axis) = s.cutter.pose(cc, n_pose, travel_k);
             out.push(PathPoint {
                 cc: cc.into(),
                 cl: cl.into(),
                 axis: axis.into(),
+                feed: Some(travel_k.into()),
+                normal: Some(n_pose.into()),
                 ..base.clone()
             });
         }
@@ -587,7 +617,7 @@ fn extension(
 }
 
 /// How deep the bottom disc of the flat-end cutter posed at contact `cc`
-/// (travelling along `travel`, axis tilted from the normal of `g`) reaches
+/// (travelling along `travel`, axis tilted from the normal `n_pose`) reaches
 /// below the surface, mm (negative: clear by that much), over rim and
 /// interior samples whose foot on the surface lies inside its domain or
 /// within a sample spacing of its edge (farther past the edge there is no
@@ -600,13 +630,14 @@ fn disc_penetration(
     g: &LocalGeometry,
     t: Vector3<f64>,
     cc: Point3<f64>,
+    n_pose: Vector3<f64>,
     travel: Vector3<f64>,
 ) -> f64 {
     use crate::geometry::inversion::invert_in_frame;
     const RINGS: [(f64, usize); 3] = [(1.0, 36), (0.6, 18), (0.25, 8)];
     let o = g.point();
     let e2 = g.n.cross(&t);
-    let (cl, axis) = s.cutter.pose(cc, g.n, travel);
+    let (cl, axis) = s.cutter.pose(cc, n_pose, travel);
     let Some(a1) = (travel - axis * axis.dot(&travel)).try_normalize(1e-12) else {
         return f64::NEG_INFINITY;
     };
