@@ -287,6 +287,19 @@ pub fn edges_at(
 }
 
 /// `next` moved back onto the domain edges `from` lies on.
+/// Largest angle between a heading and a domain edge it counts as running
+/// along, deg.
+const ALONG_EDGE_DEG: f64 = 20.0;
+
+/// The domain edge through `uv` (unit 3-D tangent) that `dir` runs along,
+/// within [`ALONG_EDGE_DEG`], oriented with `dir`.
+fn edge_along(surface: &NurbsSurface, uv: Vector2<f64>, dir: Vector3<f64>) -> Option<Vector3<f64>> {
+    boundary_edges(surface, uv)
+        .into_iter()
+        .find(|e| e.dot(&dir).abs() >= ALONG_EDGE_DEG.to_radians().cos())
+        .map(|e| if e.dot(&dir) < 0.0 { -e } else { e })
+}
+
 /// The point `dist` along the domain edge through `uv` in the direction of
 /// the tangent `e` (the other parameter held on its bound: a walk in 3-D
 /// drifts off a curved edge line), stopping at a corner; `uv` itself where
@@ -408,7 +421,7 @@ fn extension(
         let end_uv = Vector2::from(end.uv);
         boundary_edges(surface, end_uv).iter().any(|e| {
             // ... and the edge goes on behind the start (not a corner).
-            e.dot(&travel).abs() >= 20f64.to_radians().cos()
+            e.dot(&travel).abs() >= ALONG_EDGE_DEG.to_radians().cos()
                 && walk_along_edge(surface, end_uv, -travel, 1e-3 * r) != end_uv
         })
     };
@@ -437,6 +450,23 @@ fn extension(
     let mut need = lag;
     let mut at_edge = false;
     let mut guard = 0;
+    // One step along the domain edge through `uv` that `dir` heads along:
+    // (new uv, edge direction, length, its contact); `None` where `dir`
+    // heads along no edge or the edge ends (a corner). Followed on the
+    // surface: a straight run along a concave edge would cut below it.
+    let follow_edge = |uv: Vector2<f64>, dir: Vector3<f64>, dist: f64| {
+        let e = edge_along(surface, uv, dir)?;
+        let nx = walk_along_edge(surface, uv, e, dist);
+        let mv = (surface.point(nx.x, nx.y) - surface.point(uv.x, uv.y)).norm();
+        (mv > 1e-6 * step).then(|| {
+            (
+                nx,
+                e,
+                mv,
+                Contact::new(surface, nx, if at_end { e } else { -e }),
+            )
+        })
+    };
     // On the surface first; `at_edge` once the extension would leave it.
     while done < need - 1e-9 && guard < 10_000 {
         guard += 1;
@@ -447,40 +477,22 @@ fn extension(
         let moved = (surface.point(next.x, next.y) - surface.point(uv.x, uv.y)).norm();
         if clipped && moved <= 1e-6 * step {
             // At an edge, heading out of the domain or along the edge.
-            let edges = boundary_edges(surface, uv);
-            let along = edges
-                .iter()
-                .copied()
-                .find(|e| e.dot(&dir).abs() >= 20f64.to_radians().cos());
-            match along {
-                // Along an edge: follow it on the surface (a straight run
-                // along a concave edge would cut below it).
-                Some(e) if guard < 9_999 => {
-                    let e = if e.dot(&dir) < 0.0 { -e } else { e };
-                    let nx = walk_along_edge(surface, uv, e, step.min(need - done));
-                    let mv = (surface.point(nx.x, nx.y) - surface.point(uv.x, uv.y)).norm();
-                    if mv <= 1e-6 * step {
-                        // A corner: the edge ends here.
-                        at_edge = true;
-                        need = done.max(lag) + oblique(uv, dir);
-                        break;
-                    }
+            if guard < 9_999 {
+                if let Some((nx, e, mv, c)) = follow_edge(uv, dir, step.min(need - done)) {
                     done += mv;
                     uv = nx;
                     dir = e;
-                    let t = if at_end { e } else { -e };
-                    let Some(c) = Contact::new(surface, uv, t) else {
+                    let Some(c) = c else {
                         break;
                     };
                     out.push(c.path_point(s)?);
                     continue;
                 }
-                _ => {
-                    at_edge = true;
-                    need = done.max(lag) + oblique(uv, dir);
-                    break;
-                }
             }
+            // Out of the domain, or a corner where the edge ends.
+            at_edge = true;
+            need = done.max(lag) + oblique(uv, dir);
+            break;
         }
         if moved <= 0.0 {
             break;
@@ -498,37 +510,25 @@ fn extension(
         // Ended exactly on an edge: check whether it heads out.
         // Along an edge (within 20 deg) the disc behind the contact covers
         // the edge: no run past it.
-        let along = boundary_edges(surface, uv)
-            .iter()
-            .any(|e| e.dot(&dir).abs() >= 20f64.to_radians().cos());
+        let along = edge_along(surface, uv, dir).is_some();
         if let (false, Some((_, _, true))) = (along, walk_on_surface(surface, uv, dir, 1e-3 * step))
         {
             at_edge = true;
             need = done.max(lag) + oblique(uv, dir);
         }
     }
-    // Heading along an edge (within 20 deg): follow it on the surface; a
-    // straight run in the tangent plane would leave a convex edge (and the
-    // material along it) or cut into a concave one.
+    // The overrun past the edge, where the pass heads along one: on along
+    // the edge (a straight run in the tangent plane would leave a convex
+    // edge, and the material along it, or cut into a concave one).
     while at_edge && done < need - 1e-9 && guard < 10_000 {
         guard += 1;
-        let Some(e) = boundary_edges(surface, uv)
-            .into_iter()
-            .find(|e| e.dot(&dir).abs() >= 20f64.to_radians().cos())
-        else {
+        let Some((nx, e, mv, c)) = follow_edge(uv, dir, step.min(need - done)) else {
             break;
         };
-        let e = if e.dot(&dir) < 0.0 { -e } else { e };
-        let nx = walk_along_edge(surface, uv, e, step.min(need - done));
-        let mv = (surface.point(nx.x, nx.y) - surface.point(uv.x, uv.y)).norm();
-        if mv <= 1e-6 * step {
-            break;
-        }
         done += mv;
         uv = nx;
         dir = e;
-        let t = if at_end { e } else { -e };
-        let Some(c) = Contact::new(surface, uv, t) else {
+        let Some(c) = c else {
             break;
         };
         out.push(c.path_point(s)?);
