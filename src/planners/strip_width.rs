@@ -120,40 +120,57 @@ impl Cutter {
     }
 
     /// Edge point at parameter phi in 0..=pi/2 in the local frame of the contact:
-    /// (x along the feed, |y| across it, z along the normal).
-    fn edge(&self, phi: f64) -> (f64, f64, f64) {
+    /// (x along the feed, |y| across it, z along the normal); `lead_sc` is
+    /// (sin, cos) of the lead angle (computed once per width).
+    fn edge(&self, phi: f64, lead_sc: (f64, f64)) -> (f64, f64, f64) {
         let (s, c) = phi.sin_cos();
         let r = self.radius;
         if self.ball {
             (0.0, r * s, r * (1.0 - c))
         } else {
             let one_minus = if phi < 1e-4 { 0.5 * phi * phi } else { 1.0 - c };
-            (
-                -r * one_minus * self.lead.cos(),
-                r * s,
-                r * self.lead.sin() * one_minus,
-            )
+            (-r * one_minus * lead_sc.1, r * s, r * lead_sc.0 * one_minus)
         }
     }
 
-    /// Residual height and surface arc length from the contact at edge
-    /// parameter phi, on side `side` (+1 towards n x t, -1 away).
-    fn residual(&self, phi: f64, side: f64, k: Curvatures) -> (f64, f64) {
-        let (x, ya, z0) = self.edge(phi);
+    /// Edge point at phi on side `side` and the surface height under it,
+    /// in the contact's frame: (|y|, y, z of the edge above the surface
+    /// along the feed).
+    fn edge_over_surface(
+        &self,
+        phi: f64,
+        side: f64,
+        k: Curvatures,
+        lead_sc: (f64, f64),
+    ) -> (f64, f64, f64) {
+        let (x, ya, z0) = self.edge(phi, lead_sc);
         let y = side * ya;
         // Height of the surface under the edge point from its curvature along
         // the feed and its twist (the point is behind the contact).
         let z = z0 - 0.5 * k.feed * x * x - k.twist * x * y;
+        (ya, y, z)
+    }
+
+    /// Residual height from the contact at edge parameter phi, on side
+    /// `side` (+1 towards n x t, -1 away).
+    fn residual(&self, phi: f64, side: f64, k: Curvatures, lead_sc: (f64, f64)) -> f64 {
+        let (_, y, z) = self.edge_over_surface(phi, side, k, lead_sc);
         let kc = k.cross;
         let q = kc * kc * (y * y + z * z) - 2.0 * kc * z;
         let root = (1.0 + q).max(0.0).sqrt();
-        let residual = (2.0 * z - kc * (y * y + z * z)) / (1.0 + root);
-        let arc = if kc.abs() < 1e-12 {
+        (2.0 * z - kc * (y * y + z * z)) / (1.0 + root)
+    }
+
+    /// Surface arc length across the feed from the contact to under the
+    /// edge point at phi.
+    fn arc(&self, phi: f64, side: f64, k: Curvatures, lead_sc: (f64, f64)) -> f64 {
+        let (ya, _, z) = self.edge_over_surface(phi, side, k, lead_sc);
+        let kc = k.cross;
+        if kc.abs() < 1e-12 {
             ya
         } else {
             (kc * ya).atan2(1.0 - kc * z) / kc
-        };
-        (residual, arc)
+        }
     }
 
     /// Half-width of a pass on side `side` (+1 towards n x t) for scallop `h`:
@@ -167,32 +184,25 @@ impl Cutter {
     ) -> std::result::Result<f64, WidthError> {
         const SAMPLES: usize = 24;
         let top = std::f64::consts::FRAC_PI_2;
-        let mut prev = 0.0;
-        let mut lowest = 0.0f64;
+        let lead_sc = self.lead.sin_cos();
+        let (mut prev, mut f_prev) = (0.0, -h);
         for i in 1..=SAMPLES {
             let phi = top * i as f64 / SAMPLES as f64;
-            let (r, arc) = self.residual(phi, side, k);
-            lowest = lowest.min(r);
+            let r = self.residual(phi, side, k, lead_sc);
             if r < -GOUGE_SLACK * h {
                 return Err(WidthError::Gouge { depth: -r });
             }
             if r >= h {
-                let (mut lo, mut hi) = (prev, phi);
-                for _ in 0..48 {
-                    let mid = 0.5 * (lo + hi);
-                    if self.residual(mid, side, k).0 < h {
-                        lo = mid;
-                    } else {
-                        hi = mid;
-                    }
-                }
-                let _ = arc;
-                return Ok(self.residual(0.5 * (lo + hi), side, k).1);
+                let at = crossing(
+                    |phi| self.residual(phi, side, k, lead_sc) - h,
+                    (prev, f_prev),
+                    (phi, r - h),
+                );
+                return Ok(self.arc(at, side, k, lead_sc));
             }
-            prev = phi;
+            (prev, f_prev) = (phi, r - h);
         }
-        let _ = lowest;
-        Ok(self.residual(top, side, k).1)
+        Ok(self.arc(top, side, k, lead_sc))
     }
 
     /// Full strip width (both sides) for scallop h.
@@ -429,6 +439,47 @@ pub fn path_length_lower_bound(
         }
     }
     Ok(total)
+}
+
+/// Root of `f` between `a` (f < 0) and `b` (f >= 0) by the Illinois
+/// variant of regula falsi: superlinear on the smooth residual profile,
+/// bracketed like bisection (to 1e-13 rad).
+fn crossing(f: impl Fn(f64) -> f64, a: (f64, f64), b: (f64, f64)) -> f64 {
+    let ((mut x0, mut f0), (mut x1, mut f1)) = (a, b);
+    let mut side = 0i8;
+    for _ in 0..64 {
+        if (x1 - x0).abs() < 1e-13 {
+            break;
+        }
+        let x = if f1 != f0 {
+            (x0 * f1 - x1 * f0) / (f1 - f0)
+        } else {
+            0.5 * (x0 + x1)
+        };
+        let x = if x > x0.min(x1) && x < x0.max(x1) {
+            x
+        } else {
+            0.5 * (x0 + x1)
+        };
+        let fx = f(x);
+        if fx == 0.0 {
+            return x;
+        }
+        if fx < 0.0 {
+            (x0, f0) = (x, fx);
+            if side == -1 {
+                f1 *= 0.5;
+            }
+            side = -1;
+        } else {
+            (x1, f1) = (x, fx);
+            if side == 1 {
+                f0 *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    0.5 * (x0 + x1)
 }
 
 #[cfg(test)]
