@@ -490,22 +490,23 @@ fn gap_line(
 const SPIKE_MIN_TURN_DEG: f64 = 30.0;
 
 /// Length of a corner spike in shifts of the corner that would close the
-/// gap outside it by the discs' geometry, d (1 - s) / (2 s): the sideways
-/// spike cuts only bands behind its contact lines, so it has to reach
-/// farther. Measured with the simulator on wing_mould, four legs
-/// (`SPIKE_LEGS`): max scallop of tensor_regions 0.0512 / 0.0493 / 0.0493 mm
-/// with 2 / 3 / 4 shifts, path 10939 / 10976 / 11013 mm.
-const SPIKE_SHARE: f64 = 3.0;
+/// gap outside it by the discs' geometry, d (1 - s) / (2 s). Measured with
+/// the simulator (tensor_regions, max scallop, with the tip sweep below):
+/// on the anisotropic mould (`wing_mould`) 3 / 4 shifts 0.0551 / 0.0462 mm,
+/// on the earlier nearly isotropic one 0.0493 either way.
+const SPIKE_SHARE: f64 = 4.0;
 
-/// Offsets of a spike's legs from the corner's outer bisector, in bands
-/// (h / sin(lead), the width a sideways-moving tilted flat bottom cuts
-/// within the scallop, behind its contact line), run out and back in turn
-/// (the last one back to the corner). The material outside a corner spreads
-/// to both sides of the bisector and, where the corners of successive passes
-/// do not line up along it, more to one side: on wing_mould one leg on the
-/// bisector left 0.0538 mm, out a band ahead and back on it 0.0504 (the
-/// highest spots then 0.6 mm behind it), these four legs (three bands) 0.0493.
-const SPIKE_LEGS: &[f64] = &[1.0, 0.0, -1.0, -1.0];
+/// Half-length of the sweep across a spike's tip, in cutter radii. At the
+/// tip the tool moves along its own heading, so it cuts its full strip
+/// width along the bisector there, reaching past the tip and to both sides
+/// of it, where the material outside a corner spreads (most to one side
+/// where the corners of successive passes do not line up along the
+/// bisector). Measured as above on the anisotropic mould: 0.46 / 0.48 /
+/// 0.5 / 0.6 R: 0.0551 / 0.0551 / 0.0462 / 0.0462 mm. The previous spike,
+/// four legs along the bisector a band (h / sin(lead)) apart, 0.0597: a
+/// tilted flat bottom moving sideways cuts only the band behind its
+/// contact line, and spots were left just beyond the outer legs.
+const SPIKE_SWEEP_RADII: f64 = 0.6;
 
 /// A corner spike: unit direction out of the corner and length, mm.
 type Spike = (Vector3<f64>, f64);
@@ -569,8 +570,8 @@ fn corner_spikes(s: &PassSettings, contacts: &[Contact]) -> Result<Vec<Option<Sp
 }
 
 /// Runs the tool out of a corner at `c` along `dir` (tangent) for `len` on
-/// the surface and back, in the legs of `SPIKE_LEGS`, swivelling at `c` to
-/// the spike's heading and back.
+/// the surface, across the tip along its heading by `SPIKE_SWEEP_RADII`
+/// each way and back, swivelling at `c` to the spike's heading and back.
 fn spike(
     surface: &NurbsSurface,
     s: &PassSettings,
@@ -590,20 +591,17 @@ fn spike(
     let Some(c_side) = Contact::from_geometry(c.g, heading) else {
         return Ok(());
     };
-    // A tilted flat bottom moving sideways cuts only the band behind its
-    // contact line where the disc is within the scallop of the surface,
-    // h / sin(lead) wide (a ball cuts both sides: one leg on the bisector).
-    let band = if s.cutter.ball || s.cutter.lead <= 0.0 {
-        0.0
-    } else {
-        (s.scallop / s.cutter.lead.sin()).min(s.cutter.radius)
-    };
-    let steps = ((len / s.point_step).ceil() as usize).max(1);
-    let line = |from: Vector2<f64>, dir: Vector3<f64>| -> Vec<Contact> {
+    // A ball (or an untilted flat end) cuts both sides of a move along
+    // the bisector: no sweep.
+    let sweep_across = !s.cutter.ball && s.cutter.lead > 0.0;
+    // Contacts walked on the surface from `from` along `d` for `dist`,
+    // keeping the heading; stops at the domain edge.
+    let line = |from: Vector2<f64>, d: Vector3<f64>, dist: f64| -> Vec<Contact> {
+        let steps = ((dist / s.point_step).ceil() as usize).max(1);
         let mut path = Vec::with_capacity(steps);
-        let (mut at, mut d) = (from, dir);
+        let (mut at, mut d) = (from, d);
         for _ in 0..steps {
-            let Some((next, nd, clipped)) = walk(surface, at, d, len / steps as f64) else {
+            let Some((next, nd, clipped)) = walk(surface, at, d, dist / steps as f64) else {
                 break;
             };
             let Some(p) = Contact::new(surface, next, heading) else {
@@ -618,59 +616,25 @@ fn spike(
         }
         path
     };
-    // A leg `offset` ahead of the bisector (along the heading; behind it
-    // when negative), starting at the corner's side.
-    let leg = |offset: f64| -> Vec<Contact> {
-        if offset == 0.0 {
-            return line(c.uv(), dir);
-        }
-        let (side, sign) = if offset > 0.0 {
-            (heading, 1.0)
-        } else {
-            (-heading, -1.0)
-        };
-        let Some((start, _, false)) = walk(surface, c.uv(), side, offset * sign) else {
-            return Vec::new();
-        };
-        let Some(p) = Contact::new(surface, start, heading) else {
-            return Vec::new();
-        };
-        let Some(mut d) = p.g.n.cross(&heading).try_normalize(1e-12) else {
-            return Vec::new();
-        };
-        if d.dot(&dir) < 0.0 {
-            d = -d;
-        }
-        let mut path = vec![p];
-        path.extend(line(start, d));
-        path
-    };
-    // Out and back in turn, a band apart; one leg on the bisector for a
-    // ball or where a leg would leave the surface.
-    let mut legs: Vec<Vec<Contact>> = if band > 0.0 {
-        SPIKE_LEGS.iter().map(|&k| leg(k * band)).collect()
-    } else {
-        Vec::new()
-    };
-    if legs.is_empty() || legs.iter().any(|l| l.is_empty()) {
-        legs = vec![line(c.uv(), dir)];
-    }
+    let leg = line(c.uv(), dir, len);
     pivot(c, &c_side, s, out)?;
-    for (k, l) in legs.iter().enumerate() {
-        let pts: Vec<&Contact> = if k % 2 == 0 {
-            l.iter().collect()
-        } else {
-            l.iter().rev().collect()
-        };
-        for p in pts {
-            out.push(p.path_point(s)?);
+    for p in &leg {
+        out.push(p.path_point(s)?);
+    }
+    let tip = leg.last().copied().unwrap_or(c_side);
+    if sweep_across {
+        for side in [heading, -heading] {
+            let sweep = line(tip.uv(), side, SPIKE_SWEEP_RADII * s.cutter.radius);
+            for p in sweep.iter().chain(sweep.iter().rev().skip(1)) {
+                out.push(p.path_point(s)?);
+            }
+            out.push(tip.path_point(s)?);
         }
     }
-    if legs.len() % 2 == 1 {
-        for p in legs[legs.len() - 1].iter().rev().skip(1) {
-            out.push(p.path_point(s)?);
-        }
+    for p in leg.iter().rev().skip(1) {
+        out.push(p.path_point(s)?);
     }
+    out.push(c_side.path_point(s)?);
     pivot(&c_side, c, s, out)?;
     out.push(c.path_point(s)?);
     Ok(())
