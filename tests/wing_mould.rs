@@ -70,6 +70,10 @@ fn second_surface() -> NurbsSurface {
     NurbsSurface::new(3, 3, k.clone(), k, &cps, None).unwrap()
 }
 
+/// Issue 3's acceptance on the sample: all three strategies within h by
+/// the simulator, and tensor_regions (three regions round one trisector)
+/// at most 0.85 x iso_parametric and 0.95 x iso_scallop in path length,
+/// the paper's Table 1 (0.795 x and 0.901 x there).
 #[test]
 fn wing_mould_three_strategies_against_the_simulator() {
     let job = samples::job("wing_mould").unwrap();
@@ -83,25 +87,44 @@ fn wing_mould_three_strategies_against_the_simulator() {
         let job = with_strategy(job.clone(), strategy);
         let (result, report) = plan_and_simulate(&job);
         let name = strategy.name();
-        // All three within h. tensor_regions once left 0.059 along region
-        // 1's line of pass corners (0.054 with one-leg corner spikes, 0.049
-        // with the band-wide ones); iso_scallop's passes once hooked round
-        // into the u = 0 edge (0.061 between the hooks).
+        let lb = result.stats.path_length_lower_bound_mm.unwrap();
+        let len = path_length(&result);
+        eprintln!(
+            "wing_mould {name}: length {len:.0} ({:.3} x bound {lb:.0}), {} passes, scallop {:.4}, gouge {:.4}",
+            len / lb,
+            result.passes.len(),
+            report.max_scallop_mm,
+            report.max_gouge_mm
+        );
+        // All three within h. tensor_regions left 0.0597 here with corner
+        // spikes of four legs along the bisector (they cut only bands
+        // behind themselves; the tip sweep reaches beside them).
         assert_machined(name, &report, H);
         if strategy == Strategy::TensorRegions {
             assert_eq!(result.regions.as_ref().map(Vec::len), Some(3));
             let d = result.degenerate_points.as_ref().unwrap();
             assert!(d.iter().any(|p| p.kind == "trisector"));
         }
-        let lb = result.stats.path_length_lower_bound_mm.unwrap();
-        let len = path_length(&result);
-        // No set of passes beats the bound; a planner far above it is broken.
-        assert!(len > lb && len < 1.5 * lb, "{name}: {len} vs bound {lb}");
+        // No set of passes beats the bound; a strip-width planner far
+        // above it is broken (the constant parameter step is set by the
+        // worst place of this anisotropic mould: 1.7 x).
+        assert!(len > lb, "{name}: {len} vs bound {lb}");
+        if strategy != Strategy::IsoParametric {
+            assert!(len < 1.5 * lb, "{name}: {len} vs bound {lb}");
+        }
         lengths.push(len);
     }
-    // The strip-width planners are shorter than the constant-step baseline.
-    assert!(lengths[2] < lengths[0], "{lengths:?}");
-    assert!(lengths[1] < lengths[0], "{lengths:?}");
+    let [iso_parametric, iso_scallop, tensor] = lengths[..] else {
+        unreachable!()
+    };
+    eprintln!(
+        "wing_mould tensor_regions: {:.3} x iso_parametric, {:.3} x iso_scallop",
+        tensor / iso_parametric,
+        tensor / iso_scallop
+    );
+    assert!(iso_scallop < iso_parametric, "{lengths:?}");
+    assert!(tensor <= 0.85 * iso_parametric, "{lengths:?}");
+    assert!(tensor <= 0.95 * iso_scallop, "{lengths:?}");
 }
 
 /// Two trisectors near the boundary and two wedges: the separatrix graph
