@@ -191,11 +191,12 @@ fn monkey_saddle_regions_leave_no_uncut_corners() {
     assert_machined("monkey_saddle tensor_regions", &report, H);
 }
 
-/// The strongly anisotropic bowl below (wing_mould's job otherwise).
-fn anisotropic_bowl_job(strategy: Strategy) -> Job {
+/// wing_mould's height function with another bowl radius and cubic
+/// (monkey-saddle) term, on wing_mould's job otherwise.
+fn mould_job(bowl_radius: f64, cubic: f64, strategy: Strategy) -> Job {
     use toolpath_planner::geometry::interpolation::interpolate_height_field;
-    let height = |x: f64, y: f64| {
-        let (a, b, c1, c3) = (1.0 / 160.0, 4e-5, 1.5e-6, 2e-6);
+    let height = move |x: f64, y: f64| {
+        let (a, b, c1, c3) = (1.0 / bowl_radius, cubic, 1.5e-6, 2e-6);
         let (dx, dy) = (x - 82.0, y - 86.0);
         0.5 * a * (dx * dx + dy * dy)
             + b * (dx * dx * dx - 3.0 * dx * dy * dy)
@@ -207,6 +208,29 @@ fn anisotropic_bowl_job(strategy: Strategy) -> Job {
     let mut job = with_strategy(samples::job("wing_mould").unwrap(), strategy);
     job.shape = Shape::Surface(surface);
     job
+}
+
+/// The strongly anisotropic bowl: bowl radius 160 mm, cubic term 4e-5.
+fn anisotropic_bowl_job(strategy: Strategy) -> Job {
+    mould_job(160.0, 4e-5, strategy)
+}
+
+/// A shallower mould than wing_mould (bowl radius 303 mm), whose offset
+/// passes kink by about 20 deg along the umbilic's line: turning there
+/// swings the disc rim's inner end back, and the strips' inner edges fell
+/// short before each kink (0.0512 mm midway between two passes, by the
+/// simulator) until the tool ran on before turning (0.0459).
+#[test]
+fn tensor_regions_holds_h_between_kinked_passes() {
+    let (result, report) = plan_and_simulate(&mould_job(303.0, 2e-5, Strategy::TensorRegions));
+    eprintln!(
+        "303 mm mould tensor_regions: {} passes, scallop {:.4}, gouge {:.4}",
+        result.passes.len(),
+        report.max_scallop_mm,
+        report.max_gouge_mm
+    );
+    assert_eq!(result.regions.as_ref().map(Vec::len), Some(3));
+    assert_machined("303 mm mould tensor_regions", &report, H);
 }
 
 /// Where the surface is anisotropic the strip-width field pays: on the bowl
