@@ -291,7 +291,7 @@ fn iso_scallop_finishes_on_a_strongly_anisotropic_bowl() {
     // lifted only for the heel, gouged 0.08 mm into the wall beside it,
     // lifted by a second-order model of the surface 0.006 mm. Lifted by the
     // posed disc's depth below the surface itself: 0.0011 mm. Scallop: not
-    // yet within h where fronts fold (0.078; 0.087 before passes ran in
+    // yet within h where fronts fold (0.074; 0.087 before passes ran in
     // along an edge they start on): no sliding back.
     assert_machined("anisotropic bowl iso_scallop", &report, 1.7 * H);
     let surface = job.surface().unwrap();

@@ -702,14 +702,31 @@ fn run_on(
     lag: f64,
     out: &mut Vec<crate::formats::PathPoint>,
 ) -> Result<()> {
-    let Some((uv, _, _)) = walk(surface, c.uv(), c.travel, 1.5 * lag) else {
-        return Ok(());
-    };
-    let Some(ahead) = Contact::new(surface, uv, c.travel) else {
-        return Ok(());
-    };
-    out.push(ahead.path_point(s)?);
-    out.push(c.path_point(s)?);
+    // In steps within the chord tolerance: one straight move would dip
+    // below a surface convex along the travel.
+    let dist = 1.5 * lag;
+    let steps = ((dist / s.point_step).ceil() as usize).max(1);
+    let mut path = Vec::with_capacity(steps);
+    let (mut at, mut d) = (c.uv(), c.travel);
+    for _ in 0..steps {
+        let Some((next, nd, clipped)) = walk(surface, at, d, dist / steps as f64) else {
+            break;
+        };
+        let Some(p) = Contact::new(surface, next, c.travel) else {
+            break;
+        };
+        path.push(p);
+        (at, d) = (next, nd);
+        if clipped {
+            break;
+        }
+    }
+    for p in path.iter().chain(path.iter().rev().skip(1)) {
+        out.push(p.path_point(s)?);
+    }
+    if !path.is_empty() {
+        out.push(c.path_point(s)?);
+    }
     Ok(())
 }
 
