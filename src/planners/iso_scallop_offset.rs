@@ -575,6 +575,36 @@ fn corner_spikes(s: &PassSettings, contacts: &[Contact]) -> Result<Vec<Option<Sp
     Ok(spikes)
 }
 
+/// Contacts walked on the surface from `from` along `dir` for `dist` in
+/// steps within the chord tolerance, travelling along `heading`; stops at
+/// the domain edge.
+fn walk_contacts(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    from: Vector2<f64>,
+    dir: Vector3<f64>,
+    dist: f64,
+    heading: Vector3<f64>,
+) -> Vec<Contact> {
+    let steps = ((dist / s.point_step).ceil() as usize).max(1);
+    let mut path = Vec::with_capacity(steps);
+    let (mut at, mut d) = (from, dir);
+    for _ in 0..steps {
+        let Some((next, nd, clipped)) = walk(surface, at, d, dist / steps as f64) else {
+            break;
+        };
+        let Some(p) = Contact::new(surface, next, heading) else {
+            break;
+        };
+        path.push(p);
+        (at, d) = (next, nd);
+        if clipped {
+            break;
+        }
+    }
+    path
+}
+
 /// Runs the tool out of a corner at `c` along `dir` (tangent) for `len` on
 /// the surface, across the tip along its heading by `SPIKE_SWEEP_RADII`
 /// each way and back, swivelling at `c` to the spike's heading and back.
@@ -600,28 +630,7 @@ fn spike(
     // A ball (or an untilted flat end) cuts both sides of a move along
     // the bisector: no sweep.
     let sweep_across = !s.cutter.ball && s.cutter.lead > 0.0;
-    // Contacts walked on the surface from `from` along `d` for `dist`,
-    // keeping the heading; stops at the domain edge.
-    let line = |from: Vector2<f64>, d: Vector3<f64>, dist: f64| -> Vec<Contact> {
-        let steps = ((dist / s.point_step).ceil() as usize).max(1);
-        let mut path = Vec::with_capacity(steps);
-        let (mut at, mut d) = (from, d);
-        for _ in 0..steps {
-            let Some((next, nd, clipped)) = walk(surface, at, d, dist / steps as f64) else {
-                break;
-            };
-            let Some(p) = Contact::new(surface, next, heading) else {
-                break;
-            };
-            path.push(p);
-            at = next;
-            d = nd;
-            if clipped {
-                break;
-            }
-        }
-        path
-    };
+    let line = |from, d, dist| walk_contacts(surface, s, from, d, dist, heading);
     let leg = line(c.uv(), dir, len);
     pivot(c, &c_side, s, out)?;
     for p in &leg {
@@ -704,23 +713,7 @@ fn run_on(
 ) -> Result<()> {
     // In steps within the chord tolerance: one straight move would dip
     // below a surface convex along the travel.
-    let dist = 1.5 * lag;
-    let steps = ((dist / s.point_step).ceil() as usize).max(1);
-    let mut path = Vec::with_capacity(steps);
-    let (mut at, mut d) = (c.uv(), c.travel);
-    for _ in 0..steps {
-        let Some((next, nd, clipped)) = walk(surface, at, d, dist / steps as f64) else {
-            break;
-        };
-        let Some(p) = Contact::new(surface, next, c.travel) else {
-            break;
-        };
-        path.push(p);
-        (at, d) = (next, nd);
-        if clipped {
-            break;
-        }
-    }
+    let path = walk_contacts(surface, s, c.uv(), c.travel, 1.5 * lag, c.travel);
     for p in path.iter().chain(path.iter().rev().skip(1)) {
         out.push(p.path_point(s)?);
     }
