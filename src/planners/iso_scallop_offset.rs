@@ -507,11 +507,11 @@ const SPIKE_SHARE: f64 = 4.0;
 /// bisector). Measured as above on the anisotropic mould: 0.46 / 0.48 /
 /// 0.5 / 0.6 / 0.8 R: 0.0551 / 0.0551 / 0.0462 / 0.0462 / 0.0462 mm; on the
 /// second test surface (chevrons of about 105 deg) 0.6 R left 0.0649 mm
-/// just beyond the sweep's end, 0.8 R 0.0512 (+0.9 % path on the mould).
-/// The previous spike,
-/// four legs along the bisector a band (h / sin(lead)) apart, 0.0597: a
-/// tilted flat bottom moving sideways cuts only the band behind its
-/// contact line, and spots were left just beyond the outer legs.
+/// just beyond the sweep's end, 0.8 R 0.0496 (+0.9 % path on the mould).
+/// The previous spike, four legs along the bisector a band (h / sin(lead))
+/// apart, left 0.0597 on the mould: a tilted flat bottom moving sideways
+/// cuts only the band behind its contact line, and spots were left just
+/// beyond the outer legs.
 const SPIKE_SWEEP_RADII: f64 = 0.8;
 
 /// A corner spike: unit direction out of the corner and length, mm.
