@@ -450,22 +450,34 @@ fn extension(
     let mut need = lag;
     let mut at_edge = false;
     let mut guard = 0;
-    // One step along the domain edge through `uv` that `dir` heads along:
-    // (new uv, edge direction, length, its contact); `None` where `dir`
-    // heads along no edge or the edge ends (a corner). Followed on the
-    // surface: a straight run along a concave edge would cut below it.
-    let follow_edge = |uv: Vector2<f64>, dir: Vector3<f64>, dist: f64| {
-        let e = edge_along(surface, uv, dir)?;
-        let nx = walk_along_edge(surface, uv, e, dist);
+    // One step of `len` along the domain edge through `uv` that `dir` heads
+    // along, followed on the surface (a straight run along a concave edge
+    // would cut below it): advances `uv`, `dir` and `done` and pushes the
+    // step's contact. Some(true) after a step with a contact, Some(false)
+    // after one without (the run stops there), None where `dir` heads
+    // along no edge or the edge ends (a corner).
+    let follow_edge = |uv: &mut Vector2<f64>,
+                       dir: &mut Vector3<f64>,
+                       done: &mut f64,
+                       len: f64,
+                       out: &mut Vec<PathPoint>|
+     -> Result<Option<bool>> {
+        let Some(e) = edge_along(surface, *uv, *dir) else {
+            return Ok(None);
+        };
+        let nx = walk_along_edge(surface, *uv, e, len);
         let mv = (surface.point(nx.x, nx.y) - surface.point(uv.x, uv.y)).norm();
-        (mv > 1e-6 * step).then(|| {
-            (
-                nx,
-                e,
-                mv,
-                Contact::new(surface, nx, if at_end { e } else { -e }),
-            )
-        })
+        if mv <= 1e-6 * step {
+            return Ok(None);
+        }
+        *done += mv;
+        *uv = nx;
+        *dir = e;
+        let Some(c) = Contact::new(surface, nx, if at_end { e } else { -e }) else {
+            return Ok(Some(false));
+        };
+        out.push(c.path_point(s)?);
+        Ok(Some(true))
     };
     // On the surface first; `at_edge` once the extension would leave it.
     while done < need - 1e-9 && guard < 10_000 {
@@ -478,15 +490,11 @@ fn extension(
         if clipped && moved <= 1e-6 * step {
             // At an edge, heading out of the domain or along the edge.
             if guard < 9_999 {
-                if let Some((nx, e, mv, c)) = follow_edge(uv, dir, step.min(need - done)) {
-                    done += mv;
-                    uv = nx;
-                    dir = e;
-                    let Some(c) = c else {
-                        break;
-                    };
-                    out.push(c.path_point(s)?);
-                    continue;
+                let len = step.min(need - done);
+                match follow_edge(&mut uv, &mut dir, &mut done, len, &mut out)? {
+                    Some(true) => continue,
+                    Some(false) => break,
+                    None => {}
                 }
             }
             // Out of the domain, or a corner where the edge ends.
@@ -522,16 +530,10 @@ fn extension(
     // edge, and the material along it, or cut into a concave one).
     while at_edge && done < need - 1e-9 && guard < 10_000 {
         guard += 1;
-        let Some((nx, e, mv, c)) = follow_edge(uv, dir, step.min(need - done)) else {
+        let len = step.min(need - done);
+        if follow_edge(&mut uv, &mut dir, &mut done, len, &mut out)? != Some(true) {
             break;
-        };
-        done += mv;
-        uv = nx;
-        dir = e;
-        let Some(c) = c else {
-            break;
-        };
-        out.push(c.path_point(s)?);
+        }
     }
     if at_edge && done < need - 1e-9 {
         // Straight past the edge in its tangent plane.
