@@ -204,7 +204,7 @@ fn sine_wave_across_the_rulings_reference() {
 
 #[test]
 fn section_normal_ignores_the_sign_of_the_directions() {
-    use toolpath_planner::planners::belt_iso_planar::{
+    use toolpath_planner::planners::belt::iso_planar::{
         min_curvature_directions, section_normal_from_directions,
     };
     for s in [

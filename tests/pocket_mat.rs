@@ -5,7 +5,9 @@
 use std::f64::consts::PI;
 use toolpath_planner::formats::{self, job::DEFAULT_TOOL_CATALOGUE};
 use toolpath_planner::geometry::Pocket;
-use toolpath_planner::planners::pocket_mat::{plan_pocket, plan_single_tool, PocketPlan, WALL_TOL};
+use toolpath_planner::planners::pocket::pocket_mat::{
+    plan_pocket, plan_single_tool, PocketPlan, WALL_TOL,
+};
 use toolpath_planner::planners::NoProgress;
 use toolpath_planner::samples;
 

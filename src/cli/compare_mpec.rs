@@ -82,7 +82,7 @@ pub fn ball_passes(planner: &Planner, rb: f64, scallop: f64) -> Result<(usize, f
 pub fn run(job: &Job) -> Result<()> {
     let planner = Planner::from_job(job)?;
     let delta = planner.delta;
-    let rb = planner.tool.r0 + planner.tool.r;
+    let rb = planner.tool.tube_radius() + planner.tool.corner_radius;
     let start = std::time::Instant::now();
     let result = pipeline::run(
         job,
@@ -101,7 +101,7 @@ pub fn run(job: &Job) -> Result<()> {
         .unwrap_or(f64::NAN);
     println!(
         "job {}: torus R {rb} r {} with MPEC, tolerance +-{delta} mm, feed along {:?}",
-        job.job_id, planner.tool.r, planner.feed
+        job.job_id, planner.tool.corner_radius, planner.feed
     );
     println!(
         "{:<34} {:>7} {:>16} {:>16} {:>10}",

@@ -4,7 +4,7 @@
 use crate::error::Result;
 use crate::formats::Job;
 use crate::planners::pocket::offset_passes::rapid_length;
-use crate::planners::pocket_mat::{plan_pocket, plan_single_tool, PocketPlan};
+use crate::planners::pocket::pocket_mat::{plan_pocket, plan_single_tool, PocketPlan};
 use crate::planners::NoProgress;
 
 fn row(name: &str, tools: &str, plan: &PocketPlan, feed_rate: f64) -> String {

@@ -62,6 +62,34 @@ impl Strategy {
             _ => Machine::Mill5,
         }
     }
+    /// Whether the strategy can plan with this tool: the strip-width
+    /// strategies take flat-end and ball cutters, mpec a torus, pocket_mat a
+    /// flat end, the belt strategies a belt.
+    pub fn accepts(self, tool: &Tool) -> bool {
+        match self {
+            Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric => {
+                matches!(tool, Tool::FlatEnd { .. } | Tool::Ball { .. })
+            }
+            Strategy::Mpec => matches!(tool, Tool::Torus { .. }),
+            Strategy::PocketMat => matches!(tool, Tool::FlatEnd { .. }),
+            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => {
+                matches!(tool, Tool::Belt { .. })
+            }
+        }
+    }
+
+    /// The tool kinds [`Strategy::accepts`], in words.
+    pub fn tool_kinds(self) -> &'static str {
+        match self {
+            Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric => {
+                "flat-end and ball cutters"
+            }
+            Strategy::Mpec => "torus cutters",
+            Strategy::PocketMat => "flat-end cutters",
+            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => "a belt",
+        }
+    }
+
     pub fn needs_pocket(self) -> bool {
         self == Strategy::PocketMat
     }
@@ -315,26 +343,14 @@ impl Job {
             }
             _ => {}
         }
-        let tool_ok = match f.strategy {
-            Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric => {
-                matches!(
-                    f.tool,
-                    Tool::FlatEnd { .. } | Tool::Ball { .. } | Tool::Torus { .. }
-                )
-            }
-            Strategy::Mpec => matches!(f.tool, Tool::Torus { .. }),
-            Strategy::PocketMat => matches!(f.tool, Tool::FlatEnd { .. }),
-            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => {
-                matches!(f.tool, Tool::Belt { .. })
-            }
-        };
-        if !tool_ok {
+        if !f.strategy.accepts(&f.tool) {
             return Err(Error::invalid(
                 "tool.kind",
                 format!(
-                    "strategy {} cannot use a {} tool",
+                    "strategy {} cannot use a {} tool (it plans {})",
                     f.strategy.name(),
-                    f.tool.kind()
+                    f.tool.kind(),
+                    f.strategy.tool_kinds()
                 ),
             ));
         }

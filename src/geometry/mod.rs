@@ -7,6 +7,7 @@ pub mod field_trace;
 pub mod interpolation;
 pub mod inversion;
 pub mod medial_axis;
+pub mod numeric;
 pub mod nurbs;
 pub mod plane_intersection;
 pub mod pocket;

@@ -11,6 +11,7 @@
 //! n_plane x n_surface (for a horizontal section of a surface facing +z with a
 //! plane normal +y, that is +x).
 
+use super::numeric::Bracket;
 use super::nurbs::NurbsSurface;
 use nalgebra::{Point3, Vector2, Vector3};
 use std::collections::BTreeMap;
@@ -225,38 +226,24 @@ pub fn intersect_plane(
         .collect()
 }
 
-/// Root of `f` on [a, b] with f(a) = fa, f(b) = fb of opposite signs (Illinois).
-fn root_on_edge(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64, mut fa: f64, mut fb: f64) -> f64 {
-    let mut side = 0;
+/// Root of `f` on [a, b] with f(a) = fa, f(b) = fb of opposite signs, to a
+/// relative 1e-15 (docs/methods.md has no rule here: the edge crossing only
+/// needs to be exact to round-off).
+fn root_on_edge(f: impl Fn(f64) -> f64, a: f64, b: f64, fa: f64, fb: f64) -> f64 {
+    if fa == 0.0 {
+        return a;
+    }
+    let mut br = Bracket::new(a, fa, b, fb);
     for _ in 0..100 {
-        if fa == 0.0 {
-            return a;
-        }
-        let mut c = (a * fb - b * fa) / (fb - fa);
-        if !c.is_finite() || c <= a.min(b) || c >= a.max(b) {
-            c = 0.5 * (a + b);
-        }
+        let c = br.trial();
         let fc = f(c);
-        if fc == 0.0 || (b - a).abs() <= 1e-15 * (a.abs() + b.abs()).max(1e-300) {
+        let (lo, hi) = (br.neg, br.pos);
+        if fc == 0.0 || (hi - lo).abs() <= 1e-15 * (lo.abs() + hi.abs()).max(1e-300) {
             return c;
         }
-        if (fc >= 0.0) == (fb >= 0.0) {
-            b = c;
-            fb = fc;
-            if side == -1 {
-                fa *= 0.5;
-            }
-            side = -1;
-        } else {
-            a = c;
-            fa = fc;
-            if side == 1 {
-                fb *= 0.5;
-            }
-            side = 1;
-        }
+        br.narrow(c, fc);
     }
-    0.5 * (a + b)
+    br.mid()
 }
 
 /// Newton projection of `uv` onto d = 0 along the parameter gradient of d, kept in the domain.

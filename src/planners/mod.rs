@@ -1,23 +1,17 @@
-//! Planners: one module per method, named after it. Planners know nothing of
-//! ROS, recording or transport; they take a validated [`Job`] and return a
-//! [`PlanResult`]. Shared pieces (direction fields, offsetting passes) live
-//! once, in their own modules here.
+//! Planners: one folder per method family, each strategy one module named
+//! after it. Planners know nothing of ROS, recording or transport; they take a
+//! validated [`Job`] and return a [`PlanResult`].
+//!
+//! - [`strip_width`]: flat-end 5-axis finishing (`iso_parametric`,
+//!   `iso_scallop`, `tensor_regions`) on the strip-width model.
+//! - [`mpec`]: torus-cutter positioning by mid-point error control.
+//! - [`pocket`]: 2.5-axis pockets with tools chosen from the medial axis.
+//! - [`belt`]: 6-axis belt grinding (`belt_iso_parametric`, `belt_iso_planar`).
 
-pub mod belt_contact;
-pub mod belt_iso_parametric;
-pub mod belt_iso_planar;
-pub mod degenerate_points;
-pub mod iso_parametric;
-pub mod iso_scallop;
-pub mod iso_scallop_offset;
+pub mod belt;
 pub mod mpec;
-pub mod mpec_error_curve;
-pub mod partition;
-pub mod pass_points;
 pub mod pocket;
-pub mod pocket_mat;
 pub mod strip_width;
-pub mod tensor_regions;
 #[cfg(test)]
 pub mod test_surfaces;
 
@@ -46,12 +40,12 @@ impl Progress for NoProgress {
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     use crate::formats::Strategy::*;
     match job.strategy {
-        TensorRegions => tensor_regions::plan(job, progress),
-        IsoScallop => iso_scallop::plan(job, progress),
-        IsoParametric => iso_parametric::plan(job, progress),
-        Mpec => mpec::plan(job, progress),
-        PocketMat => pocket_mat::plan(job, progress),
-        BeltIsoParametric => belt_iso_parametric::plan(job, progress),
-        BeltIsoPlanar => belt_iso_planar::plan(job, progress),
+        TensorRegions => strip_width::tensor_regions::plan(job, progress),
+        IsoScallop => strip_width::iso_scallop::plan(job, progress),
+        IsoParametric => strip_width::iso_parametric::plan(job, progress),
+        Mpec => mpec::positioning::plan(job, progress),
+        PocketMat => pocket::pocket_mat::plan(job, progress),
+        BeltIsoParametric => belt::iso_parametric::plan(job, progress),
+        BeltIsoPlanar => belt::iso_planar::plan(job, progress),
     }
 }

@@ -1,39 +1,11 @@
 //! Test surfaces for the strip-width planners: B-spline interpolation of a
 //! function at the Greville abscissae (exact for polynomials within the
-//! spline space), so that a surface can be given any parametrisation and
-//! knot vector while its geometry stays known in closed form.
+//! spline space, geometry/interpolation.rs), so that a surface can be given
+//! any parametrisation and knot vector while its geometry stays known in
+//! closed form.
 
+use crate::geometry::interpolation::interpolate_surface;
 use crate::geometry::NurbsSurface;
-use nalgebra::DMatrix;
-
-/// Cox-de Boor basis function N_{i,p}(t) (right-continuous, last span closed).
-fn basis(i: usize, p: usize, knots: &[f64], t: f64) -> f64 {
-    if p == 0 {
-        let last = knots[knots.len() - 1];
-        let (a, b) = (knots[i], knots[i + 1]);
-        return if (a <= t && t < b) || (t == last && b == last && a < b) {
-            1.0
-        } else {
-            0.0
-        };
-    }
-    let mut s = 0.0;
-    let d1 = knots[i + p] - knots[i];
-    if d1 > 0.0 {
-        s += (t - knots[i]) / d1 * basis(i, p - 1, knots, t);
-    }
-    let d2 = knots[i + p + 1] - knots[i + 1];
-    if d2 > 0.0 {
-        s += (knots[i + p + 1] - t) / d2 * basis(i + 1, p - 1, knots, t);
-    }
-    s
-}
-
-fn greville(p: usize, knots: &[f64], count: usize) -> Vec<f64> {
-    (0..count)
-        .map(|i| knots[i + 1..=i + p].iter().sum::<f64>() / p as f64)
-        .collect()
-}
 
 /// Interpolates `f(u, v)` with a B-spline surface of the given degrees and
 /// clamped knot vectors.
@@ -44,26 +16,7 @@ pub fn fit(
     knots_v: Vec<f64>,
     f: impl Fn(f64, f64) -> [f64; 3],
 ) -> NurbsSurface {
-    let nu = knots_u.len() - pu - 1;
-    let nv = knots_v.len() - pv - 1;
-    let gu = greville(pu, &knots_u, nu);
-    let gv = greville(pv, &knots_v, nv);
-    let bu = DMatrix::from_fn(nu, nu, |r, c| basis(c, pu, &knots_u, gu[r]));
-    let bv = DMatrix::from_fn(nv, nv, |r, c| basis(c, pv, &knots_v, gv[r]));
-    let iu = bu.try_inverse().expect("collocation matrix");
-    let iv = bv.try_inverse().expect("collocation matrix");
-    let mut cps = vec![vec![[0.0; 3]; nv]; nu];
-    for k in 0..3 {
-        let vals = DMatrix::from_fn(nu, nv, |r, c| f(gu[r], gv[c])[k]);
-        // P = Bu^-1 F Bv^-T
-        let p = &iu * vals * iv.transpose();
-        for (i, row) in cps.iter_mut().enumerate() {
-            for (j, cp) in row.iter_mut().enumerate() {
-                cp[k] = p[(i, j)];
-            }
-        }
-    }
-    NurbsSurface::new(pu, pv, knots_u, knots_v, &cps, None).expect("valid test surface")
+    interpolate_surface(f, pu, knots_u, pv, knots_v).expect("valid test surface")
 }
 
 /// Clamped knot vector of degree p on [0, 1] with the given interior knots.

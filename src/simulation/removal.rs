@@ -357,7 +357,7 @@ pub fn simulate_on_grid(
         lo = lo.min(d);
         hi = hi.max(d);
         let c = clearance[idx];
-        if c > 0.0 && f64::from(near_gouge[idx]) <= crate::planners::belt_contact::GOUGE_EPS {
+        if c > 0.0 && f64::from(near_gouge[idx]) <= crate::tools::BELT_GOUGE_EPS {
             stats.max_scallop_mm = stats.max_scallop_mm.max(c);
         }
         if c < 0.0 {

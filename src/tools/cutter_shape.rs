@@ -50,6 +50,21 @@ impl CutterShape {
         }
     }
 
+    /// A torus cutter of radius R and corner radius rc < R (MPEC's tool), with
+    /// the default flute length of [`Tool::length`].
+    pub fn torus(radius: f64, corner_radius: f64) -> Self {
+        let tool = Tool::Torus {
+            radius,
+            corner_radius,
+            length: None,
+        };
+        Self {
+            radius,
+            corner_radius,
+            length: tool.length(),
+        }
+    }
+
     /// Radius of the tube-centre circle (and of the flat bottom disc), R0 = R - rc.
     pub fn tube_radius(&self) -> f64 {
         (self.radius - self.corner_radius).max(0.0)

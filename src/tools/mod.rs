@@ -1,8 +1,14 @@
 //! Cutting tools and the belt-grinder contact wheel. Sizes in mm.
 
 pub mod cutter_shape;
+pub mod lead_cutter;
 
 pub use cutter_shape::CutterShape;
+pub use lead_cutter::{LeadCutter, LeadCutterError};
+
+/// Belt gouge depths below this (mm) are round-off, reported as no gouge; the
+/// belt planners and the removal simulation share it.
+pub const BELT_GOUGE_EPS: f64 = 1e-6;
 
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};

@@ -4,11 +4,12 @@
 //! height everywhere along the pass (the narrowest gap decides). Same cutter
 //! model and tool axis as `tensor_regions`, so the two compare fairly.
 
-use super::pass_points::{sample_curve, Contact, PassSettings};
-use super::Progress;
+use super::pass_ends::extend_pass;
+use super::passes::{sample_curve, Contact, PassSettings};
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, Pass, PlanResult};
 use crate::geometry::NurbsSurface;
+use crate::planners::Progress;
 use nalgebra::{Vector2, Vector3};
 
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
@@ -19,7 +20,7 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     let mut result = PlanResult::new(&job.job_id, job.strategy.name());
     result.passes = passes;
     result.stats.path_length_lower_bound_mm = Some(
-        super::strip_width::job_path_length_lower_bound(job, surface, &settings.cutter)?,
+        super::lower_bound::job_path_length_lower_bound(job, surface, &settings.cutter)?,
     );
     Ok(result)
 }
@@ -93,7 +94,7 @@ pub fn plan_passes(
             for c in &contacts {
                 pass.points.push(c.path_point(s)?);
             }
-            super::pass_points::extend_pass(surface, &mut pass.points, s)?;
+            extend_pass(surface, &mut pass.points, s)?;
             passes.push(pass);
             progress.set((0.5 + 0.45 * k as f64 / count as f64) as f32);
         }

@@ -15,17 +15,15 @@
 //! Coverage (which medial points and walls are machined) uses exact distances
 //! to the tool-centre paths; the reported uncut area comes from a raster.
 
-use super::pocket::coverage::{Raster, SegmentIndex, Swept};
-use super::pocket::offset_passes::{
-    exact_length, flatten, inward_offset, order_paths, pocket_shape,
-};
-use super::pocket::tool_selection::{cleaning_diameter, root_diameter, roughing_diameter};
-use super::Progress;
+use super::coverage::{Raster, SegmentIndex, Swept};
+use super::offset_passes::{exact_length, flatten, inward_offset, order_paths, pocket_shape};
+use super::tool_selection::{cleaning_diameter, root_diameter, roughing_diameter};
 use crate::error::{Error, Result};
 use crate::formats::result::{polyline_length_2d, MedialBranch, PocketTool};
 use crate::formats::{Job, PlanResult};
 use crate::geometry::medial_axis::{medial_axis, MedialAxis};
 use crate::geometry::pocket::{Pocket, Point2};
+use crate::planners::Progress;
 use cavalier_contours::shape_algorithms::Shape;
 
 /// Stepover between roughing contours as a fraction of the diameter. The paper

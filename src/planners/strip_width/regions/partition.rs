@@ -6,9 +6,9 @@
 //! the shared tracer in geometry::field_trace).
 
 use super::degenerate_points::{DegeneratePoint, Kind};
-use super::strip_width::feed_at;
 use crate::geometry::field_trace::{trace_field_until, TraceOptions, TraceStop};
 use crate::geometry::{LocalGeometry, NurbsSurface};
+use crate::planners::strip_width::field::feed_at;
 use nalgebra::{Point3, Vector2, Vector3};
 
 /// How a traced field line ended.
@@ -442,7 +442,7 @@ fn faces(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::planners::degenerate_points;
+    use crate::planners::strip_width::regions::degenerate_points;
     use crate::planners::test_surfaces;
 
     /// Independent region areas: the exact rays at 60, 180 and 300 deg

@@ -4,17 +4,17 @@
 //! pass through its widest-strip point along the optimal feed, then
 //! iso-scallop passes offset to both sides.
 
-use super::degenerate_points::{self, Analysis};
-use super::iso_scallop::whole_domain;
-use super::iso_scallop_offset::cover;
-use super::partition::{partition, Region, Tracer};
-use super::pass_points::PassSettings;
-use super::strip_width::{gouge_error, max_strip_width, WidthError};
-use super::Progress;
+use super::offset::cover;
+use super::passes::PassSettings;
+use super::regions::degenerate_points::{self, Analysis};
+use super::regions::partition::{partition, Region, Tracer};
+use super::regions::whole_domain;
+use super::width::{gouge_error, max_strip_width, WidthError};
 use crate::error::Result;
 use crate::formats::result::{DegeneratePoint, Region as RegionOut};
 use crate::formats::{Job, PlanResult};
 use crate::geometry::{LocalGeometry, NurbsSurface};
+use crate::planners::Progress;
 use nalgebra::{Point3, Vector2, Vector3};
 
 /// Grid cells per direction for the degenerate-point search.
@@ -96,7 +96,7 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
             .collect(),
     );
     result.stats.path_length_lower_bound_mm = Some(
-        super::strip_width::job_path_length_lower_bound(job, surface, &settings.cutter)?,
+        super::lower_bound::job_path_length_lower_bound(job, surface, &settings.cutter)?,
     );
     Ok(result)
 }

@@ -16,6 +16,9 @@
 //! its lowest point, which lies at the sphere's own feed coordinate cx(psi);
 //! the error there is that point's height minus the part at (cx(psi), y).
 
+use crate::geometry::numeric::Bracket;
+use crate::tools::CutterShape;
+
 /// The part surface as a height field over the tangent plane at the drive point.
 pub trait LocalHeight {
     /// Height h(x, y) along e3 and its slopes (dh/dx, dh/dy).
@@ -41,22 +44,6 @@ impl LocalHeight for Quadric {
     }
 }
 
-/// Torus cutter geometry: tube-centre radius `r0` = R - r and corner radius `r`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TorusCutter {
-    pub r0: f64,
-    pub r: f64,
-}
-
-impl TorusCutter {
-    pub fn new(radius: f64, corner_radius: f64) -> Self {
-        Self {
-            r0: radius - corner_radius,
-            r: corner_radius,
-        }
-    }
-}
-
 /// One tool position in the local frame: lead angle `theta` and the middle height `m`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Position {
@@ -68,7 +55,7 @@ pub struct Position {
 
 /// Sphere centre c(psi) in the local frame (rotated by phi about e3).
 #[inline]
-pub fn sphere_centre(tool: TorusCutter, pos: Position, psi: f64) -> [f64; 3] {
+pub fn sphere_centre(tool: CutterShape, pos: Position, psi: f64) -> [f64; 3] {
     Pose::new(tool, pos).centre(psi)
 }
 
@@ -88,14 +75,14 @@ struct Pose {
 
 impl Pose {
     #[inline]
-    fn new(tool: TorusCutter, pos: Position) -> Self {
+    fn new(tool: CutterShape, pos: Position) -> Self {
         let (st, ct) = pos.theta.sin_cos();
         Self {
-            r0: tool.r0,
-            r: tool.r,
-            r0c: tool.r0 * ct,
-            r0s: tool.r0 * st,
-            base: tool.r + pos.middle,
+            r0: tool.tube_radius(),
+            r: tool.corner_radius,
+            r0c: tool.tube_radius() * ct,
+            r0s: tool.tube_radius() * st,
+            base: tool.corner_radius + pos.middle,
             phi: (pos.phi != 0.0).then(|| pos.phi.sin_cos()),
         }
     }
@@ -113,16 +100,20 @@ impl Pose {
 }
 
 /// Tool tip (centre of the bottom face) and axis in the local frame.
-pub fn tip_and_axis(tool: TorusCutter, pos: Position) -> ([f64; 3], [f64; 3]) {
+pub fn tip_and_axis(tool: CutterShape, pos: Position) -> ([f64; 3], [f64; 3]) {
     let (st, ct) = pos.theta.sin_cos();
     let (sp, cp) = pos.phi.sin_cos();
     // Tube-centre circle centre = C2 - R0 o', o' = (cos, 0, -sin); tip = centre - r axis.
-    let centre = [-tool.r0 * ct, 0.0, tool.r + pos.middle + tool.r0 * st];
+    let centre = [
+        -tool.tube_radius() * ct,
+        0.0,
+        tool.corner_radius + pos.middle + tool.tube_radius() * st,
+    ];
     let axis = [st, 0.0, ct];
     let tip = [
-        centre[0] - tool.r * axis[0],
+        centre[0] - tool.corner_radius * axis[0],
         0.0,
-        centre[2] - tool.r * axis[2],
+        centre[2] - tool.corner_radius * axis[2],
     ];
     (
         [tip[0] * cp, tip[0] * sp, tip[2]],
@@ -272,7 +263,7 @@ const PSI_STEP: f64 = std::f64::consts::TAU / PSI_SAMPLES as f64;
 
 /// Lowest point of the whole error curve: min over psi of the sphere clearance.
 /// Returns (error, psi at the minimum).
-pub fn min_error(tool: TorusCutter, pos: Position, h: &dyn LocalHeight) -> (f64, f64) {
+pub fn min_error(tool: CutterShape, pos: Position, h: &dyn LocalHeight) -> (f64, f64) {
     let pose = Pose::new(tool, pos);
     let cands = minimum_candidates(&pose, h);
     refine_minimum(&pose, h, &cands)
@@ -312,7 +303,7 @@ fn refine_minimum(pose: &Pose, h: &dyn LocalHeight, cands: &[f64]) -> (f64, f64)
 /// The error curve E(y): min over the spheres that reach y (front and back
 /// halves of the tube circle) of the sphere's lowest point minus the part.
 /// `f64::INFINITY` beyond the tool (|y| >= R0 + r).
-pub fn error_at(tool: TorusCutter, pos: Position, h: &dyn LocalHeight, y: f64) -> f64 {
+pub fn error_at(tool: CutterShape, pos: Position, h: &dyn LocalHeight, y: f64) -> f64 {
     pose_error_at(&Pose::new(tool, pos), h, y)
 }
 
@@ -349,7 +340,7 @@ fn pose_error_at(pose: &Pose, h: &dyn LocalHeight, y: f64) -> f64 {
 /// (y_left, y_right) with y_left <= 0 <= y_right when the middle is below `level`.
 /// `None` when the curve never gets below `level`.
 pub fn outer_crossings(
-    tool: TorusCutter,
+    tool: CutterShape,
     pos: Position,
     h: &dyn LocalHeight,
     level: f64,
@@ -368,14 +359,14 @@ const OUTWARD_CHECK_MM: f64 = 5.0;
 /// `hint`: a bracket of +-0.25 mm around each, checked to have nothing below
 /// `level` further out, replaces the scan from the tool's edge.
 fn outer_crossings_near(
-    tool: TorusCutter,
+    tool: CutterShape,
     pos: Position,
     h: &dyn LocalHeight,
     level: f64,
     hint: Option<(f64, f64)>,
 ) -> Option<(f64, f64)> {
     let pose = Pose::new(tool, pos);
-    let reach = tool.r0 + tool.r;
+    let reach = tool.tube_radius() + tool.corner_radius;
     let side = |sign: f64, hint: Option<f64>| -> Option<f64> {
         // g > 0: above the level (outside the strip).
         let g = |t: f64| pose_error_at(&pose, h, sign * t) - level;
@@ -410,67 +401,20 @@ fn outer_crossings_near(
     Some((side(-1.0, l)?, side(1.0, r)?))
 }
 
-/// The crossing of g = 0 between a (g <= 0) and b (g > 0, possibly infinite):
-/// regula falsi with the Illinois modification (bisection while g(b) is not
-/// finite). Returns the inner end once within 1e-9 mm of the level or 1e-6 mm
-/// of the crossing.
+/// The crossing of g = 0 between a (g <= 0) and b (g > 0, possibly infinite),
+/// by the shared Illinois bracket (bisection while g(b) is not finite).
+/// Returns the inner end once within 1e-9 mm of the level or 1e-6 mm of the
+/// crossing.
 fn crossing(a: f64, ga: f64, b: f64, gb: f64, g: impl Fn(f64) -> f64) -> f64 {
-    let mut br = IllinoisBracket::new(a, ga, b, gb);
+    let mut br = Bracket::new(a, ga, b, gb);
     for _ in 0..60 {
-        if br.ga > -1e-9 || (br.b - br.a).abs() < 1e-6 {
+        if br.f_neg > -1e-9 || br.width() < 1e-6 {
             break;
         }
-        let m = if br.gb.is_finite() {
-            (br.a * br.gb - br.b * br.ga) / (br.gb - br.ga)
-        } else {
-            0.5 * (br.a + br.b)
-        };
+        let m = br.trial();
         br.narrow(m, g(m));
     }
-    br.a
-}
-
-/// A bracket of a root of g, g(a) <= 0 < g(b), narrowed by regula falsi
-/// with the Illinois modification: when the same end is kept twice running,
-/// the other end's g is halved, so the bracket closes from both sides. The
-/// caller picks each trial point and when to stop.
-#[derive(Clone, Copy, Debug)]
-pub struct IllinoisBracket {
-    pub a: f64,
-    pub ga: f64,
-    pub b: f64,
-    pub gb: f64,
-    /// -1: the last trial replaced a, 1: b, 0: none yet.
-    side: i8,
-}
-
-impl IllinoisBracket {
-    pub fn new(a: f64, ga: f64, b: f64, gb: f64) -> Self {
-        Self {
-            a,
-            ga,
-            b,
-            gb,
-            side: 0,
-        }
-    }
-
-    /// Replaces the end on the trial point's side of the root by (m, g(m)).
-    pub fn narrow(&mut self, m: f64, gm: f64) {
-        if gm <= 0.0 {
-            (self.a, self.ga) = (m, gm);
-            if self.side == -1 {
-                self.gb *= 0.5;
-            }
-            self.side = -1;
-        } else {
-            (self.b, self.gb) = (m, gm);
-            if self.side == 1 {
-                self.ga *= 0.5;
-            }
-            self.side = 1;
-        }
-    }
+    br.neg
 }
 
 /// How a drive point was positioned.
@@ -545,7 +489,7 @@ impl Default for LeadSearch {
 /// whole circle; the result is checked with a fresh sampling and the search
 /// repeated with it if a new minimum turned up.
 fn bisect_lead(
-    tool: TorusCutter,
+    tool: CutterShape,
     h: &dyn LocalHeight,
     middle: f64,
     floor: f64,
@@ -677,7 +621,7 @@ fn smallest_lead(s: &LeadSearch, margin: impl Fn(f64) -> f64) -> Option<f64> {
 /// keeps the error >= -delta (rear gouging), and the strip is where the
 /// scallop stays below +delta.
 pub fn solve(
-    tool: TorusCutter,
+    tool: CutterShape,
     h: &dyn LocalHeight,
     kappa_across: f64,
     delta: f64,
@@ -711,8 +655,8 @@ mod tests {
 
     const D63R6: (f64, f64) = (31.5, 6.0);
 
-    fn tool() -> TorusCutter {
-        TorusCutter::new(D63R6.0, D63R6.1)
+    fn tool() -> CutterShape {
+        CutterShape::torus(D63R6.0, D63R6.1)
     }
 
     /// methods.md B reference: kf = 0, kc = 1/1198, delta = 0.01.
@@ -753,7 +697,7 @@ mod tests {
             for i in 0..3000 {
                 let psi = -std::f64::consts::PI + std::f64::consts::TAU * i as f64 / 3000.0;
                 let c = sphere_centre(t, s.pos, psi);
-                let q = t.r * t.r - (y - c[1]).powi(2);
+                let q = t.corner_radius * t.corner_radius - (y - c[1]).powi(2);
                 if q < 0.0 {
                     continue;
                 }

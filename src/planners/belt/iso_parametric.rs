@@ -5,11 +5,11 @@
 //! contact model from every point of the current curve (the most conservative
 //! candidate), within one belt width; a last curve runs along the far edge.
 
-use super::belt_contact::{self, BeltSpec};
-use super::Progress;
+use super::contact::{self, BeltSpec};
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, PlanResult};
 use crate::geometry::{LocalGeometry, NurbsSurface};
+use crate::planners::Progress;
 use nalgebra::{Vector2, Vector3};
 
 /// Passes beyond this mean the step collapsed (bad geometry), not a real plan.
@@ -21,7 +21,7 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     let feed_dir = job.feed_direction.unwrap_or(FeedDirection::U);
     let mut result = PlanResult::new(&job.job_id, job.strategy.name());
     let (paths, diag) = plan_paths(surface, &spec, feed_dir, progress)?;
-    belt_contact::assemble(paths, &spec, &mut result, &diag)?;
+    contact::assemble(paths, &spec, &mut result, &diag)?;
     Ok(result)
 }
 
@@ -58,17 +58,14 @@ pub fn plan_paths(
     spec: &BeltSpec,
     feed_dir: FeedDirection,
     progress: &dyn Progress,
-) -> Result<(
-    Vec<Vec<belt_contact::ContactPoint>>,
-    belt_contact::Diagnostics,
-)> {
+) -> Result<(Vec<Vec<contact::ContactPoint>>, contact::Diagnostics)> {
     let feed_u = feed_dir == FeedDirection::U;
     let ((u0, u1), (v0, v1)) = surface.domain();
     let (c0, c1) = if feed_u { (v0, v1) } else { (u0, u1) };
     let cross_index = if feed_u { 1 } else { 0 };
     let range = c1 - c0;
     let eps = 1e-9 * range;
-    let spacing = belt_contact::point_spacing(spec);
+    let spacing = contact::point_spacing(spec);
     let feed = move |g: &LocalGeometry| -> Vector3<f64> {
         if feed_u {
             g.derivs.su
@@ -84,12 +81,12 @@ pub fn plan_paths(
         }
     };
     let mut paths = Vec::new();
-    let mut diag = belt_contact::Diagnostics::default();
+    let mut diag = contact::Diagnostics::default();
     let mut c = c0;
     loop {
         let last = c >= c1 - eps;
         let uvs = iso_curve(surface, feed_u, c, spacing);
-        let path = belt_contact::analyse_path(surface, &uvs, &feed, &hint, spec, !last, &mut diag);
+        let path = contact::analyse_path(surface, &uvs, &feed, &hint, spec, !last, &mut diag);
         let mut c_next = c1;
         for cp in &path {
             let Some(nc) = cp.next else { continue };

@@ -15,12 +15,12 @@
 //! normal) of the next contact points found from every point of the current
 //! section by the belt contact model. A last plane touches each far edge.
 
-use super::belt_contact::{self, BeltSpec, ContactPoint};
-use super::Progress;
+use super::contact::{self, BeltSpec, ContactPoint};
 use crate::error::{Error, Result};
 use crate::formats::{Job, PlanResult};
 use crate::geometry::plane_intersection::{intersect_plane, Plane, SectionOptions};
 use crate::geometry::{LocalGeometry, NurbsSurface};
+use crate::planners::Progress;
 use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector2, Vector3};
 
 /// Grid of surface samples for the automatic section normal, per direction.
@@ -143,7 +143,7 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     };
     result.section_normal = Some([normal.x, normal.y, normal.z]);
     let (paths, diag) = plan_paths(surface, &spec, normal, progress)?;
-    belt_contact::assemble(paths, &spec, &mut result, &diag)?;
+    contact::assemble(paths, &spec, &mut result, &diag)?;
     Ok(result)
 }
 
@@ -177,8 +177,8 @@ pub fn plan_paths(
     spec: &BeltSpec,
     normal: Vector3<f64>,
     progress: &dyn Progress,
-) -> Result<(Vec<Vec<ContactPoint>>, belt_contact::Diagnostics)> {
-    let spacing = belt_contact::point_spacing(spec);
+) -> Result<(Vec<Vec<ContactPoint>>, contact::Diagnostics)> {
+    let spacing = contact::point_spacing(spec);
     let (cu, cv) = cells(surface, spacing);
     let options = SectionOptions {
         cells_u: cu,
@@ -198,7 +198,7 @@ pub fn plan_paths(
     let (lo, hi) = (lo + margin, hi - margin);
     let start = 0.5 * (lo + hi);
     let feed = move |g: &LocalGeometry| -> Vector3<f64> { normal.cross(&g.n) };
-    let mut diag = belt_contact::Diagnostics::default();
+    let mut diag = contact::Diagnostics::default();
     let mut sides: Vec<Vec<Vec<ContactPoint>>> = Vec::new();
     for (side, sign) in [(0usize, 1.0), (1, -1.0)] {
         let dir = normal * sign;
@@ -232,7 +232,7 @@ pub fn plan_paths(
             let mut analysed = Vec::new();
             for uvs in &curves {
                 let path =
-                    belt_contact::analyse_path(surface, uvs, &feed, &hint, spec, !last, &mut diag);
+                    contact::analyse_path(surface, uvs, &feed, &hint, spec, !last, &mut diag);
                 for cp in &path {
                     let Some(nc) = cp.next else { continue };
                     let q = surface.point(nc.uv.x, nc.uv.y);

@@ -5,7 +5,7 @@
 //! Drive curves are iso-parametric curves along `feed_direction`. At every
 //! drive point the tool sits with the middle of its "W" error curve at
 //! +delta and the lead angle is raised by bisection until the dips touch
-//! -delta ([`super::mpec_error_curve`]). A pass's usable width is its
+//! -delta ([`super::error_curve`]). A pass's usable width is its
 //! narrowest strip; the next drive curve is placed so that the facing
 //! half-widths of adjacent passes meet, found iteratively on the surface.
 //!
@@ -16,14 +16,14 @@
 //! delta/50; otherwise every height is found by exact point inversion
 //! (Newton on (u, v)), which is slower but general.
 
-use super::mpec_error_curve::{
-    self as ec, IllinoisBracket, LeadSearch, LocalHeight, SolveError, Status, TorusCutter,
-};
-use super::Progress;
+use super::error_curve::{self as ec, LeadSearch, LocalHeight, SolveError, Status};
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, Pass, PathPoint, PlanResult};
 use crate::geometry::inversion::{extended_derivs, extended_point, invert_in_frame};
+use crate::geometry::numeric::Bracket;
 use crate::geometry::{LocalGeometry, NurbsSurface};
+use crate::planners::Progress;
+use crate::tools::CutterShape;
 use crate::tools::Tool;
 use nalgebra::{Point3, SMatrix, SVector, Vector2, Vector3};
 
@@ -156,10 +156,13 @@ pub fn fit_height(
     surface: &NurbsSurface,
     g: &LocalGeometry,
     frame: &Frame,
-    tool: TorusCutter,
+    tool: CutterShape,
 ) -> Option<(FittedHeight, f64)> {
-    let reach = tool.r0 + tool.r;
-    let (x0, x1) = (-(2.0 * tool.r0 + tool.r), tool.r);
+    let reach = tool.tube_radius() + tool.corner_radius;
+    let (x0, x1) = (
+        -(2.0 * tool.tube_radius() + tool.corner_radius),
+        tool.corner_radius,
+    );
     let (y0, y1) = (-reach, reach);
     let d = &g.derivs;
     let j = nalgebra::Matrix2::new(
@@ -222,7 +225,7 @@ impl DrivePoint {
         }
     }
 
-    pub fn to_path_point(&self, tool: TorusCutter) -> PathPoint {
+    pub fn to_path_point(&self, tool: CutterShape) -> PathPoint {
         let (tip, axis) = ec::tip_and_axis(tool, self.solution.pos);
         let f = &self.frame;
         let cl = f.to_world(tip);
@@ -251,7 +254,7 @@ impl DrivePoint {
 /// Everything fixed for one job.
 pub struct Planner<'a> {
     pub surface: &'a NurbsSurface,
-    pub tool: TorusCutter,
+    pub tool: CutterShape,
     pub delta: f64,
     pub feed: FeedDirection,
     pub theta_min: f64,
@@ -319,7 +322,7 @@ impl<'a> Planner<'a> {
         }
         Ok(Self {
             surface,
-            tool: TorusCutter::new(radius, corner_radius),
+            tool: CutterShape::torus(radius, corner_radius),
             delta,
             feed: job.feed_direction.unwrap_or(FeedDirection::U),
             theta_min,
@@ -387,13 +390,13 @@ impl<'a> Planner<'a> {
     ) -> Result<DrivePoint> {
         let (g, frame) = self.local(s, t)?;
         let kappa_across = g.normal_curvature(frame.e2);
-        if g.k_max * self.tool.r >= 1.0 {
+        if g.k_max * self.tool.corner_radius >= 1.0 {
             return Err(Error::planning(format!(
                 "at (u, v) = ({:.6}, {:.6}) the surface is too curved for the torus: its concave curvature radius {:.3} mm is smaller than the corner radius {:.3} mm",
                 g.uv.x,
                 g.uv.y,
                 1.0 / g.k_max,
-                self.tool.r
+                self.tool.corner_radius
             )));
         }
         let search = LeadSearch {
@@ -423,8 +426,8 @@ impl<'a> Planner<'a> {
             match e {
                 SolveError::TooCurved { theta_max, min_error } => Error::planning(format!(
                     "at (u, v) = ({u:.6}, {v:.6}) the surface is too curved for the torus (R0 {:.3} mm, r {:.3} mm): even at a lead angle of {:.1} deg the error curve dips to {min_error:.4} mm, below -tolerance = {:.4} mm; use a smaller tool or a larger tolerance",
-                    self.tool.r0,
-                    self.tool.r,
+                    self.tool.tube_radius(),
+                    self.tool.corner_radius,
                     theta_max.to_degrees(),
                     -self.delta
                 )),
@@ -465,7 +468,7 @@ impl<'a> Planner<'a> {
         let mut out: Vec<(f64, bool)> = (0..=n).map(|i| (s0 + ds * i as f64, true)).collect();
         let step_len = len / n as f64;
         let extra = if step_len > 0.0 {
-            ((self.tool.r0 + self.tool.r) / step_len).ceil() as usize
+            ((self.tool.tube_radius() + self.tool.corner_radius) / step_len).ceil() as usize
         } else {
             0
         };
@@ -565,16 +568,17 @@ impl<'a> Planner<'a> {
         if g_end <= 0.0 {
             return end;
         }
-        let mut br = IllinoisBracket::new(from, -target, end, g_end);
+        let mut br = Bracket::new(from, -target, end, g_end);
         for _ in 0..100 {
-            if br.ga > -1e-6 || (br.b - br.a).abs() <= 1e-12 * (1.0 + br.a.abs()) {
+            if br.f_neg > -1e-6 || br.width() <= 1e-12 * (1.0 + br.neg.abs()) {
                 break;
             }
-            let w = (br.gb / (br.gb - br.ga)).clamp(0.01, 0.99);
-            let m = br.b - w * (br.b - br.a);
+            // The chord's crossing, kept 1 % away from either end.
+            let w = (br.f_pos / (br.f_pos - br.f_neg)).clamp(0.01, 0.99);
+            let m = br.pos - w * (br.pos - br.neg);
             br.narrow(m, g(m));
         }
-        br.a
+        br.neg
     }
 
     /// Places the pass after `from` so that `fixed` (the facing half-width of
@@ -735,7 +739,7 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
         .insert("not_applicable_points".into(), not_applicable as f64);
     result.warnings.push(format!(
         "every pass runs {:.1} mm (R0 + r) past the far edge of the surface, on its second-order continuation, so the tool's trailing part finishes the last sections",
-        planner.tool.r0 + planner.tool.r
+        planner.tool.tube_radius() + planner.tool.corner_radius
     ));
     if not_applicable > 0 {
         result.warnings.push(format!(

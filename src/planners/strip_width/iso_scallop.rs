@@ -3,13 +3,12 @@
 //! cross-feed parameter (feed along `feed_direction`, u by default). Same
 //! cutter model and tool axis as `tensor_regions`.
 
-use super::iso_scallop_offset::cover;
-use super::partition::{polygon_area, Region};
-use super::pass_points::{sample_curve, PassSettings};
-use super::Progress;
+use super::offset::cover;
+use super::passes::{sample_curve, PassSettings};
+use super::regions::whole_domain;
 use crate::error::Result;
 use crate::formats::{FeedDirection, Job, PlanResult};
-use crate::geometry::NurbsSurface;
+use crate::planners::Progress;
 use nalgebra::Vector2;
 
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
@@ -33,23 +32,7 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     let mut result = PlanResult::new(&job.job_id, job.strategy.name());
     result.passes = passes;
     result.stats.path_length_lower_bound_mm = Some(
-        super::strip_width::job_path_length_lower_bound(job, surface, &settings.cutter)?,
+        super::lower_bound::job_path_length_lower_bound(job, surface, &settings.cutter)?,
     );
     Ok(result)
-}
-
-/// The parameter domain as one region.
-pub fn whole_domain(surface: &NurbsSurface) -> Region {
-    let ((u0, u1), (v0, v1)) = surface.domain();
-    let boundary_uv = vec![
-        Vector2::new(u0, v0),
-        Vector2::new(u1, v0),
-        Vector2::new(u1, v1),
-        Vector2::new(u0, v1),
-    ];
-    Region {
-        id: 0,
-        area_mm2: polygon_area(surface, &boundary_uv, 48),
-        boundary_uv,
-    }
 }

@@ -16,11 +16,8 @@
 use crate::error::{Error, Result};
 use crate::formats::{Job, PathPoint};
 use crate::geometry::{LocalGeometry, NurbsSurface};
-use crate::tools::Tool;
+use crate::tools::{Tool, BELT_GOUGE_EPS};
 use nalgebra::{Point3, Vector2, Vector3};
-
-/// Gouge depths below this (mm) are reported as no gouge.
-pub const GOUGE_EPS: f64 = 1e-6;
 
 /// Belt size and the scallop height the planners work to.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -135,7 +132,7 @@ pub fn pose(
         wheel_center: Some([cl.x, cl.y, cl.z]),
         wheel_axis: Some(arr(b)),
         normal: Some(arr(geom.n)),
-        gouge: (gouge > GOUGE_EPS).then_some(gouge),
+        gouge: (gouge > BELT_GOUGE_EPS).then_some(gouge),
         ..Default::default()
     })
 }
@@ -579,7 +576,7 @@ pub fn assemble(
             let cp = &path[k];
             let t = if cp.t.dot(&travel) < 0.0 { -cp.t } else { cp.t };
             max_gouge = max_gouge.max(cp.gouge);
-            if cp.gouge > GOUGE_EPS {
+            if cp.gouge > BELT_GOUGE_EPS {
                 gouged_points += 1;
             }
             if k > 0 {

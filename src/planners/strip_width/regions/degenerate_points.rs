@@ -7,9 +7,9 @@
 //! the cubic d x^3 + (c + 2b) x^2 + (2a - d) x - c = 0, keeping the half-rays
 //! along which the feed (major eigenvector) is radial.
 
-use super::strip_width::deviator;
 use crate::error::{Error, Result};
 use crate::geometry::{LocalGeometry, NurbsSurface};
+use crate::planners::strip_width::field::deviator;
 use nalgebra::{Matrix2, Point3, Vector2, Vector3};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,0 +1,85 @@
+//! The path-length lower bound (docs/methods.md, "Path-length lower bound"):
+//! the integral over the surface of dA / w_max, since each unit of path length
+//! clears at most the widest strip at its contact.
+
+use super::width::{gouge_error, max_strip_width, WidthError};
+use crate::error::Result;
+use crate::formats::Job;
+use crate::geometry::{LocalGeometry, NurbsSurface};
+use crate::tools::LeadCutter;
+
+/// Gauss-Legendre nodes and weights on [0, 1], 3 points.
+const GAUSS3: [(f64, f64); 3] = [
+    (0.112_701_665_379_258_3, 5.0 / 18.0),
+    (0.5, 8.0 / 18.0),
+    (0.887_298_334_620_741_7, 5.0 / 18.0),
+];
+
+/// [`path_length_lower_bound`] of a milling job at its own scallop, on the
+/// grid every strip-width planner reports it with.
+pub fn job_path_length_lower_bound(
+    job: &Job,
+    surface: &NurbsSurface,
+    cutter: &LeadCutter,
+) -> Result<f64> {
+    path_length_lower_bound(
+        surface,
+        cutter,
+        job.scallop()?,
+        crate::planners::LOWER_BOUND_CELLS,
+    )
+}
+
+/// Lower bound of the path length for scallop h: the integral over the
+/// surface of dA / w_max(p). No set of passes can be shorter, since each unit
+/// of length clears at most w_max of area. `cells` per parameter direction.
+pub fn path_length_lower_bound(
+    surface: &NurbsSurface,
+    cutter: &LeadCutter,
+    h: f64,
+    cells: usize,
+) -> Result<f64> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let (du, dv) = ((u1 - u0) / cells as f64, (v1 - v0) / cells as f64);
+    let mut total = 0.0;
+    for i in 0..cells {
+        for j in 0..cells {
+            for &(a, wa) in &GAUSS3 {
+                for &(b, wb) in &GAUSS3 {
+                    let (u, v) = (u0 + (i as f64 + a) * du, v0 + (j as f64 + b) * dv);
+                    let Some(g) = LocalGeometry::at(surface, u, v) else {
+                        continue;
+                    };
+                    let w = match max_strip_width(cutter, h, &g) {
+                        Ok((w, _)) => w,
+                        Err(WidthError::Gouge { depth }) => {
+                            return Err(gouge_error(cutter, [u, v], g.k_max, depth));
+                        }
+                    };
+                    total += wa * wb * du * dv * g.area_element() / w;
+                }
+            }
+        }
+    }
+    Ok(total)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn flat() -> LeadCutter {
+        LeadCutter {
+            radius: 2.5,
+            lead: 5f64.to_radians(),
+            ball: false,
+        }
+    }
+
+    #[test]
+    fn lower_bound_of_a_plane_is_area_over_width() {
+        let s = crate::planners::test_surfaces::sheared_plane();
+        let lb = path_length_lower_bound(&s, &flat(), 0.05, 8).unwrap();
+        assert!((lb - 10000.0 / 3.18704).abs() / lb < 1e-3, "{lb}");
+    }
+}

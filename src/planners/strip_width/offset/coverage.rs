@@ -1,0 +1,247 @@
+//! Which parts of a region the passes so far leave uncut: the strips of the
+//! passes in a spatial hash, the samples of a front beyond every strip, and
+//! the gap lines that start the passes over uncut material.
+
+use super::*;
+use crate::formats::Pass;
+use crate::geometry::NurbsSurface;
+use crate::planners::strip_width::passes::{walk_on_surface as walk, Contact, PassSettings};
+use crate::planners::strip_width::regions::Region;
+use nalgebra::{Point3, Vector2, Vector3};
+use std::collections::BTreeMap;
+
+/// The strips of the passes placed so far in a region, so that an offset
+/// point is kept only where material is still uncut: where a front folds
+/// back over machined area (strongly varying widths make passes fan out),
+/// region containment alone would offset it forever.
+pub(super) struct Coverage {
+    pub(super) cell: f64,
+    /// Share of a pass's half-width within which material counts as cut.
+    pub(super) share: f64,
+    /// Segment ends, the smaller half-width at its ends, the pass it belongs to.
+    pub(super) segments: Vec<(Point3<f64>, Point3<f64>, f64, usize)>,
+    pub(super) grid: BTreeMap<[i64; 3], Vec<usize>>,
+}
+
+impl Coverage {
+    pub(super) fn new(s: &PassSettings, share: f64) -> Self {
+        Self {
+            cell: 2.0 * s.cutter.radius * share.max(1.0),
+            share,
+            segments: Vec::new(),
+            grid: BTreeMap::new(),
+        }
+    }
+
+    pub(super) fn key(&self, p: Point3<f64>) -> [i64; 3] {
+        [
+            (p.x / self.cell).floor() as i64,
+            (p.y / self.cell).floor() as i64,
+            (p.z / self.cell).floor() as i64,
+        ]
+    }
+
+    /// Adds pass `id`'s strip; points where no width can be given add nothing.
+    pub(super) fn add(&mut self, s: &PassSettings, id: usize, contacts: &[Contact]) {
+        let half = |c: &Contact| -> Option<(Point3<f64>, f64)> {
+            let a = c.half_width_towards(s, c.cross()).ok()?;
+            let b = c.half_width_towards(s, -c.cross()).ok()?;
+            Some((c.point(), a.min(b)))
+        };
+        let strip: Vec<(Point3<f64>, f64)> = contacts.iter().filter_map(half).collect();
+        self.add_points(id, &strip);
+    }
+
+    /// Adds pass `id`'s strip from its points and half-widths.
+    pub(super) fn add_points(&mut self, id: usize, strip: &[(Point3<f64>, f64)]) {
+        for k in 1..strip.len() {
+            let ((a, wa), (b, wb)) = (strip[k - 1], strip[k]);
+            if !(wa > 0.0 && wb > 0.0) {
+                continue;
+            }
+            let w = wa.min(wb);
+            let index = self.segments.len();
+            self.segments.push((a, b, w, id));
+            let (lo, hi) = (a.inf(&b), a.sup(&b));
+            let pad = Vector3::repeat(w);
+            let (k0, k1) = (self.key(lo - pad), self.key(hi + pad));
+            for i in k0[0]..=k1[0] {
+                for j in k0[1]..=k1[1] {
+                    for l in k0[2]..=k1[2] {
+                        self.grid.entry([i, j, l]).or_default().push(index);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Unit direction of the strip segment nearest to `p` within reach.
+    pub(super) fn nearest_direction(&self, p: Point3<f64>) -> Option<Vector3<f64>> {
+        let k = self.key(p);
+        let mut best: Option<(f64, Vector3<f64>)> = None;
+        for i in -1..=1 {
+            for j in -1..=1 {
+                for l in -1..=1 {
+                    let Some(list) = self.grid.get(&[k[0] + i, k[1] + j, k[2] + l]) else {
+                        continue;
+                    };
+                    for &index in list {
+                        let (a, b, _, _) = self.segments[index];
+                        let d = b - a;
+                        let dd = d.norm_squared();
+                        if dd <= 0.0 {
+                            continue;
+                        }
+                        let f = segment_parameter(a, b, p);
+                        let dist = (a + d * f - p).norm();
+                        if best.is_none_or(|(bd, _)| dist < bd) {
+                            best = Some((dist, d / dd.sqrt()));
+                        }
+                    }
+                }
+            }
+        }
+        best.map(|(_, d)| d)
+    }
+
+    /// Whether `p` lies well inside the strip of a pass other than `exclude`.
+    pub(super) fn covered(&self, p: Point3<f64>, exclude: usize) -> bool {
+        let Some(list) = self.grid.get(&self.key(p)) else {
+            return false;
+        };
+        list.iter().any(|&i| {
+            let (a, b, w, id) = self.segments[i];
+            if id == exclude {
+                return false;
+            }
+            (a + (b - a) * segment_parameter(a, b, p) - p).norm() < self.share * w
+        })
+    }
+}
+
+/// Share of an earlier pass's half-width within which an offset point
+/// counts as cut (well inside: fronts that only touch are still offset).
+pub(super) const FOLD_SHARE: f64 = 0.9;
+/// Share of the half-widths beyond which material counts as missed by all
+/// passes: neighbouring strips meet at their half-widths, so a point
+/// farther than this from every pass is a gap, not a scallop ridge.
+pub(super) const GAP_SHARE: f64 = 1.04;
+
+/// The contact points of a pass with their smaller half-width (run-in and
+/// run-out points carry their neighbour's).
+pub(super) fn strip_of(pass: &Pass) -> Vec<(Point3<f64>, f64)> {
+    let mut out = Vec::with_capacity(pass.points.len());
+    let first = pass
+        .points
+        .iter()
+        .find_map(|p| p.strip_width)
+        .unwrap_or(0.0);
+    let mut w = first;
+    for p in &pass.points {
+        if let Some(sw) = p.strip_width {
+            w = sw;
+        }
+        out.push((Point3::from(p.cc), 0.5 * w));
+    }
+    out
+}
+
+/// Points of the region, about a quarter cutter radius apart, that no
+/// strip covers, in a fixed order.
+pub(super) fn uncut_samples(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    reached: &Coverage,
+) -> Vec<Vector2<f64>> {
+    let (lo, hi) = region.boundary_uv.iter().fold(
+        (
+            Vector2::repeat(f64::INFINITY),
+            Vector2::repeat(f64::NEG_INFINITY),
+        ),
+        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
+    );
+    if !(lo.x <= hi.x && lo.y <= hi.y) {
+        return Vec::new();
+    }
+    // Sample counts from the longest iso-curve chords across the box.
+    let chord = |a: Vector2<f64>, b: Vector2<f64>, n: usize| -> f64 {
+        (0..n)
+            .map(|k| {
+                let (p, q) = (
+                    a + (b - a) * (k as f64 / n as f64),
+                    a + (b - a) * ((k + 1) as f64 / n as f64),
+                );
+                (surface.point(q.x, q.y) - surface.point(p.x, p.y)).norm()
+            })
+            .sum()
+    };
+    let spacing = 0.25 * s.cutter.radius;
+    let mut len_u = 0.0f64;
+    let mut len_v = 0.0f64;
+    for f in [0.0, 0.5, 1.0] {
+        let y = lo.y + (hi.y - lo.y) * f;
+        let x = lo.x + (hi.x - lo.x) * f;
+        len_u = len_u.max(chord(Vector2::new(lo.x, y), Vector2::new(hi.x, y), 16));
+        len_v = len_v.max(chord(Vector2::new(x, lo.y), Vector2::new(x, hi.y), 16));
+    }
+    let nu = ((len_u / spacing).ceil() as usize).clamp(1, 4000);
+    let nv = ((len_v / spacing).ceil() as usize).clamp(1, 4000);
+    let mut out = Vec::new();
+    for i in 0..=nu {
+        for j in 0..=nv {
+            let uv = Vector2::new(
+                lo.x + (hi.x - lo.x) * i as f64 / nu as f64,
+                lo.y + (hi.y - lo.y) * j as f64 / nv as f64,
+            );
+            if region.contains(uv) && !reached.covered(surface.point(uv.x, uv.y), usize::MAX) {
+                out.push(uv);
+            }
+        }
+    }
+    out
+}
+
+/// A short pass through the uncut point `uv`: along the nearest strip's
+/// direction (else the surface's minimum-curvature direction), both ways
+/// until covered material or the region's end, then run on like any pass end.
+pub(super) fn gap_line(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    reached: &Coverage,
+    uv: Vector2<f64>,
+) -> Option<Vec<Vector2<f64>>> {
+    let g = crate::geometry::LocalGeometry::at(surface, uv.x, uv.y)?;
+    let p = g.point();
+    let dir = reached.nearest_direction(p).unwrap_or(g.dir_min);
+    let step = s.point_step.min(0.5 * s.cutter.radius);
+    let mut halves: Vec<Vec<Vector2<f64>>> = Vec::new();
+    for sign in [-1.0, 1.0] {
+        let mut at = uv;
+        let mut d = dir * sign;
+        let mut line = Vec::new();
+        for _ in 0..((4.0 * s.cutter.radius / step).ceil() as usize) {
+            let (next, nd, clipped) = walk(surface, at, d, step)?;
+            if (next - at).norm() == 0.0 {
+                break;
+            }
+            line.push(next);
+            let q = surface.point(next.x, next.y);
+            if clipped || !region.contains(next) || reached.covered(q, usize::MAX) {
+                break;
+            }
+            at = next;
+            d = nd;
+        }
+        halves.push(line);
+    }
+    let mut line: Vec<Vector2<f64>> = halves[0].iter().rev().copied().collect();
+    line.push(uv);
+    line.extend(halves[1].iter().copied());
+    if line.len() < 2 {
+        return None;
+    }
+    extend_ends(surface, s, region, &mut line);
+    Some(line)
+}

@@ -1,0 +1,514 @@
+//! Offsetting one front to the next: each contact carried across the feed to
+//! where the two half-widths meet at the scallop height, smoothed, extended to
+//! the region's edges, and split into runs over uncut material.
+
+use super::*;
+use crate::error::Result;
+use crate::geometry::NurbsSurface;
+use crate::planners::strip_width::passes::{walk_on_surface as walk, Contact, PassSettings};
+use crate::planners::strip_width::regions::Region;
+use nalgebra::{Point3, Vector2, Vector3};
+
+/// A point of a pass front: its contact and the unit tangent pointing to
+/// the side still to be covered.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct FrontPoint {
+    pub(super) c: Contact,
+    pub(super) away: Vector3<f64>,
+}
+
+/// One offset point: where the next pass goes from `fp`, and whether it is needed.
+pub(super) struct Offset {
+    pub(super) uv: Vector2<f64>,
+    pub(super) away: Vector3<f64>,
+    pub(super) needed: bool,
+    /// The walk hit the domain boundary: the point is not a pass point (the
+    /// pass is extended to the boundary along its own direction instead).
+    pub(super) clipped: bool,
+    /// The walk reached the domain boundary (this point or a clipped neighbour).
+    pub(super) at_edge: bool,
+    /// Distance walked from the front point, mm (the two half-widths).
+    pub(super) dist: f64,
+}
+
+pub(super) fn offset_point(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    coverage: &Coverage,
+    front_id: usize,
+    fp: &FrontPoint,
+) -> Result<Offset> {
+    let w_here = fp.c.half_width_towards(s, fp.away)?;
+    let mut dist = 2.0 * w_here;
+    let mut end = walk(surface, fp.c.uv(), fp.away, dist).ok_or_else(|| singular(fp.c.uv()))?;
+    for _ in 0..3 {
+        let q = Contact::new(surface, end.0, -fp.c.travel).ok_or_else(|| singular(end.0))?;
+        let w_there = q.half_width_towards(s, -end.1)?;
+        let new_dist = w_here + w_there;
+        let settled = (new_dist - dist).abs() < 1e-4;
+        dist = new_dist;
+        end = walk(surface, fp.c.uv(), fp.away, dist).ok_or_else(|| singular(fp.c.uv()))?;
+        if settled || end.2 {
+            break;
+        }
+    }
+    // Is there region material beyond this pass's strip edge?
+    let edge =
+        walk(surface, fp.c.uv(), fp.away, w_here * 0.98).ok_or_else(|| singular(fp.c.uv()))?;
+    let uncut = |(uv, _, clipped): (Vector2<f64>, Vector3<f64>, bool)| {
+        !clipped && region.contains(uv) && !coverage.covered(surface.point(uv.x, uv.y), front_id)
+    };
+    let needed = uncut(edge) || uncut(end);
+    // A point stopped by the boundary is a pass point only where the pass
+    // runs along that boundary (the last pass of a side); where the pass
+    // meets the boundary at an angle, it ends there instead.
+    let clipped = end.2 && !runs_along_boundary(surface, end.0, end.1, fp.c.travel);
+    Ok(Offset {
+        uv: end.0,
+        away: end.1,
+        needed,
+        clipped,
+        at_edge: end.2,
+        dist,
+    })
+}
+
+/// Parameter in [0, 1] of the point of segment ab nearest to `p` (0 for a
+/// degenerate segment).
+pub(super) fn segment_parameter(a: Point3<f64>, b: Point3<f64>, p: Point3<f64>) -> f64 {
+    let d = b - a;
+    let dd = d.norm_squared();
+    if dd > 0.0 {
+        ((p - a).dot(&d) / dd).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// Contacts along a uv polyline, travelling along it; `reference` orients
+/// the travel (None: the polyline's own order).
+pub(super) fn front_from_uv(
+    surface: &NurbsSurface,
+    uv: &[Vector2<f64>],
+    reference: Option<&[Vector3<f64>]>,
+) -> Result<Vec<Contact>> {
+    let xyz: Vec<_> = uv.iter().map(|p| surface.point(p.x, p.y)).collect();
+    let n = uv.len();
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+        let mut t = xyz[b] - xyz[a];
+        if let Some(r) = reference {
+            if t.dot(&r[i]) < 0.0 {
+                t = -t;
+            }
+        }
+        if t.norm() == 0.0 {
+            continue;
+        }
+        if let Some(c) = Contact::new(surface, uv[i], t) {
+            out.push(c);
+        }
+    }
+    Ok(out)
+}
+
+/// Indices of the points of a pass polyline to keep: points where the pass
+/// turns by more than 25 deg are dropped (offsetting near corners and
+/// boundaries can leave such kinks; a smooth surface's passes turn by far
+/// less between neighbouring points).
+pub(super) fn smooth_indices(
+    surface: &NurbsSurface,
+    uv: &[Vector2<f64>],
+    max_chord: f64,
+) -> Vec<usize> {
+    let xyz: Vec<_> = uv.iter().map(|p| surface.point(p.x, p.y)).collect();
+    let mut keep: Vec<usize> = (0..uv.len()).collect();
+    let limit = 25f64.to_radians().cos();
+    loop {
+        let mut worst: Option<(f64, usize)> = None;
+        for w in 1..keep.len().saturating_sub(1) {
+            let (a, b, c) = (xyz[keep[w - 1]], xyz[keep[w]], xyz[keep[w + 1]]);
+            let (d1, d2) = (b - a, c - b);
+            let n = d1.norm() * d2.norm();
+            let cos = if n > 0.0 { d1.dot(&d2) / n } else { -1.0 };
+            // A real corner (the chord across it would be long) stays.
+            if cos < limit && (c - a).norm() <= max_chord && worst.is_none_or(|(wc, _)| cos < wc) {
+                worst = Some((cos, w));
+            }
+        }
+        match worst {
+            Some((_, w)) => {
+                keep.remove(w);
+            }
+            None => return keep,
+        }
+    }
+}
+
+/// Extends a pass polyline at both ends along its own direction on the
+/// surface, to the domain boundary or until it has run the cutter radius
+/// beyond the region, so that the strip covers the region up to its
+/// boundary even where the pass meets it obliquely. Returns the number of
+/// points added at the head and the tail.
+pub(super) fn extend_ends(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    uv: &mut Vec<Vector2<f64>>,
+) -> (usize, usize) {
+    let mut counts = [0usize; 2];
+    for (end, count) in counts.iter_mut().enumerate() {
+        if uv.len() < 2 {
+            break;
+        }
+        // Direction over the last few points: one short segment is not to be trusted.
+        let k = (uv.len() - 1).min(3);
+        let (p, q) = if end == 0 {
+            (uv[0], uv[k])
+        } else {
+            (uv[uv.len() - 1], uv[uv.len() - 1 - k])
+        };
+        let mut dir = surface.point(p.x, p.y) - surface.point(q.x, q.y);
+        if dir.norm() == 0.0 {
+            continue;
+        }
+        dir /= dir.norm();
+        let mut at = p;
+        let mut outside = 0.0;
+        let step = s.point_step.min(s.cutter.radius);
+        // The gap to close is at most about a strip width across the pass:
+        // along a pass meeting the boundary at 30 deg (below that, offset
+        // points on the boundary are kept as pass points) twice that. Never
+        // further: a short run's direction is not to be trusted far.
+        let mut budget = 4.0 * s.cutter.radius;
+        for _ in 0..10_000 {
+            if budget <= 0.0 {
+                break;
+            }
+            budget -= step;
+            if region.contains(at) {
+                outside = 0.0;
+            } else if outside >= s.cutter.radius {
+                break;
+            }
+            let Some((next, d, clipped)) = walk(surface, at, dir, step) else {
+                break;
+            };
+            if (next - at).norm() == 0.0 {
+                break;
+            }
+            if end == 0 {
+                uv.insert(0, next);
+            } else {
+                uv.push(next);
+            }
+            *count += 1;
+            if clipped {
+                break;
+            }
+            if !region.contains(next) {
+                outside += step;
+            }
+            at = next;
+            dir = d;
+        }
+    }
+    (counts[0], counts[1])
+}
+
+/// The next passes from one pass front: runs of needed offset points,
+/// refined where they spread apart, loops removed, travel reversed.
+pub(super) fn offset_front(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    coverage: &Coverage,
+    front_id: usize,
+    front: &[FrontPoint],
+) -> Result<Vec<Vec<FrontPoint>>> {
+    // Offsets of the front points, with midpoints inserted where the new
+    // pass would be too sparse or deviate from its chords.
+    let mut pts: Vec<(Offset, Vector3<f64>)> = Vec::with_capacity(front.len());
+    for (i, fp) in front.iter().enumerate() {
+        let o = offset_point(surface, s, region, coverage, front_id, fp)?;
+        if i > 0 {
+            if let Some((prev, _)) = pts.last() {
+                let a = surface.point(prev.uv.x, prev.uv.y);
+                let b = surface.point(o.uv.x, o.uv.y);
+                if (b - a).norm() > s.point_step {
+                    let src = &front[i - 1];
+                    let mid_uv = (src.c.uv() + fp.c.uv()) * 0.5;
+                    let travel = src.c.travel + fp.c.travel;
+                    let away = src.away + fp.away;
+                    if let Some(c) = Contact::new(surface, mid_uv, travel) {
+                        let mfp = FrontPoint { c, away };
+                        let m = offset_point(surface, s, region, coverage, front_id, &mfp)?;
+                        pts.push((m, c.travel));
+                    }
+                }
+            }
+        }
+        pts.push((o, fp.c.travel));
+    }
+    // Remove swallowtails: a point that does not advance along the travel.
+    let mut kept: Vec<(Offset, Vector3<f64>)> = Vec::with_capacity(pts.len());
+    for (o, t) in pts {
+        if let Some((last, _)) = kept.last() {
+            let a = surface.point(last.uv.x, last.uv.y);
+            let b = surface.point(o.uv.x, o.uv.y);
+            let adv = (b - a).dot(&t);
+            if adv <= 1e-3 * s.scallop.max(1e-6) {
+                // Keep the needed flag of the dropped point alive.
+                if o.needed {
+                    if let Some(l) = kept.last_mut() {
+                        l.0.needed = true;
+                    }
+                }
+                continue;
+            }
+        }
+        kept.push((o, t));
+    }
+    // Runs of needed points, each extended by one neighbour at both ends.
+    // Clipped points are not pass points; their need passes to the neighbours.
+    for k in 0..kept.len() {
+        let (clipped, needed) = (kept[k].0.clipped, kept[k].0.needed);
+        if !clipped {
+            continue;
+        }
+        for m in [k.checked_sub(1), Some(k + 1)].into_iter().flatten() {
+            if let Some((o, _)) = kept.get_mut(m) {
+                o.at_edge = true;
+                o.needed |= needed;
+            }
+        }
+    }
+    kept.retain(|(o, _)| !o.clipped);
+    let n = kept.len();
+    let mut runs = Vec::new();
+    let mut i = 0;
+    while i < n {
+        if !kept[i].0.needed {
+            i += 1;
+            continue;
+        }
+        let mut j = i;
+        while j + 1 < n && kept[j + 1].0.needed {
+            j += 1;
+        }
+        let (a, b) = (i.saturating_sub(1), (j + 1).min(n - 1));
+        // A run shorter than the cutter diameter inside the surface is a
+        // fragment of a folding front: its direction is not to be trusted
+        // for extending and offsetting it again (that cascades into
+        // crossing passes); what it would cut is left to the gap passes.
+        // At the surface edge a short run is a corner's last pass: kept.
+        let span: f64 = (a..b)
+            .map(|k| {
+                let (p, q) = (kept[k].0.uv, kept[k + 1].0.uv);
+                (surface.point(q.x, q.y) - surface.point(p.x, p.y)).norm()
+            })
+            .sum();
+        let at_edge = kept[a..=b].iter().any(|(o, _)| o.at_edge);
+        if b > a && (span >= MIN_RUN_SPAN * s.cutter.radius || at_edge) {
+            let keep = smooth_indices(
+                surface,
+                &kept[a..=b].iter().map(|(o, _)| o.uv).collect::<Vec<_>>(),
+                2.0 * s.point_step,
+            );
+            let sel: Vec<&(Offset, Vector3<f64>)> = keep.iter().map(|&k| &kept[a + k]).collect();
+            let mut uv: Vec<Vector2<f64>> = sel.iter().map(|(o, _)| o.uv).collect();
+            let mut aways: Vec<Vector3<f64>> = sel.iter().map(|(o, _)| o.away).collect();
+            let mut travels: Vec<Vector3<f64>> = sel.iter().map(|(_, t)| *t).collect();
+            let dists: Vec<f64> = sel.iter().map(|(o, _)| o.dist).collect();
+            pull_in(
+                surface,
+                front,
+                &mut uv,
+                &mut aways,
+                &mut travels,
+                &dists,
+                region,
+            );
+            let (head, tail) = extend_ends(surface, s, region, &mut uv);
+            let t0 = kept[a].1;
+            let t1 = kept[b].1;
+            for _ in 0..head {
+                aways.insert(0, kept[a].0.away);
+            }
+            for _ in 0..tail {
+                aways.push(kept[b].0.away);
+            }
+            // The new pass travels against the current one (zig-zag).
+            let mut reference: Vec<Vector3<f64>> = vec![-t0; head];
+            reference.extend(travels.iter().map(|t| -t));
+            reference.extend(std::iter::repeat_n(-t1, tail));
+            let contacts = front_from_uv(surface, &uv, Some(&reference))?;
+            if contacts.len() >= 2 {
+                let mut run: Vec<FrontPoint> = Vec::with_capacity(contacts.len());
+                for c in contacts {
+                    // The carried direction of the nearest offset point, made
+                    // perpendicular to the new travel.
+                    let k = uv
+                        .iter()
+                        .enumerate()
+                        .min_by(|x, y| (x.1 - c.uv()).norm().total_cmp(&(y.1 - c.uv()).norm()))
+                        .map_or(0, |(k, _)| k);
+                    let mut away = c.cross();
+                    if away.dot(&aways[k]) < 0.0 {
+                        away = -away;
+                    }
+                    run.push(FrontPoint { c, away });
+                }
+                // Travel order: reverse so the pass runs along its travel.
+                run.reverse();
+                runs.push(run);
+            }
+        }
+        i = j + 1;
+    }
+    Ok(runs)
+}
+
+/// Nearest point of the front polyline to `p`: (distance, uv there), `None`
+/// where that is an end of the front (beyond its ends the pass's run-in
+/// and run-out cover, not an offset).
+pub(super) fn nearest_on_front(
+    front_xyz: &[nalgebra::Point3<f64>],
+    front_uv: &[Vector2<f64>],
+    p: &nalgebra::Point3<f64>,
+) -> Option<(f64, Vector2<f64>)> {
+    let mut best: Option<(f64, Vector2<f64>, bool)> = None;
+    let last = front_xyz.len().saturating_sub(1);
+    for k in 0..front_xyz.len() {
+        let (a, ua) = (front_xyz[k], front_uv[k]);
+        let (b, ub) = if k + 1 < front_xyz.len() {
+            (front_xyz[k + 1], front_uv[k + 1])
+        } else {
+            (a, ua)
+        };
+        let f = segment_parameter(a, b, *p);
+        let dist = (a + (b - a) * f - p).norm();
+        let at_end = (k == 0 && f <= 0.0) || (k + 1 >= last && f >= 1.0) || last == 0;
+        if best.is_none_or(|(bd, _, _)| dist < bd) {
+            best = Some((dist, ua + (ub - ua) * f, at_end));
+        }
+    }
+    best.and_then(|(d, uv, at_end)| (!at_end).then_some((d, uv)))
+}
+
+/// Where the new pass (points `uv`, each offset `dists[k]` from its source)
+/// lies farther from the current pass than the two half-widths allow, it
+/// is pulled in: points and, recursively, chord midpoints are moved towards
+/// their nearest point on the current pass to that distance. Lee's point
+/// offsets leave such gaps at the inner side of pass corners (the offsets
+/// of the two legs cross and the loop between them is cut out) and between
+/// offset points that spread apart; a gap there is a scallop above h.
+pub(super) fn pull_in(
+    surface: &NurbsSurface,
+    front: &[FrontPoint],
+    uv: &mut Vec<Vector2<f64>>,
+    aways: &mut Vec<Vector3<f64>>,
+    travels: &mut Vec<Vector3<f64>>,
+    dists: &[f64],
+    region: &Region,
+) {
+    pub(super) const SLACK: f64 = 1.01;
+    pub(super) const MAX_PULL: f64 = 1.35;
+    pub(super) const DEPTH: usize = 5;
+    let _ = region;
+    let front_xyz: Vec<_> = front.iter().map(|f| f.c.point()).collect();
+    let front_uv: Vec<_> = front.iter().map(|f| f.c.uv()).collect();
+    let pull = |q: Vector2<f64>, r: f64| -> Option<Vector2<f64>> {
+        let p = surface.point(q.x, q.y);
+        let (d, s_uv) = nearest_on_front(&front_xyz, &front_uv, &p)?;
+        // A gap wider than a third of the spacing is not a chord between
+        // neighbouring offsets (the front ends or folds there): left alone.
+        if d <= r * SLACK || d <= 0.0 || d > r * MAX_PULL {
+            return None;
+        }
+        // Linear in (u, v) between the nearest front point and q, then
+        // corrected once with the distance actually reached.
+        let mut f = r / d;
+        let mut m = s_uv + (q - s_uv) * f;
+        for _ in 0..2 {
+            let pm = surface.point(m.x, m.y);
+            let dm = (pm - surface.point(s_uv.x, s_uv.y)).norm();
+            if dm <= 0.0 {
+                break;
+            }
+            f *= r / dm;
+            m = s_uv + (q - s_uv) * f;
+        }
+        let (u, v) = surface.clamp_uv(m.x, m.y);
+        Some(Vector2::new(u, v))
+    };
+    let n = uv.len();
+    let mut out_uv = Vec::with_capacity(n);
+    let mut out_away = Vec::with_capacity(n);
+    let mut out_travel = Vec::with_capacity(n);
+    for k in 0..n {
+        let r = dists.get(k).copied().unwrap_or(0.0);
+        // The offset points themselves lie at their distance from their
+        // source point, so at most that far from the front.
+        let q = uv[k];
+        if k > 0 {
+            // Chord midpoints between the previous (already placed) point and this one.
+            let r_seg = dists[k - 1].min(r);
+            let a = out_uv.last().copied().unwrap_or(q);
+            let mut mids = Vec::new();
+            subdivide(&pull, a, q, r_seg, DEPTH, &mut mids);
+            for m in mids {
+                out_uv.push(m);
+                out_away.push(aways[k]);
+                out_travel.push(travels[k]);
+            }
+        }
+        out_uv.push(q);
+        out_away.push(aways[k]);
+        out_travel.push(travels[k]);
+    }
+    // Pulled points must still advance along the travel (no back-steps).
+    let mut keep = vec![true; out_uv.len()];
+    let mut last: Option<nalgebra::Point3<f64>> = None;
+    for k in 0..out_uv.len() {
+        let p = surface.point(out_uv[k].x, out_uv[k].y);
+        if let Some(a) = last {
+            if (p - a).dot(&out_travel[k]) <= 1e-6 {
+                keep[k] = false;
+                continue;
+            }
+        }
+        last = Some(p);
+    }
+    let mut it = keep.iter();
+    out_uv.retain(|_| *it.next().unwrap_or(&true));
+    let mut it = keep.iter();
+    out_away.retain(|_| *it.next().unwrap_or(&true));
+    let mut it = keep.iter();
+    out_travel.retain(|_| *it.next().unwrap_or(&true));
+    *uv = out_uv;
+    *aways = out_away;
+    *travels = out_travel;
+}
+
+/// Pulled-in midpoints between `a` and `b`, in order.
+pub(super) fn subdivide(
+    pull: &dyn Fn(Vector2<f64>, f64) -> Option<Vector2<f64>>,
+    a: Vector2<f64>,
+    b: Vector2<f64>,
+    r: f64,
+    depth: usize,
+    out: &mut Vec<Vector2<f64>>,
+) {
+    if depth == 0 {
+        return;
+    }
+    let m = (a + b) * 0.5;
+    if let Some(p) = pull(m, r) {
+        subdivide(pull, a, p, r, depth - 1, out);
+        out.push(p);
+        subdivide(pull, p, b, r, depth - 1, out);
+    }
+}

@@ -1,0 +1,184 @@
+//! Lee-style iso-scallop offsetting (Lee 1998, methods.md A), shared by
+//! `iso_scallop` (the whole surface as one region, from a boundary curve) and
+//! `tensor_regions` (per region, from the pass through its widest-strip
+//! point). Each point of the current pass is carried across the feed, on the
+//! surface, to where the current pass's half-width on that side and the next
+//! pass's half-width on the other side meet at the scallop height. Passes run
+//! zig-zag; a point of the next pass is kept while the strip edge of the
+//! current pass still leaves region material uncut.
+
+use super::pass_ends::{edges_at, extend_pass};
+use super::passes::{Contact, PassSettings};
+use super::regions::Region;
+use crate::error::{Error, Result};
+use crate::formats::Pass;
+use crate::geometry::NurbsSurface;
+use nalgebra::{Vector2, Vector3};
+
+mod corners;
+mod coverage;
+mod fronts;
+
+use corners::*;
+use coverage::*;
+use fronts::*;
+
+/// Offset runs shorter than this many cutter radii are not passes.
+const MIN_RUN_SPAN: f64 = 2.0;
+
+/// Passes cannot exceed this count per region (a guard against runaway offsetting).
+const MAX_PASSES: usize = 5_000;
+
+/// Whether `travel` is within 30 deg of a domain edge through `uv` that a
+/// walk heading `exit` (3-D tangent) leaves the domain through. Only the
+/// edge that stopped the walk counts: at a corner, an offset stopped by the
+/// edge across the pass is not a point of a pass along the other edge (it
+/// was, and every pass after it then hooked round into that edge).
+fn runs_along_boundary(
+    surface: &NurbsSurface,
+    uv: Vector2<f64>,
+    exit: Vector3<f64>,
+    travel: Vector3<f64>,
+) -> bool {
+    let Some(g) = crate::geometry::LocalGeometry::at(surface, uv.x, uv.y) else {
+        return false;
+    };
+    let Some(t) = travel.try_normalize(1e-300) else {
+        return false;
+    };
+    edges_at(surface, uv, Some(g.tangent_to_uv(exit)))
+        .iter()
+        .any(|e| e.dot(&t).abs() > 30f64.to_radians().cos())
+}
+
+fn too_many_passes(region: &Region) -> Error {
+    Error::planning(format!(
+        "region {} needs more than {MAX_PASSES} passes: the scallop is too small for the surface",
+        region.id
+    ))
+}
+
+fn singular(uv: Vector2<f64>) -> Error {
+    Error::planning(format!(
+        "the surface is singular at uv ({:.4}, {:.4}): no normal there",
+        uv.x, uv.y
+    ))
+}
+
+/// Covers `region` with passes offset from `initial` (a uv polyline in the
+/// travel direction of the first pass), to both sides. Passes are returned
+/// in machining order (outermost of one side first) with `region` set.
+pub fn cover(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    initial: &[Vector2<f64>],
+) -> Result<Vec<Pass>> {
+    let mut initial = initial.to_vec();
+    extend_ends(surface, s, region, &mut initial);
+    let first = front_from_uv(surface, &initial, None)?;
+    if first.len() < 2 {
+        return Ok(Vec::new());
+    }
+    let mut sides: Vec<Vec<Vec<Contact>>> = Vec::new();
+    let mut total = 0usize;
+    let mut coverage = Coverage::new(s, FOLD_SHARE);
+    coverage.add(s, 0, &first);
+    for side in [1.0, -1.0] {
+        let mut done: Vec<Vec<Contact>> = Vec::new();
+        let start: Vec<FrontPoint> = first
+            .iter()
+            .map(|c| FrontPoint {
+                c: *c,
+                away: c.cross() * side,
+            })
+            .collect();
+        let mut queue = vec![(start, 0usize)];
+        while let Some((front, front_id)) = queue.pop() {
+            for run in offset_front(surface, s, region, &coverage, front_id, &front)? {
+                total += 1;
+                if total > MAX_PASSES {
+                    return Err(too_many_passes(region));
+                }
+                let contacts: Vec<Contact> = run.iter().map(|f| f.c).collect();
+                coverage.add(s, total, &contacts);
+                done.push(contacts);
+                queue.push((run, total));
+            }
+        }
+        sides.push(done);
+    }
+    let mut passes = Vec::new();
+    let to_pass = |contacts: &[Contact]| -> Result<Pass> {
+        let mut pass = Pass {
+            region: region.id,
+            points: Vec::with_capacity(contacts.len() + 1),
+            min_strip_width: None,
+        };
+        let spikes = corner_spikes(s, contacts)?;
+        let run_ons = turn_starts(s, contacts)?;
+        let mut prev: Option<Contact> = None;
+        for (i, c) in contacts.iter().enumerate() {
+            if let Some(a) = prev {
+                // Offset points follow the front, not the chord tolerance
+                // (points clipped onto an edge can lie far apart): contacts
+                // in between keep each straight move within the tolerance.
+                let gap = (c.point() - a.point()).norm();
+                let n = (gap / s.point_step).ceil() as usize;
+                let mut last = a;
+                for m in 1..n {
+                    let f = m as f64 / n as f64;
+                    let uv = a.uv() * (1.0 - f) + c.uv() * f;
+                    let t = a.travel * (1.0 - f) + c.travel * f;
+                    if let Some(mc) = Contact::new(surface, uv, t) {
+                        pivot(&last, &mc, s, &mut pass.points)?;
+                        pass.points.push(mc.path_point(s)?);
+                        last = mc;
+                    }
+                }
+                pivot(&last, c, s, &mut pass.points)?;
+            }
+            pass.points.push(c.path_point(s)?);
+            if let Some((dir, len)) = spikes[i] {
+                spike(surface, s, c, dir, len, &mut pass.points)?;
+            } else if let Some(lag) = run_ons[i] {
+                run_on(surface, s, c, lag, &mut pass.points)?;
+            }
+            prev = Some(*c);
+        }
+        extend_pass(surface, &mut pass.points, s)?;
+        Ok(pass)
+    };
+    for run in sides[0].iter().rev() {
+        passes.push(to_pass(run)?);
+    }
+    passes.push(to_pass(&first)?);
+    for run in &sides[1] {
+        passes.push(to_pass(run)?);
+    }
+    // Corners the offsetting leaves between pass ends, region boundaries
+    // and fronts that split: short passes through what no strip reached.
+    let mut reached = Coverage::new(s, GAP_SHARE);
+    for (id, pass) in passes.iter().enumerate() {
+        reached.add_points(id, &strip_of(pass));
+    }
+    for uv in uncut_samples(surface, s, region, &reached) {
+        if reached.covered(surface.point(uv.x, uv.y), usize::MAX) {
+            continue;
+        }
+        let Some(line) = gap_line(surface, s, region, &reached, uv) else {
+            continue;
+        };
+        let contacts = front_from_uv(surface, &line, None)?;
+        if contacts.len() < 2 {
+            continue;
+        }
+        let pass = to_pass(&contacts)?;
+        reached.add_points(passes.len(), &strip_of(&pass));
+        passes.push(pass);
+        if passes.len() > MAX_PASSES {
+            return Err(too_many_passes(region));
+        }
+    }
+    Ok(passes)
+}

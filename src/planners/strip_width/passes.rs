@@ -1,0 +1,283 @@
+//! Shared by the strip-width planners (iso_parametric, iso_scallop,
+//! tensor_regions): tool poses along a pass of contact points, the widths each
+//! pose leaves, and chord-tolerance sampling of a pass.
+
+use super::width::{curvatures_along, cutter_of_job, gouge_error, Curvatures, WidthError};
+use crate::error::Result;
+use crate::formats::PathPoint;
+use crate::geometry::{LocalGeometry, NurbsSurface};
+use crate::tools::LeadCutter;
+use nalgebra::{Point3, Vector2, Vector3};
+
+/// Planning parameters shared by the three strategies.
+#[derive(Clone, Copy, Debug)]
+pub struct PassSettings {
+    pub cutter: LeadCutter,
+    /// Scallop height the passes are spaced for (a margin below the job's).
+    pub scallop: f64,
+    /// Chord tolerance along a pass, mm.
+    pub chord_tolerance: f64,
+    /// Longest step along a pass, mm.
+    pub max_step: f64,
+    /// Longest step along a pass that keeps the chord error within the
+    /// tolerance on the most curved part of the surface, mm.
+    pub point_step: f64,
+}
+
+/// Share of the job's scallop the spacing is planned for: the rest absorbs
+/// the chord error between tool positions and the model's approximations
+/// (osculating circle across the feed).
+pub const SCALLOP_MARGIN: f64 = 0.9;
+
+impl PassSettings {
+    pub fn from_job(job: &crate::formats::Job) -> Result<Self> {
+        let cutter = cutter_of_job(job)?;
+        let h = job.scallop()?;
+        let surface = job.surface()?;
+        let chord_tolerance = h * 0.05;
+        let max_step = (cutter.radius * 2.0).max(1.0);
+        // Chord error of a step s on curvature k: k s^2 / 8.
+        let k = max_curvature(surface);
+        let point_step = if k > 0.0 {
+            (8.0 * chord_tolerance / k).sqrt().clamp(0.05, max_step)
+        } else {
+            max_step
+        };
+        Ok(Self {
+            cutter,
+            scallop: h * SCALLOP_MARGIN,
+            chord_tolerance,
+            max_step,
+            point_step,
+        })
+    }
+}
+
+/// Largest principal curvature magnitude over a 33 x 33 sample grid, 1/mm.
+pub fn max_curvature(surface: &NurbsSurface) -> f64 {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let n = 32;
+    let mut k = 0.0f64;
+    for i in 0..=n {
+        for j in 0..=n {
+            let (u, v) = (
+                u0 + (u1 - u0) * i as f64 / n as f64,
+                v0 + (v1 - v0) * j as f64 / n as f64,
+            );
+            if let Some(g) = LocalGeometry::at(surface, u, v) {
+                k = k.max(g.k_min.abs()).max(g.k_max.abs());
+            }
+        }
+    }
+    k
+}
+
+/// A contact on the surface with its travel direction.
+#[derive(Clone, Copy, Debug)]
+pub struct Contact {
+    pub g: LocalGeometry,
+    /// Unit travel direction (3-D tangent).
+    pub travel: Vector3<f64>,
+    pub k: Curvatures,
+}
+
+impl Contact {
+    /// `travel` is projected onto the tangent plane and normalised; `None`
+    /// where the surface is singular or the direction is normal to it.
+    pub fn new(surface: &NurbsSurface, uv: Vector2<f64>, travel: Vector3<f64>) -> Option<Self> {
+        let g = LocalGeometry::at(surface, uv.x, uv.y)?;
+        Self::from_geometry(g, travel)
+    }
+
+    pub fn from_geometry(g: LocalGeometry, travel: Vector3<f64>) -> Option<Self> {
+        let t = (travel - g.n * travel.dot(&g.n)).try_normalize(1e-12)?;
+        Some(Self {
+            k: curvatures_along(&g, t),
+            g,
+            travel: t,
+        })
+    }
+
+    pub fn uv(&self) -> Vector2<f64> {
+        self.g.uv
+    }
+    pub fn point(&self) -> Point3<f64> {
+        self.g.point()
+    }
+    /// Unit cross-feed n x t.
+    pub fn cross(&self) -> Vector3<f64> {
+        self.g.n.cross(&self.travel)
+    }
+
+    /// Half-width on the side of `towards` (a 3-D direction), for scallop h.
+    pub fn half_width_towards(&self, s: &PassSettings, towards: Vector3<f64>) -> Result<f64> {
+        let side = if towards.dot(&self.cross()) >= 0.0 {
+            1.0
+        } else {
+            -1.0
+        };
+        s.cutter
+            .half_width(s.scallop, self.k, side)
+            .map_err(|WidthError::Gouge { depth }| {
+                gouge_error(&s.cutter, self.uv().into(), self.k.cross, depth)
+            })
+    }
+
+    /// The path point: pose, strip width and feed. Errors where the cutter gouges.
+    pub fn path_point(&self, s: &PassSettings) -> Result<PathPoint> {
+        let depth = s.cutter.disc_gouge(self.k);
+        if depth > 1e-3 * s.scallop {
+            return Err(gouge_error(
+                &s.cutter,
+                self.uv().into(),
+                self.k.cross.max(self.k.feed),
+                depth,
+            ));
+        }
+        let w =
+            s.cutter
+                .strip_width(s.scallop, self.k)
+                .map_err(|WidthError::Gouge { depth }| {
+                    gouge_error(&s.cutter, self.uv().into(), self.k.cross, depth)
+                })?;
+        let cc = self.point();
+        let (cl, axis) = s.cutter.pose(cc, self.g.n, self.travel);
+        Ok(PathPoint {
+            cc: cc.into(),
+            cl: cl.into(),
+            axis: axis.into(),
+            uv: self.uv().into(),
+            strip_width: Some(w),
+            feed: Some(self.travel.into()),
+            normal: Some(self.g.n.into()),
+            ..Default::default()
+        })
+    }
+}
+
+/// Samples a curve `curve(s)`, s in [0, 1], so that every chord stays within
+/// `tol` of the curve (checked at chord midpoints, recursively) and no step is
+/// longer than `max_step`. Returns the parameters, sorted, including 0 and 1.
+pub fn sample_curve(
+    curve: &dyn Fn(f64) -> Point3<f64>,
+    tol: f64,
+    max_step: f64,
+    initial: usize,
+) -> Vec<f64> {
+    let n0 = initial.max(2);
+    let mut out = vec![0.0];
+    // (a, b, curve(a), curve(b), depth)
+    type Span = (f64, f64, Point3<f64>, Point3<f64>, u32);
+    let mut stack: Vec<Span> = Vec::new();
+    for k in (0..n0 - 1).rev() {
+        let (a, b) = (k as f64 / (n0 - 1) as f64, (k + 1) as f64 / (n0 - 1) as f64);
+        stack.push((a, b, curve(a), curve(b), 0));
+    }
+    while let Some((a, b, pa, pb, depth)) = stack.pop() {
+        let m = 0.5 * (a + b);
+        let pm = curve(m);
+        let chord = pb - pa;
+        let len = chord.norm();
+        let dev = if len > 0.0 {
+            let t = chord / len;
+            let d = pm - pa;
+            (d - t * d.dot(&t)).norm()
+        } else {
+            (pm - pa).norm()
+        };
+        // Quarter points too, so that an S-shaped span is not missed.
+        let q1 = curve(0.5 * (a + m));
+        let dev_q = if len > 0.0 {
+            let t = chord / len;
+            let d = q1 - pa;
+            (d - t * d.dot(&t)).norm()
+        } else {
+            0.0
+        };
+        if depth < 24 && (dev > tol || dev_q > tol || len > max_step) {
+            stack.push((m, b, pm, pb, depth + 1));
+            stack.push((a, m, pa, pm, depth + 1));
+        } else {
+            out.push(b);
+        }
+    }
+    out
+}
+
+/// Walks on the surface from `uv` along the 3-D tangent direction `dir`
+/// (re-projected on the tangent plane each sub-step, midpoint rule) for `dist`
+/// mm. Returns the end, the carried direction there, and whether the domain
+/// boundary stopped the walk (the end then lies on it). Not a field line:
+/// the heading is carried along the walk (the offset distance of the
+/// iso-scallop offsetting is measured along it), so it is not traced with
+/// geometry::field_trace.
+pub fn walk_on_surface(
+    surface: &NurbsSurface,
+    uv: Vector2<f64>,
+    dir: Vector3<f64>,
+    dist: f64,
+) -> Option<(Vector2<f64>, Vector3<f64>, bool)> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let n = ((dist / 0.75).ceil() as usize).clamp(1, 64);
+    let h = dist / n as f64;
+    let mut p = uv;
+    let mut d = dir;
+    let step_at = |p: Vector2<f64>, d: Vector3<f64>| -> Option<(Vector2<f64>, Vector3<f64>)> {
+        let g = LocalGeometry::at(surface, p.x, p.y)?;
+        let t = (d - g.n * d.dot(&g.n)).try_normalize(1e-12)?;
+        Some((g.tangent_to_uv(t), t))
+    };
+    for _ in 0..n {
+        let (k1, t1) = step_at(p, d)?;
+        let mid = p + k1 * (0.5 * h);
+        let (mu, mv) = surface.clamp_uv(mid.x, mid.y);
+        let (k2, t2) = step_at(Vector2::new(mu, mv), t1)?;
+        let next = p + k2 * h;
+        d = t2;
+        if next.x < u0 || next.x > u1 || next.y < v0 || next.y > v1 {
+            // Clip the step at the boundary.
+            let delta = next - p;
+            let mut f = 1.0f64;
+            if delta.x > 0.0 {
+                f = f.min((u1 - p.x) / delta.x);
+            } else if delta.x < 0.0 {
+                f = f.min((u0 - p.x) / delta.x);
+            }
+            if delta.y > 0.0 {
+                f = f.min((v1 - p.y) / delta.y);
+            } else if delta.y < 0.0 {
+                f = f.min((v0 - p.y) / delta.y);
+            }
+            let end = p + delta * f.clamp(0.0, 1.0);
+            let (eu, ev) = surface.clamp_uv(end.x, end.y);
+            return Some((Vector2::new(eu, ev), d, true));
+        }
+        p = next;
+    }
+    Some((p, d, false))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn circle_sampling_keeps_the_chord_error() {
+        let r = 50.0;
+        let curve = |s: f64| Point3::new(r * (s * 3.0).cos(), r * (s * 3.0).sin(), 0.0);
+        let tol = 0.005;
+        let ts = sample_curve(&curve, tol, 100.0, 4);
+        // Exact chord error of a circle: r (1 - cos(dtheta/2)).
+        for w in ts.windows(2) {
+            let dth = 3.0 * (w[1] - w[0]);
+            assert!(r * (1.0 - (dth / 2.0).cos()) <= tol * 1.0001);
+        }
+        // Not absurdly dense: within 2x of the optimum count 3 / (2 acos(1 - tol/r)).
+        let optimum = 3.0 / (2.0 * (1.0 - tol / r).acos());
+        assert!(
+            (ts.len() as f64) < 2.2 * optimum + 2.0,
+            "{} vs {optimum}",
+            ts.len()
+        );
+    }
+}
