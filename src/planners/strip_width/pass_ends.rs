@@ -142,7 +142,8 @@ pub fn extend_pass(
 pub const RUN_OUT_MAX: f64 = 2.3;
 
 /// The points to add after the last (`at_end`) or before the first point,
-/// in order away from the pass.
+/// in order away from the pass: on over the surface by the disc's lag, then,
+/// where the pass heads out of the domain, along the edge and past it.
 fn extension(
     surface: &NurbsSurface,
     points: &[PathPoint],
@@ -159,151 +160,224 @@ fn extension(
     let (Some(feed), Some(_)) = (end.feed, end.normal) else {
         return Ok(Vec::new());
     };
-    let r = s.cutter.radius;
-    let travel = Vector3::from(feed);
-    // Direction the extension goes: along the travel at the end, against it at the start.
-    let out_dir = if at_end { travel } else { -travel };
-    let w = end.strip_width.unwrap_or(2.0 * r).min(2.0 * r);
-    let hw = 0.5 * w;
-    // The disc lags behind the contact: at a pass end the far side of the
-    // strip is cut only once the contact has run on by this much. At a pass
-    // start it covers what lies behind the contact, except along an edge the
-    // pass starts on and runs along: the material on that edge behind the
-    // start is cut only within h / sin(lead) of it, so the start runs in by
-    // the same.
-    let along_edge = || {
-        let end_uv = Vector2::from(end.uv);
-        boundary_edges(surface, end_uv).iter().any(|e| {
-            // ... and the edge goes on behind the start (not a corner).
-            e.dot(&travel).abs() >= ALONG_EDGE_DEG.to_radians().cos()
-                && walk_along_edge(surface, end_uv, -travel, 1e-3 * r) != end_uv
-        })
-    };
-    let lag = if s.cutter.ball || !(at_end || along_edge()) {
-        0.0
-    } else {
-        let y = w.min(r);
-        r * (1.0 - (1.0 - (y / r).powi(2)).max(0.0).sqrt()) * s.cutter.lead.cos() * 1.05
-    };
-    let oblique = |uv: Vector2<f64>, t: Vector3<f64>| -> f64 {
-        boundary_edges(surface, uv)
+    let mut run = Extension::new(surface, s, end, Vector3::from(feed), at_end);
+    let mut out = Vec::new();
+    run.on_surface(&mut out)?;
+    if run.at_edge {
+        run.along_edge(&mut out)?;
+        if run.done < run.need - 1e-9 {
+            run.past_edge(&mut out)?;
+        }
+    }
+    Ok(out)
+}
+
+/// The state of one pass-end extension as it walks away from the pass.
+struct Extension<'a> {
+    surface: &'a NurbsSurface,
+    s: &'a PassSettings,
+    at_end: bool,
+    /// Cutter radius and half the strip width at the pass end.
+    r: f64,
+    hw: f64,
+    /// How far the disc lags behind the contact (the minimum run).
+    lag: f64,
+    step: f64,
+    uv: Vector2<f64>,
+    dir: Vector3<f64>,
+    /// Distance run so far and distance to run.
+    done: f64,
+    need: f64,
+    /// Whether the extension reached a domain edge it heads out of.
+    at_edge: bool,
+    guard: usize,
+}
+
+impl<'a> Extension<'a> {
+    fn new(
+        surface: &'a NurbsSurface,
+        s: &'a PassSettings,
+        end: &PathPoint,
+        travel: Vector3<f64>,
+        at_end: bool,
+    ) -> Self {
+        let r = s.cutter.radius;
+        // Direction the extension goes: along the travel at the end, against it at the start.
+        let out_dir = if at_end { travel } else { -travel };
+        let w = end.strip_width.unwrap_or(2.0 * r).min(2.0 * r);
+        // The disc lags behind the contact: at a pass end the far side of the
+        // strip is cut only once the contact has run on by this much. At a pass
+        // start it covers what lies behind the contact, except along an edge the
+        // pass starts on and runs along: the material on that edge behind the
+        // start is cut only within h / sin(lead) of it, so the start runs in by
+        // the same.
+        let along_edge = || {
+            let end_uv = Vector2::from(end.uv);
+            boundary_edges(surface, end_uv).iter().any(|e| {
+                // ... and the edge goes on behind the start (not a corner).
+                e.dot(&travel).abs() >= ALONG_EDGE_DEG.to_radians().cos()
+                    && walk_along_edge(surface, end_uv, -travel, 1e-3 * r) != end_uv
+            })
+        };
+        let lag = if s.cutter.ball || !(at_end || along_edge()) {
+            0.0
+        } else {
+            let y = w.min(r);
+            r * (1.0 - (1.0 - (y / r).powi(2)).max(0.0).sqrt()) * s.cutter.lead.cos() * 1.05
+        };
+        Self {
+            surface,
+            s,
+            at_end,
+            r,
+            hw: 0.5 * w,
+            lag,
+            step: s.point_step.min(0.5 * r).max(1e-3),
+            uv: Vector2::from(end.uv),
+            dir: out_dir,
+            done: 0.0,
+            need: lag,
+            at_edge: false,
+            guard: 0,
+        }
+    }
+
+    /// How far past the edges at `uv` the far side of the strip still is,
+    /// for a pass crossing them along `t`: up to 2R (shallower passes run
+    /// along the edge instead).
+    fn oblique(&self, uv: Vector2<f64>, t: Vector3<f64>) -> f64 {
+        boundary_edges(self.surface, uv)
             .iter()
             .map(|e| {
                 let c = t.dot(e).abs().min(1.0);
                 let sn = (1.0 - c * c).sqrt().max(1e-3);
-                // Up to 2R (shallower passes run along the edge instead).
-                (hw * c / sn).min(2.0 * r)
+                (self.hw * c / sn).min(2.0 * self.r)
             })
             .fold(0.0, f64::max)
-    };
-    let mut out = Vec::new();
-    let mut uv = Vector2::from(end.uv);
-    let mut dir = out_dir;
-    let mut done = 0.0;
-    let step = s.point_step.min(0.5 * r).max(1e-3);
-    let mut need = lag;
-    let mut at_edge = false;
-    let mut guard = 0;
-    // One step of `len` along the domain edge through `uv` that `dir` heads
-    // along, followed on the surface (a straight run along a concave edge
-    // would cut below it): advances `uv`, `dir` and `done` and pushes the
-    // step's contact. Some(true) after a step with a contact, Some(false)
-    // after one without (the run stops there), None where `dir` heads
-    // along no edge or the edge ends (a corner).
-    let follow_edge = |uv: &mut Vector2<f64>,
-                       dir: &mut Vector3<f64>,
-                       done: &mut f64,
-                       len: f64,
-                       out: &mut Vec<PathPoint>|
-     -> Result<Option<bool>> {
-        let Some(e) = edge_along(surface, *uv, *dir) else {
+    }
+
+    /// The extension has reached an edge it heads out of: it runs on past it
+    /// by the strip's overhang.
+    fn reach_edge(&mut self) {
+        self.at_edge = true;
+        self.need = self.done.max(self.lag) + self.oblique(self.uv, self.dir);
+    }
+
+    /// One step of `len` along the domain edge through `uv` that `dir` heads
+    /// along, followed on the surface (a straight run along a concave edge
+    /// would cut below it): advances `uv`, `dir` and `done` and pushes the
+    /// step's contact. Some(true) after a step with a contact, Some(false)
+    /// after one without (the run stops there), None where `dir` heads
+    /// along no edge or the edge ends (a corner).
+    fn follow_edge(&mut self, len: f64, out: &mut Vec<PathPoint>) -> Result<Option<bool>> {
+        let surface = self.surface;
+        let Some(e) = edge_along(surface, self.uv, self.dir) else {
             return Ok(None);
         };
-        let nx = walk_along_edge(surface, *uv, e, len);
-        let mv = (surface.point(nx.x, nx.y) - surface.point(uv.x, uv.y)).norm();
-        if mv <= 1e-6 * step {
+        let nx = walk_along_edge(surface, self.uv, e, len);
+        let mv = (surface.point(nx.x, nx.y) - surface.point(self.uv.x, self.uv.y)).norm();
+        if mv <= 1e-6 * self.step {
             return Ok(None);
         }
-        *done += mv;
-        *uv = nx;
-        *dir = e;
-        let Some(c) = Contact::new(surface, nx, if at_end { e } else { -e }) else {
+        self.done += mv;
+        self.uv = nx;
+        self.dir = e;
+        let Some(c) = Contact::new(surface, nx, if self.at_end { e } else { -e }) else {
             return Ok(Some(false));
         };
-        out.push(c.path_point(s)?);
+        out.push(c.path_point(self.s)?);
         Ok(Some(true))
-    };
-    // On the surface first; `at_edge` once the extension would leave it.
-    while done < need - 1e-9 && guard < 10_000 {
-        guard += 1;
-        let Some((next, d, clipped)) = walk_on_surface(surface, uv, dir, step.min(need - done))
-        else {
-            break;
-        };
-        let moved = (surface.point(next.x, next.y) - surface.point(uv.x, uv.y)).norm();
-        if clipped && moved <= 1e-6 * step {
-            // At an edge, heading out of the domain or along the edge.
-            if guard < 9_999 {
-                let len = step.min(need - done);
-                match follow_edge(&mut uv, &mut dir, &mut done, len, &mut out)? {
-                    Some(true) => continue,
-                    Some(false) => break,
-                    None => {}
+    }
+
+    /// On over the surface by the lag; `at_edge` once the extension would
+    /// leave the domain.
+    fn on_surface(&mut self, out: &mut Vec<PathPoint>) -> Result<()> {
+        let surface = self.surface;
+        while self.done < self.need - 1e-9 && self.guard < 10_000 {
+            self.guard += 1;
+            let Some((next, d, clipped)) = walk_on_surface(
+                surface,
+                self.uv,
+                self.dir,
+                self.step.min(self.need - self.done),
+            ) else {
+                break;
+            };
+            let moved =
+                (surface.point(next.x, next.y) - surface.point(self.uv.x, self.uv.y)).norm();
+            if clipped && moved <= 1e-6 * self.step {
+                // At an edge, heading out of the domain or along the edge.
+                if self.guard < 9_999 {
+                    let len = self.step.min(self.need - self.done);
+                    match self.follow_edge(len, out)? {
+                        Some(true) => continue,
+                        Some(false) => break,
+                        None => {}
+                    }
                 }
+                // Out of the domain, or a corner where the edge ends.
+                self.reach_edge();
+                return Ok(());
             }
-            // Out of the domain, or a corner where the edge ends.
-            at_edge = true;
-            need = done.max(lag) + oblique(uv, dir);
-            break;
+            if moved <= 0.0 {
+                break;
+            }
+            self.done += moved;
+            self.uv = next;
+            self.dir = d;
+            let t = if self.at_end { d } else { -d };
+            let Some(c) = Contact::new(surface, self.uv, t) else {
+                break;
+            };
+            out.push(c.path_point(self.s)?);
         }
-        if moved <= 0.0 {
-            break;
+        if self.done >= self.need - 1e-9 && !boundary_edges(surface, self.uv).is_empty() {
+            // Ended exactly on an edge: check whether it heads out.
+            // Along an edge (within 20 deg) the disc behind the contact covers
+            // the edge: no run past it.
+            let along = edge_along(surface, self.uv, self.dir).is_some();
+            if let (false, Some((_, _, true))) = (
+                along,
+                walk_on_surface(surface, self.uv, self.dir, 1e-3 * self.step),
+            ) {
+                self.reach_edge();
+            }
         }
-        done += moved;
-        uv = next;
-        dir = d;
-        let t = if at_end { d } else { -d };
-        let Some(c) = Contact::new(surface, uv, t) else {
-            break;
+        Ok(())
+    }
+
+    /// The overrun past the edge, where the pass heads along one: on along
+    /// the edge (a straight run in the tangent plane would leave a convex
+    /// edge, and the material along it, or cut into a concave one).
+    fn along_edge(&mut self, out: &mut Vec<PathPoint>) -> Result<()> {
+        while self.done < self.need - 1e-9 && self.guard < 10_000 {
+            self.guard += 1;
+            let len = self.step.min(self.need - self.done);
+            if self.follow_edge(len, out)? != Some(true) {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// The rest of the overrun, off the domain: along the edge's tangent
+    /// plane, or along the surface continued past the edge where it falls
+    /// away, lifted where the disc would dip below the surface.
+    fn past_edge(&self, out: &mut Vec<PathPoint>) -> Result<()> {
+        let (surface, s, at_end) = (self.surface, self.s, self.at_end);
+        let Some(g) = LocalGeometry::at(surface, self.uv.x, self.uv.y) else {
+            return Ok(());
         };
-        out.push(c.path_point(s)?);
-    }
-    if !at_edge && done >= need - 1e-9 && !boundary_edges(surface, uv).is_empty() {
-        // Ended exactly on an edge: check whether it heads out.
-        // Along an edge (within 20 deg) the disc behind the contact covers
-        // the edge: no run past it.
-        let along = edge_along(surface, uv, dir).is_some();
-        if let (false, Some((_, _, true))) = (along, walk_on_surface(surface, uv, dir, 1e-3 * step))
-        {
-            at_edge = true;
-            need = done.max(lag) + oblique(uv, dir);
-        }
-    }
-    // The overrun past the edge, where the pass heads along one: on along
-    // the edge (a straight run in the tangent plane would leave a convex
-    // edge, and the material along it, or cut into a concave one).
-    while at_edge && done < need - 1e-9 && guard < 10_000 {
-        guard += 1;
-        let len = step.min(need - done);
-        if follow_edge(&mut uv, &mut dir, &mut done, len, &mut out)? != Some(true) {
-            break;
-        }
-    }
-    if at_edge && done < need - 1e-9 {
-        // Straight past the edge in its tangent plane.
-        let Some(g) = LocalGeometry::at(surface, uv.x, uv.y) else {
-            return Ok(out);
-        };
-        let Some(t) = (dir - g.n * dir.dot(&g.n)).try_normalize(1e-12) else {
-            return Ok(out);
+        let Some(t) = (self.dir - g.n * self.dir.dot(&g.n)).try_normalize(1e-12) else {
+            return Ok(());
         };
         let travel_t = if at_end { t } else { -t };
         let Some(c) = Contact::from_geometry(g, travel_t) else {
-            return Ok(out);
+            return Ok(());
         };
         let base = c.path_point(s)?;
-        let run = (need - done).min(RUN_OUT_MAX * r);
-        let n = (run / step).ceil().max(1.0) as usize;
+        let run = (self.need - self.done).min(RUN_OUT_MAX * self.r);
+        let n = (run / self.step).ceil().max(1.0) as usize;
         // Where the surface is concave round the run, it rises above the
         // tangent plane: along the run and, where the run leaves the edge at
         // a shallow angle, beside it under the disc too. Each run-out pose
@@ -320,8 +394,7 @@ fn extension(
             // Where the surface falls away from the tangent plane across
             // the edge (convex along the run), the run follows the surface
             // continued past the edge: straight, the tool would leave the
-            // material beside the edge uncut (0.061 mm on the anisotropic
-            // bowl's steep wall).
+            // material beside the edge uncut.
             let ext = crate::geometry::inversion::extended_derivs(
                 surface,
                 g.uv.x + duv.x * d,
@@ -368,8 +441,8 @@ fn extension(
                 ..base.clone()
             });
         }
+        Ok(())
     }
-    Ok(out)
 }
 
 /// How deep the bottom disc of the flat-end cutter posed at contact `cc`

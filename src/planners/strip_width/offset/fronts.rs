@@ -228,9 +228,43 @@ pub(super) fn offset_front(
     front_id: usize,
     front: &[FrontPoint],
 ) -> Result<Vec<Vec<FrontPoint>>> {
-    // Offsets of the front points, with midpoints inserted where the new
-    // pass would be too sparse or deviate from its chords.
-    let mut pts: Vec<(Offset, Vector3<f64>)> = Vec::with_capacity(front.len());
+    let pts = offset_points(surface, s, region, coverage, front_id, front)?;
+    let kept = drop_clipped(without_swallowtails(surface, s, pts));
+    let n = kept.len();
+    let mut runs = Vec::new();
+    let mut i = 0;
+    while i < n {
+        if !kept[i].0.needed {
+            i += 1;
+            continue;
+        }
+        let mut j = i;
+        while j + 1 < n && kept[j + 1].0.needed {
+            j += 1;
+        }
+        let (a, b) = (i.saturating_sub(1), (j + 1).min(n - 1));
+        if let Some(run) = run_front(surface, s, region, front, &kept[a..=b])? {
+            runs.push(run);
+        }
+        i = j + 1;
+    }
+    Ok(runs)
+}
+
+/// An offset point and the travel of the front point it comes from.
+type Carried = (Offset, Vector3<f64>);
+
+/// Offsets of the front points, with midpoints inserted where the new pass
+/// would be too sparse or deviate from its chords.
+fn offset_points(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    coverage: &Coverage,
+    front_id: usize,
+    front: &[FrontPoint],
+) -> Result<Vec<Carried>> {
+    let mut pts: Vec<Carried> = Vec::with_capacity(front.len());
     for (i, fp) in front.iter().enumerate() {
         let o = offset_point(surface, s, region, coverage, front_id, fp)?;
         if i > 0 {
@@ -252,8 +286,16 @@ pub(super) fn offset_front(
         }
         pts.push((o, fp.c.travel));
     }
-    // Remove swallowtails: a point that does not advance along the travel.
-    let mut kept: Vec<(Offset, Vector3<f64>)> = Vec::with_capacity(pts.len());
+    Ok(pts)
+}
+
+/// Removes swallowtails: a point that does not advance along the travel.
+fn without_swallowtails(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    pts: Vec<Carried>,
+) -> Vec<Carried> {
+    let mut kept: Vec<Carried> = Vec::with_capacity(pts.len());
     for (o, t) in pts {
         if let Some((last, _)) = kept.last() {
             let a = surface.point(last.uv.x, last.uv.y);
@@ -271,8 +313,12 @@ pub(super) fn offset_front(
         }
         kept.push((o, t));
     }
-    // Runs of needed points, each extended by one neighbour at both ends.
-    // Clipped points are not pass points; their need passes to the neighbours.
+    kept
+}
+
+/// Clipped points are not pass points; their need passes to the neighbours,
+/// which mark the run's end at the edge.
+fn drop_clipped(mut kept: Vec<Carried>) -> Vec<Carried> {
     for k in 0..kept.len() {
         let (clipped, needed) = (kept[k].0.clipped, kept[k].0.needed);
         if !clipped {
@@ -286,89 +332,88 @@ pub(super) fn offset_front(
         }
     }
     kept.retain(|(o, _)| !o.clipped);
-    let n = kept.len();
-    let mut runs = Vec::new();
-    let mut i = 0;
-    while i < n {
-        if !kept[i].0.needed {
-            i += 1;
-            continue;
-        }
-        let mut j = i;
-        while j + 1 < n && kept[j + 1].0.needed {
-            j += 1;
-        }
-        let (a, b) = (i.saturating_sub(1), (j + 1).min(n - 1));
-        // A run shorter than the cutter diameter inside the surface is a
-        // fragment of a folding front: its direction is not to be trusted
-        // for extending and offsetting it again (that cascades into
-        // crossing passes); what it would cut is left to the gap passes.
-        // At the surface edge a short run is a corner's last pass: kept.
-        let span: f64 = (a..b)
-            .map(|k| {
-                let (p, q) = (kept[k].0.uv, kept[k + 1].0.uv);
-                (surface.point(q.x, q.y) - surface.point(p.x, p.y)).norm()
-            })
-            .sum();
-        let at_edge = kept[a..=b].iter().any(|(o, _)| o.at_edge);
-        if b > a && (span >= MIN_RUN_SPAN * s.cutter.radius || at_edge) {
-            let keep = smooth_indices(
-                surface,
-                &kept[a..=b].iter().map(|(o, _)| o.uv).collect::<Vec<_>>(),
-                2.0 * s.point_step,
-            );
-            let sel: Vec<&(Offset, Vector3<f64>)> = keep.iter().map(|&k| &kept[a + k]).collect();
-            let mut uv: Vec<Vector2<f64>> = sel.iter().map(|(o, _)| o.uv).collect();
-            let mut aways: Vec<Vector3<f64>> = sel.iter().map(|(o, _)| o.away).collect();
-            let mut travels: Vec<Vector3<f64>> = sel.iter().map(|(_, t)| *t).collect();
-            let dists: Vec<f64> = sel.iter().map(|(o, _)| o.dist).collect();
-            pull_in(
-                surface,
-                front,
-                &mut uv,
-                &mut aways,
-                &mut travels,
-                &dists,
-                region,
-            );
-            let (head, tail) = extend_ends(surface, s, region, &mut uv);
-            let t0 = kept[a].1;
-            let t1 = kept[b].1;
-            for _ in 0..head {
-                aways.insert(0, kept[a].0.away);
-            }
-            for _ in 0..tail {
-                aways.push(kept[b].0.away);
-            }
-            // The new pass travels against the current one (zig-zag).
-            let mut reference: Vec<Vector3<f64>> = vec![-t0; head];
-            reference.extend(travels.iter().map(|t| -t));
-            reference.extend(std::iter::repeat_n(-t1, tail));
-            let contacts = front_from_uv(surface, &uv, Some(&reference))?;
-            if contacts.len() >= 2 {
-                let mut run: Vec<FrontPoint> = Vec::with_capacity(contacts.len());
-                for c in contacts {
-                    // The carried direction of the nearest offset point, made
-                    // perpendicular to the new travel.
-                    let k = uv
-                        .iter()
-                        .enumerate()
-                        .min_by(|x, y| (x.1 - c.uv()).norm().total_cmp(&(y.1 - c.uv()).norm()))
-                        .map_or(0, |(k, _)| k);
-                    let mut away = c.cross();
-                    if away.dot(&aways[k]) < 0.0 {
-                        away = -away;
-                    }
-                    run.push(FrontPoint { c, away });
-                }
-                // Travel order: reverse so the pass runs along its travel.
-                run.reverse();
-                runs.push(run);
-            }
-        }
-        i = j + 1;
+    kept
+}
+
+/// The next pass's front from one run of needed offset points (extended by one
+/// neighbour at both ends): smoothed, pulled in, extended to the region's
+/// edges and re-contacted, in travel order. `None` for a fragment.
+fn run_front(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    front: &[FrontPoint],
+    run: &[Carried],
+) -> Result<Option<Vec<FrontPoint>>> {
+    // A run shorter than the cutter diameter inside the surface is a
+    // fragment of a folding front: its direction is not to be trusted
+    // for extending and offsetting it again (that cascades into
+    // crossing passes); what it would cut is left to the gap passes.
+    // At the surface edge a short run is a corner's last pass: kept.
+    let span: f64 = run
+        .windows(2)
+        .map(|w| {
+            let (p, q) = (w[0].0.uv, w[1].0.uv);
+            (surface.point(q.x, q.y) - surface.point(p.x, p.y)).norm()
+        })
+        .sum();
+    let at_edge = run.iter().any(|(o, _)| o.at_edge);
+    if run.len() < 2 || !(span >= MIN_RUN_SPAN * s.cutter.radius || at_edge) {
+        return Ok(None);
     }
-    Ok(runs)
+    let keep = smooth_indices(
+        surface,
+        &run.iter().map(|(o, _)| o.uv).collect::<Vec<_>>(),
+        2.0 * s.point_step,
+    );
+    let sel: Vec<&Carried> = keep.iter().map(|&k| &run[k]).collect();
+    let mut uv: Vec<Vector2<f64>> = sel.iter().map(|(o, _)| o.uv).collect();
+    let mut aways: Vec<Vector3<f64>> = sel.iter().map(|(o, _)| o.away).collect();
+    let mut travels: Vec<Vector3<f64>> = sel.iter().map(|(_, t)| *t).collect();
+    let dists: Vec<f64> = sel.iter().map(|(o, _)| o.dist).collect();
+    pull_in(
+        surface,
+        front,
+        &mut uv,
+        &mut aways,
+        &mut travels,
+        &dists,
+        region,
+    );
+    let (head, tail) = extend_ends(surface, s, region, &mut uv);
+    let (first, last) = (&run[0], &run[run.len() - 1]);
+    for _ in 0..head {
+        aways.insert(0, first.0.away);
+    }
+    for _ in 0..tail {
+        aways.push(last.0.away);
+    }
+    // The new pass travels against the current one (zig-zag).
+    let mut reference: Vec<Vector3<f64>> = vec![-first.1; head];
+    reference.extend(travels.iter().map(|t| -t));
+    reference.extend(std::iter::repeat_n(-last.1, tail));
+    let contacts = front_from_uv(surface, &uv, Some(&reference))?;
+    if contacts.len() < 2 {
+        return Ok(None);
+    }
+    let mut next: Vec<FrontPoint> = Vec::with_capacity(contacts.len());
+    for c in contacts {
+        // The carried direction of the nearest offset point, made
+        // perpendicular to the new travel.
+        let k = uv
+            .iter()
+            .enumerate()
+            .min_by(|x, y| (x.1 - c.uv()).norm().total_cmp(&(y.1 - c.uv()).norm()))
+            .map_or(0, |(k, _)| k);
+        let mut away = c.cross();
+        if away.dot(&aways[k]) < 0.0 {
+            away = -away;
+        }
+        next.push(FrontPoint { c, away });
+    }
+    // Travel order: reverse so the pass runs along its travel.
+    next.reverse();
+    Ok(Some(next))
 }
 
 /// Nearest point of the front polyline to `p`: (distance, uv there), `None`
