@@ -216,6 +216,111 @@ pub const DEFAULT_TOOL_CATALOGUE: [f64; 22] = [
     32.0, 35.0, 40.0, 45.0, 50.0,
 ];
 
+/// Sizes, tolerances and angles: finite, positive where they must be, in range.
+fn check_numbers(f: &JobFile) -> Result<()> {
+    f.tool.validate().map_err(|e| e.within("tool"))?;
+    finite_positive("scallop", f.scallop)?;
+    finite_positive("tolerance", f.tolerance)?;
+    finite_positive("feed_rate", f.feed_rate)?;
+    finite_positive("simulation_resolution", f.simulation_resolution)?;
+    finite("lead_angle_deg", f.lead_angle_deg)?;
+    finite("side_tilt_deg", f.side_tilt_deg)?;
+    if let Some(l) = f.lead_angle_deg {
+        if !(-89.0..=89.0).contains(&l) {
+            return Err(Error::invalid(
+                "lead_angle_deg",
+                format!("{l} is outside -89..89 degrees"),
+            ));
+        }
+    }
+    if let Some(n) = f.section_normal {
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        if !len.is_finite() || len < 1e-12 {
+            return Err(Error::invalid(
+                "section_normal",
+                "must be a finite non-zero vector",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The job's tool catalogue, sorted and without duplicates (the standard
+/// metric sizes when the job gives none).
+fn tool_catalogue(given: Option<Vec<f64>>) -> Result<Vec<f64>> {
+    Ok(match given {
+        Some(c) => {
+            if c.is_empty() {
+                return Err(Error::invalid(
+                    "tool_catalogue",
+                    "is empty: list at least one tool diameter",
+                ));
+            }
+            for (i, &d) in c.iter().enumerate() {
+                finite_positive(&format!("tool_catalogue[{i}]"), Some(d))?;
+            }
+            let mut c = c;
+            c.sort_by(f64::total_cmp);
+            c.dedup();
+            c
+        }
+        None => DEFAULT_TOOL_CATALOGUE.to_vec(),
+    })
+}
+
+/// The belt-grinding removal parameters are finite and positive.
+fn check_grinding(g: Option<&GrindingParams>) -> Result<()> {
+    if let Some(g) = g {
+        let fields = [
+            ("c_a", g.c_a),
+            ("k_a", g.k_a),
+            ("k_t", g.k_t),
+            ("belt_speed", g.belt_speed),
+            ("force", g.force),
+            ("feed_speed", g.feed_speed),
+        ];
+        for (name, v) in fields {
+            finite_positive(&format!("grinding.{name}"), Some(v))?;
+        }
+    }
+    Ok(())
+}
+
+/// The shape suits the strategy (surface or pocket), the strategy accepts
+/// the tool, and the machine can carry it.
+fn check_shape_and_tool(f: &JobFile, shape: &Shape) -> Result<()> {
+    match (shape, f.strategy.needs_pocket()) {
+        (Shape::Pocket(_), false) => {
+            return Err(Error::invalid(
+                "surface",
+                format!(
+                    "strategy {} needs a NURBS surface, got a pocket",
+                    f.strategy.name()
+                ),
+            ))
+        }
+        (Shape::Surface(_), true) => {
+            return Err(Error::invalid(
+                "surface",
+                "strategy pocket_mat needs a pocket, got a NURBS surface",
+            ))
+        }
+        _ => {}
+    }
+    if !f.strategy.accepts(&f.tool) {
+        return Err(Error::invalid(
+            "tool.kind",
+            format!(
+                "strategy {} cannot use a {} tool (it plans {})",
+                f.strategy.name(),
+                f.tool.kind(),
+                f.strategy.tool_kinds()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn finite_positive(field: &str, v: Option<f64>) -> Result<()> {
     if let Some(x) = v {
         if !x.is_finite() {
@@ -270,90 +375,10 @@ impl Job {
 
     /// Validates the parameters of `f` against an already-built shape.
     pub fn new(f: JobFile, shape: Shape) -> Result<Self> {
-        f.tool.validate().map_err(|e| e.within("tool"))?;
-        finite_positive("scallop", f.scallop)?;
-        finite_positive("tolerance", f.tolerance)?;
-        finite_positive("feed_rate", f.feed_rate)?;
-        finite_positive("simulation_resolution", f.simulation_resolution)?;
-        finite("lead_angle_deg", f.lead_angle_deg)?;
-        finite("side_tilt_deg", f.side_tilt_deg)?;
-        if let Some(l) = f.lead_angle_deg {
-            if !(-89.0..=89.0).contains(&l) {
-                return Err(Error::invalid(
-                    "lead_angle_deg",
-                    format!("{l} is outside -89..89 degrees"),
-                ));
-            }
-        }
-        if let Some(n) = f.section_normal {
-            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-            if !len.is_finite() || len < 1e-12 {
-                return Err(Error::invalid(
-                    "section_normal",
-                    "must be a finite non-zero vector",
-                ));
-            }
-        }
-        let catalogue = match f.tool_catalogue {
-            Some(c) => {
-                if c.is_empty() {
-                    return Err(Error::invalid(
-                        "tool_catalogue",
-                        "is empty: list at least one tool diameter",
-                    ));
-                }
-                for (i, &d) in c.iter().enumerate() {
-                    finite_positive(&format!("tool_catalogue[{i}]"), Some(d))?;
-                }
-                let mut c = c;
-                c.sort_by(f64::total_cmp);
-                c.dedup();
-                c
-            }
-            None => DEFAULT_TOOL_CATALOGUE.to_vec(),
-        };
-        if let Some(g) = &f.grinding {
-            let fields = [
-                ("c_a", g.c_a),
-                ("k_a", g.k_a),
-                ("k_t", g.k_t),
-                ("belt_speed", g.belt_speed),
-                ("force", g.force),
-                ("feed_speed", g.feed_speed),
-            ];
-            for (name, v) in fields {
-                finite_positive(&format!("grinding.{name}"), Some(v))?;
-            }
-        }
-        match (&shape, f.strategy.needs_pocket()) {
-            (Shape::Pocket(_), false) => {
-                return Err(Error::invalid(
-                    "surface",
-                    format!(
-                        "strategy {} needs a NURBS surface, got a pocket",
-                        f.strategy.name()
-                    ),
-                ))
-            }
-            (Shape::Surface(_), true) => {
-                return Err(Error::invalid(
-                    "surface",
-                    "strategy pocket_mat needs a pocket, got a NURBS surface",
-                ))
-            }
-            _ => {}
-        }
-        if !f.strategy.accepts(&f.tool) {
-            return Err(Error::invalid(
-                "tool.kind",
-                format!(
-                    "strategy {} cannot use a {} tool (it plans {})",
-                    f.strategy.name(),
-                    f.tool.kind(),
-                    f.strategy.tool_kinds()
-                ),
-            ));
-        }
+        check_numbers(&f)?;
+        let catalogue = tool_catalogue(f.tool_catalogue.clone())?;
+        check_grinding(f.grinding.as_ref())?;
+        check_shape_and_tool(&f, &shape)?;
         let machine = f.machine.unwrap_or(f.strategy.default_machine());
         if (machine == Machine::Belt6) != matches!(f.tool, Tool::Belt { .. }) {
             return Err(Error::invalid(

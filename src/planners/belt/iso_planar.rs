@@ -170,6 +170,55 @@ fn extent(surface: &NurbsSurface, normal: Vector3<f64>, (cu, cv): (usize, usize)
     (lo, hi)
 }
 
+/// The section curves of one plane in (u, v), closed ones with their first
+/// point repeated at the end.
+fn section_curves(
+    surface: &NurbsSurface,
+    plane: &Plane,
+    options: &SectionOptions,
+) -> Vec<Vec<Vector2<f64>>> {
+    intersect_plane(surface, plane, options)
+        .into_iter()
+        .map(|c| {
+            let mut uv: Vec<Vector2<f64>> = c.uv.iter().map(|p| Vector2::new(p[0], p[1])).collect();
+            if c.closed {
+                if let Some(&first) = uv.first() {
+                    uv.push(first);
+                }
+            }
+            uv
+        })
+        .filter(|uv| uv.len() >= 2)
+        .collect()
+}
+
+/// The smallest advance along `dir` to the next contacts of a path's points
+/// (infinite when none is usable): points whose next contact is an edge within
+/// the belt's half width are covered already, and sections that barely
+/// advance run nearly inside the plane (plane tangent to the surface there).
+fn next_step(
+    surface: &NurbsSurface,
+    spec: &BeltSpec,
+    path: &[ContactPoint],
+    dir: Vector3<f64>,
+    extent: f64,
+) -> f64 {
+    let mut step = f64::INFINITY;
+    for cp in path {
+        let Some(nc) = cp.next else { continue };
+        let q = surface.point(nc.uv.x, nc.uv.y);
+        let d = (q - cp.geom.point()).dot(&dir);
+        if nc.at_boundary && nc.sigma <= 0.5 * spec.width {
+            continue;
+        }
+        if d <= 1e-9 * extent {
+            continue;
+        }
+        step = step.min(d);
+    }
+    step
+}
+
 /// The contact paths in machining order (plane offsets increasing along the
 /// normal), and what was noticed on the way.
 pub fn plan_paths(
@@ -213,41 +262,14 @@ pub fn plan_paths(
             let plane = Plane::new(Point3::from(normal * offset), normal).ok_or_else(|| {
                 Error::invalid("section_normal", "must be a finite non-zero vector")
             })?;
-            let curves: Vec<Vec<Vector2<f64>>> = intersect_plane(surface, &plane, &options)
-                .into_iter()
-                .map(|c| {
-                    let mut uv: Vec<Vector2<f64>> =
-                        c.uv.iter().map(|p| Vector2::new(p[0], p[1])).collect();
-                    if c.closed {
-                        if let Some(&first) = uv.first() {
-                            uv.push(first);
-                        }
-                    }
-                    uv
-                })
-                .filter(|uv| uv.len() >= 2)
-                .collect();
+            let curves = section_curves(surface, &plane, &options);
             let mut step = f64::INFINITY;
             let mut any_curve = false;
             let mut analysed = Vec::new();
             for uvs in &curves {
                 let path =
                     contact::analyse_path(surface, uvs, &feed, &hint, spec, !last, &mut diag);
-                for cp in &path {
-                    let Some(nc) = cp.next else { continue };
-                    let q = surface.point(nc.uv.x, nc.uv.y);
-                    let d = (q - cp.geom.point()).dot(&dir);
-                    if nc.at_boundary && nc.sigma <= 0.5 * spec.width {
-                        // The edge is within this belt's half width: covered already.
-                        continue;
-                    }
-                    // Cross-sections that barely advance along the normal run
-                    // nearly inside the plane (plane tangent to the surface there).
-                    if d <= 1e-9 * extent {
-                        continue;
-                    }
-                    step = step.min(d);
-                }
+                step = step.min(next_step(surface, spec, &path, dir, extent));
                 any_curve |= !path.is_empty();
                 analysed.push(path);
             }
