@@ -1,9 +1,9 @@
 //! Differential geometry of a surface point: first and second fundamental
 //! forms, principal curvatures and directions, umbilics.
 //!
-//! Convention (methods.md): n = normalize(S_u x S_v) points to the tool side and
-//! the normal curvature kappa(t) = S_tt . n is positive where the surface is
-//! concave towards the tool.
+//! Convention (docs/methods.md, "Conventions"): n = normalize(S_u x S_v) points
+//! to the tool side and the normal curvature kappa(t) = S_tt . n is positive
+//! where the surface is concave towards the tool.
 
 use super::nurbs::{NurbsSurface, SurfaceDerivs};
 use nalgebra::{Matrix2, Point3, Vector2, Vector3};
