@@ -208,7 +208,7 @@ impl CutterShape {
             let r = w.norm();
             let dr = (r - r0).max(0.0);
             // sqrt, not hypot: mm-sized values cannot overflow, and this loop is
-            // the simulator's hot spot (hypot took a quarter of its time).
+            // the simulator's hot spot (hypot costs a quarter of its time).
             let dist = (dz * dz + dr * dr).sqrt();
             let g = dist - rc;
             if g <= tol {
