@@ -1,4 +1,4 @@
-//! Belt-grinding speed targets (issue 6): each belt plan of the built-in
+//! Belt-grinding speed targets: each belt plan of the built-in
 //! samples under 0.5 s, and the Hamann removal simulation of a full egg_crate
 //! run on a 500 x 500 height field under 2 s (release).
 //!

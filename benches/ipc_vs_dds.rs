@@ -10,7 +10,7 @@
 //!
 //! DDS carries the path as one message per pass (10 000 points, about 1 MB
 //! each, the last one flagged): a single 1 000 000-point sample (about
-//! 104 MB) was not delivered by RustDDS on loopback within 120 s. Set
+//! 104 MB) is not delivered by RustDDS on loopback within 120 s. Set
 //! TOOLPATH_BENCH_DDS_SINGLE=1 to try the single sample anyway.
 
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -186,7 +186,8 @@ fn bench_iceoryx2(c: &mut Criterion, r: &PlanResult) {
 
 fn bench_dds(c: &mut Criterion, r: &PlanResult) {
     let rt = tokio::runtime::Runtime::new().unwrap();
-    // A domain of its own, loopback only (stack.md).
+    // A domain of its own, loopback only: a benchmark never talks to the
+    // cell network.
     let domain = 150 + (std::process::id() % 50) as u16;
     let qos = QosProfile::subscription_default()
         .reliability_reliable(WhenFull::Wait(Duration::from_secs(60)))

@@ -1,5 +1,5 @@
 //! cargo bench --bench pocket_mat
-//! Targets (issue 5): medial axis of a 10 000-vertex outline < 100 ms; the
+//! Targets: medial axis of a 10 000-vertex outline < 100 ms; the
 //! whole leaf_pocket plan < 1 s (release).
 
 use criterion::{criterion_group, criterion_main, Criterion};

@@ -1,7 +1,8 @@
 //! Scallop simulator timing on `wing_mould` (R = 2.5 flat-end, lead 5 deg):
 //! the simulator verifying (1) a synthetic dense result of the size of the
 //! tensor plan (iso-v passes 2.8 mm apart, points every 2 mm) and (2) each
-//! milling planner's own plan of the sample, where the planner is available.
+//! milling planner's own plan of the sample (a strategy that fails to plan
+//! is skipped).
 //!
 //! `cargo bench --bench scallop_sim`
 
@@ -78,7 +79,7 @@ fn bench(c: &mut Criterion) {
     ] {
         let mut j = job.clone();
         j.strategy = strategy;
-        // Planners still under construction return an error: nothing to time.
+        // A strategy that fails to plan has nothing to time.
         let Ok(result) = planners::plan(&j, &NoProgress) else {
             continue;
         };

@@ -1,5 +1,5 @@
 //! cargo bench --bench tensor_regions
-//! Targets (issue 3): the whole tensor_regions plan of wing_mould < 1 s
+//! Targets: the whole tensor_regions plan of wing_mould < 1 s
 //! (release, 2-core machine); the simulator verifying it < 5 s.
 
 use criterion::{criterion_group, criterion_main, Criterion};

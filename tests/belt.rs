@@ -1,5 +1,5 @@
-//! Belt-grinding planners (issue 6) checked against methods.md D and
-//! independent brute-force computations.
+//! Belt-grinding planners checked against docs/methods.md, "Belt references",
+//! and independent brute-force computations.
 
 #[path = "common/belt_surfaces.rs"]
 mod belt_surfaces;
@@ -166,7 +166,7 @@ fn sine_wave_across_the_rulings_reference() {
     );
     let xs: Vec<f64> = r.passes.iter().map(|p| p.points[0].cc[0]).collect();
     assert!(xs[0].abs() < 1e-9 && (xs[24] - 100.0).abs() < 1e-9);
-    // Step at the crest (x = 25): sqrt(8 rho h) with rho = 50.66 is 2.013; the reference says 2.02.
+    // Step at the crest (x = 25): sqrt(8 rho h) with rho = 50.66 is 2.013 (often quoted as 2.02).
     let crest = xs.windows(2).find(|w| w[0] <= 25.0 && w[1] > 25.0).unwrap();
     let step = crest[1] - crest[0];
     assert!((2.0..=2.03).contains(&step), "crest step {step}");

@@ -493,7 +493,8 @@ fn plane_sections_of_the_sine_wave_are_straight_rulings_or_sine_profiles() {
         (first[0] - 0.0).abs() < 1e-9 && (last[0] - 100.0).abs() < 1e-9
             || (first[0] - 100.0).abs() < 1e-9 && last[0].abs() < 1e-9
     );
-    // Exact arc length of one period of 5 sin(2 pi x / 100) is 102.42 mm (methods.md D).
+    // Exact arc length of one period of 5 sin(2 pi x / 100) is 102.42 mm
+    // (docs/methods.md, "Belt references").
     assert!((c.length() - 102.42).abs() < 0.01, "{}", c.length());
 }
 

@@ -1,5 +1,6 @@
-//! Strategy `mpec` against the methods.md B reference and an independent
-//! brute-force sweep of the solid torus along the planned positions.
+//! Strategy `mpec` against the reference of docs/methods.md, "The lead angle",
+//! and an independent brute-force sweep of the solid torus along the planned
+//! positions.
 
 use toolpath_planner::error::Error;
 use toolpath_planner::formats::{FeedDirection, Job, JobFile, PlanResult, Shape, Strategy};

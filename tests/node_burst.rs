@@ -1,10 +1,10 @@
 //! Job bursts through the pure-Rust stack (ros2-client over RustDDS) reach
-//! the node without loss (issue 7: "a burst of 200 jobs, none lost").
+//! the node without loss: a burst of 200 jobs, none lost.
 //!
 //! RustDDS 0.15 caps a KEEP_ALL reader's cache at 64 samples and evicts the
-//! oldest over the cap even when not yet taken, after acknowledging them; a
-//! burst of more than ~128 jobs lost jobs (docs/architecture.md, "Job
-//! bursts"). The first test checks the node's job reader QoS directly on two
+//! oldest over the cap even when not yet taken, after acknowledging them; with
+//! KEEP_ALL a burst of more than ~128 jobs loses jobs (docs/architecture.md,
+//! "Job bursts: the RustDDS reader cache"). The first test checks the node's job reader QoS directly on two
 //! participants, the second a 200-job burst through `toolpath node` with the
 //! benchmark's client. Everything stays on loopback, on domains of their own;
 //! the node is killed by pid.

@@ -198,7 +198,8 @@ fn republishing_a_bad_bag_or_timeout_is_a_clear_error() {
 
 #[test]
 fn bench_node_prints_its_table() {
-    // A tiny run: the figures themselves come from an idle machine (README).
+    // A tiny run: the figures themselves come from an idle machine
+    // (docs/results.md, "Node").
     let out = Command::new(BIN)
         .args([
             "bench-node",

@@ -1,6 +1,7 @@
-//! Strategy pocket_mat against exact answers (methods.md C) and independent
-//! brute-force checks: exact wall distances of every tool-centre path, a
-//! fine raster of the swept discs, path lengths of the single-tool baseline.
+//! Strategy pocket_mat against exact answers (docs/methods.md, "Pocket
+//! references") and independent brute-force checks: exact wall distances of
+//! every tool-centre path, a fine raster of the swept discs, path lengths of
+//! the single-tool baseline.
 
 use std::f64::consts::PI;
 use toolpath_planner::formats::{self, job::DEFAULT_TOOL_CATALOGUE};

@@ -1,4 +1,5 @@
-//! Medial axis of the reference pockets (methods.md C) against exact answers.
+//! Medial axis of the reference pockets (docs/methods.md, "Pocket references")
+//! against exact answers.
 
 use toolpath_planner::geometry::medial_axis::medial_axis;
 use toolpath_planner::geometry::Pocket;

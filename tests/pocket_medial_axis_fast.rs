@@ -1,11 +1,11 @@
-//! The fast medial-axis path (outline simplified within the 1e-4 mm
-//! resolution, patched boostvoronoi predicates, input moved to 2^30) against
-//! the previous one (every vertex, upstream predicates, input centred on 0)
-//! on random outlines of the kinds the fast path is for: smooth blobs,
-//! blobs with holes, fine arcs next to sharp corners, jagged outlines. The
-//! axes must agree inside the acceptance tolerances (see `check_same`), and
-//! every medial point of the fast path must be as far from the given boundary
-//! as its radius says (brute force over all segments).
+//! The fast medial-axis path (outline simplified within the 1e-4 mm resolution,
+//! patched boostvoronoi predicates, input moved to 2^30) against the exact path
+//! `VoronoiPath::Upstream` (every vertex, upstream predicates, input centred on
+//! 0) on random outlines of the kinds the fast path is for: smooth blobs, blobs
+//! with holes, fine arcs next to sharp corners, jagged outlines. The axes must
+//! agree within the tolerances of `check_same`, and every medial point of the
+//! fast path must be as far from the given boundary as its radius says (brute
+//! force over all segments).
 
 use proptest::prelude::*;
 use std::f64::consts::TAU;
@@ -125,16 +125,15 @@ fn axis_distance(ma: &MedialAxis, q: [f64; 3]) -> f64 {
 }
 
 /// The fast path merges segments within the 1e-4 mm resolution
-/// (`simplify_loop`) and moves the input, and boostvoronoi orders circle
-/// events that agree to 64 ulps as ties. Where the axis is ill-conditioned
-/// (hundreds of bisectors meeting at the centre of a finely sampled arc or of
-/// a near-circle, whose axis a 1e-4 mm change of the wall moves by far more)
-/// the two resolve it differently. So the axes are compared as the acceptance
-/// states: Dmax to 1e-3 mm (acceptance 0.01), the smallest corner radius and
-/// every branch point against the other path's branch points to 0.05 mm (the
-/// branch-point acceptance); every medial point of the fast path must be as
-/// far from the given walls as its r says (brute force, 1e-3 mm). (On
-/// near-circles the previous path's corner radius is itself a few 0.01 mm
+/// (`simplify_loop`) and moves the input, and boostvoronoi orders circle events
+/// that agree to 64 ulps as ties. Where the axis is ill-conditioned (hundreds
+/// of bisectors meeting at the centre of a finely sampled arc or of a
+/// near-circle, whose axis a 1e-4 mm change of the wall moves by far more) the
+/// two resolve it differently. So the axes are compared within tolerances: Dmax
+/// to 1e-3 mm, the smallest corner radius and every branch point against the
+/// other path's branch points to 0.05 mm; every medial point of the fast path
+/// must be as far from the given walls as its r says (brute force, 1e-3 mm).
+/// (On near-circles the exact path's corner radius is itself a few 0.01 mm
 /// off; the blob test checks the fast one against the exact curve to 0.01 mm.)
 fn check_same(pocket: &Pocket, what: &str) {
     check(pocket, what, true);
@@ -209,8 +208,8 @@ fn harmonics() -> impl Strategy<Value = Vec<(f64, f64)>> {
 }
 
 proptest! {
-    // A fixed seed: the same cases on every run (a random one once drew the
-    // ignored case below and failed CI at random).
+    // A fixed seed: the same cases on every run (a random seed can draw the
+    // ignored case below and fail at random).
     #![proptest_config(ProptestConfig {
         cases: 6,
         rng_seed: proptest::test_runner::RngSeed::Fixed(20_261_122),
@@ -252,10 +251,10 @@ proptest! {
 
     /// Rounds sampled below 5 um (down to 5 integer units per segment): rounding
     /// the vertices to the 1e-4 mm grid turns them by several degrees, and the
-    /// previous path keeps medial branches into those jags (object angle over
+    /// exact path keeps medial branches into those jags (object angle over
     /// 10 degrees). The fast path's simplification within the resolution
     /// removes them, so here only the fast axis is checked against the
-    /// previous one, plus Dmax and the corner radius.
+    /// exact one, plus Dmax and the corner radius.
     #[test]
     fn ultra_fine_arcs_fast_within_exact(rc in 0.3..2.0f64, units in 5.0..50.0f64) {
         let per_arc = (rc * std::f64::consts::FRAC_PI_2 / (units * 1e-4)).ceil() as usize;
@@ -292,11 +291,11 @@ fn annulus_fast_equals_exact() {
     check_same(&Pocket::new(&outer, &[hole]).unwrap(), "annulus");
 }
 
-/// Found by the random cases above (session 4): a round of radius 0.4246
+/// A case the random outlines above can draw: a round of radius 0.4246
 /// sampled with 845 segments (7.9 integer units each). The fast path keeps a
 /// cluster of degree-3 branch points within 0.5 um of the round's centre
 /// (spurs between far-apart segments of the arc, object angle over 10 deg),
-/// where the previous path ends the axis. Dmax and the corner radius agree;
+/// where the exact path ends the axis. Dmax and the corner radius agree;
 /// the branch points do not. Open: tiny spurs should be pruned.
 #[test]
 #[ignore = "known: branch-point cluster at the centre of an ultra-fine round (README, pockets)"]

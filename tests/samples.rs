@@ -189,8 +189,8 @@ fn sine_wave_and_egg_crate_approximate_their_functions() {
     assert!(e < 1e-3, "egg_crate error {e}");
 }
 
-/// e and f of methods.md A from the fundamental forms, computed here
-/// independently of LocalGeometry's eigen-solver: with G = L L^T,
+/// e and f of docs/methods.md, "Degenerate points", from the fundamental forms,
+/// computed here independently of LocalGeometry's eigen-solver: with G = L L^T,
 /// S = L^-1 D L^-T, e = (S11 - S22) / 2, f = S12.
 fn umbilic_ef(s: &NurbsSurface, u: f64, v: f64) -> (f64, f64) {
     let d = s.derivs(u, v);

@@ -154,7 +154,8 @@ fn sparse_diagonal_ball_passes_are_swept_between_points() {
 
 #[test]
 fn flat_end_with_lead_angle_covers_the_exact_width() {
-    // methods.md A: R = 2.5, lambda = 5 deg, h = 0.05 -> W = 3.18704.
+    // docs/methods.md, "Reference widths": R = 2.5, lambda = 5 deg, h = 0.05
+    // -> W = 3.18704.
     let (r, lambda, h) = (2.5f64, 5f64.to_radians(), 0.05);
     let surface = plane(10.0, 10.0);
     let axis = [lambda.sin(), 0.0, lambda.cos()];

@@ -1,6 +1,6 @@
-//! `toolpath bench-node`: the node's overhead and burst figures (issue 7),
-//! measured against a `toolpath node` child process on loopback, printed as
-//! a table. A benchmark, not a test: run it on an idle machine, release build.
+//! `toolpath bench-node`: the node's overhead and burst figures, measured
+//! against a `toolpath node` child process on loopback, printed as a table. A
+//! benchmark, not a test: run it on an idle machine, release build.
 //!
 //! Overhead: jobs of about `--points` points (iso_parametric on a flat
 //! rectangle, width chosen by a local plan) are sent one at a time, each after
@@ -37,7 +37,7 @@ use std::net::{IpAddr, Ipv4Addr};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-/// The target of issue 7 for the node overhead at the 99th percentile, ms.
+/// Target for the node overhead at the 99th percentile, ms.
 const OVERHEAD_P99_TARGET_MS: f64 = 20.0;
 /// Rectangle length along the feed, mm (about 130 points per pass).
 const LENGTH_MM: f64 = 600.0;

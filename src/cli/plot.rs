@@ -4,8 +4,8 @@ use crate::plot::{self, PlotInput};
 use std::path::Path;
 
 /// `toolpath plot RESULT [--job JOB] -o FILE.png|svg`. The job supplies the
-/// surface or pocket outline (and, once the simulator is available, the
-/// residual-height map).
+/// surface or pocket outline and, for milling results, the simulator's
+/// residual-height map.
 pub fn run(result_path: &Path, job_path: Option<&Path>, output: &Path) -> Result<()> {
     plot::ImageFormat::from_path(output)?;
     let result = formats::read_result(result_path)?;

@@ -1,9 +1,9 @@
 //! Differential geometry of a surface point: first and second fundamental
 //! forms, principal curvatures and directions, umbilics.
 //!
-//! Convention (methods.md): n = normalize(S_u x S_v) points to the tool side and
-//! the normal curvature kappa(t) = S_tt . n is positive where the surface is
-//! concave towards the tool.
+//! Convention (docs/methods.md, "Conventions"): n = normalize(S_u x S_v) points
+//! to the tool side and the normal curvature kappa(t) = S_tt . n is positive
+//! where the surface is concave towards the tool.
 
 use super::nurbs::{NurbsSurface, SurfaceDerivs};
 use nalgebra::{Matrix2, Point3, Vector2, Vector3};
@@ -54,7 +54,8 @@ impl LocalGeometry {
         let first = Matrix2::new(e, f, f, g);
         let second = Matrix2::new(l, m, m, nn);
         // Symmetric reduction with G = C C^T (Cholesky): S = C^-1 D C^-T has the
-        // principal curvatures as eigenvalues; t = C^-T y maps eigenvectors back.
+        // principal curvatures as eigenvalues; t = C^-T y maps eigenvectors back
+        // (docs/methods.md, "Principal curvatures").
         let c11 = e.sqrt();
         let c21 = f / c11;
         let c22 = (g - c21 * c21).max(0.0).sqrt();

@@ -1,5 +1,6 @@
 //! Tracing a curve on a surface along a direction field given in parameter
-//! space (principal directions, the feed field of a planner, ...).
+//! space (principal directions, the feed field of a planner, ...;
+//! docs/methods.md, "Field lines").
 //!
 //! The curve is integrated in surface arc length s: d(u, v)/ds = t / |S_u t_u + S_v t_v|
 //! for the field's direction t, with the Dormand-Prince 5(4) Runge-Kutta pair and

@@ -1,4 +1,5 @@
-//! Point inversion: the closest point on a surface to a point in space.
+//! Point inversion: the closest point on a surface to a point in space
+//! (docs/methods.md, "Point inversion and the surface past its edge").
 //!
 //! Minimises f(u, v) = 1/2 |S(u, v) - q|^2 over the parameter domain. Seeds come
 //! from a coarse grid (a few per knot span); from the best seeds a projected

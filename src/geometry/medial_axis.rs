@@ -1,5 +1,6 @@
 //! Medial axis of a polygonal pocket (outer loop plus holes) as 3-D branches
-//! (x, y, r), split at branch points and end points.
+//! (x, y, r), split at branch points and end points (docs/methods.md, "Medial
+//! axis of a pocket").
 //!
 //! The segment Voronoi diagram comes from `boostvoronoi` (robust integer
 //! predicates); this module turns it into the interior medial axis:

@@ -1,8 +1,9 @@
 //! One-dimensional root finding: a bracket narrowed by regula falsi with the
 //! Illinois modification. Superlinear on smooth functions, yet never leaves the
-//! bracket, so it is as safe as bisection. Callers choose when to stop: the
-//! strip-width crossing, the plane-section edge crossings and MPEC's lead search
-//! each need a different tolerance.
+//! bracket, so it is as safe as bisection (docs/methods.md, "One root
+//! finder"). Callers choose when to stop: the strip-width crossing, the
+//! plane-section edge crossings and MPEC's strip edges and pass advance each
+//! need a different tolerance.
 
 /// A bracket of a root of f: f(neg) <= 0 < f(pos). The ends may lie either
 /// way round on the axis.

@@ -1,4 +1,5 @@
-//! Plane/surface intersection curves (the section curves of iso-planar paths).
+//! Plane/surface intersection curves (the section curves of iso-planar paths;
+//! docs/methods.md, "Plane sections").
 //!
 //! Marching squares on a parameter grid of the signed distance
 //! d(u, v) = (S(u, v) - p) . n, with every crossing on a grid edge solved to
@@ -227,8 +228,8 @@ pub fn intersect_plane(
 }
 
 /// Root of `f` on [a, b] with f(a) = fa, f(b) = fb of opposite signs, to a
-/// relative 1e-15 (docs/methods.md has no rule here: the edge crossing only
-/// needs to be exact to round-off).
+/// relative 1e-15: every crossing is solved on its grid edge to round-off
+/// (docs/methods.md, "Plane sections" and "One root finder").
 fn root_on_edge(f: impl Fn(f64) -> f64, a: f64, b: f64, fa: f64, fb: f64) -> f64 {
     if fa == 0.0 {
         return a;

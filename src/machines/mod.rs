@@ -1,4 +1,5 @@
-//! Machine kinematics (mill5, belt6) and timed joint trajectories.
+//! Machine kinematics (mill5, belt6) and timed joint trajectories
+//! (docs/methods.md, "Machine kinematics and timing").
 //!
 //! A planned toolpath becomes one joint trajectory per job: every pass is
 //! entered and left along the tool axis (mill) or contact normal (belt) by the

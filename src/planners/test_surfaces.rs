@@ -27,9 +27,9 @@ pub fn clamped(p: usize, interior: &[f64]) -> Vec<f64> {
     k
 }
 
-/// Monkey saddle z = 1e-5 (x^3 - 3 x y^2) on [-50, 50]^2 (methods.md A),
-/// moved by `offset` in xy, with x and y given by monotone maps of u and v
-/// (`warp` = 0: linear). Non-uniform interior knots when `warp` != 0.
+/// Monkey saddle z = 1e-5 (x^3 - 3 x y^2) on [-50, 50]^2 (docs/methods.md,
+/// "Degenerate points"), moved by `offset` in xy, with x and y given by
+/// monotone maps of u and v (`warp` = 0: linear). Non-uniform interior knots when `warp` != 0.
 pub fn monkey_saddle(offset: [f64; 2], warp: f64) -> NurbsSurface {
     // x(u) = -50 + 100 (u + warp u (1 - u)): quadratic, monotone for |warp| < 1.
     let map = move |t: f64| -50.0 + 100.0 * (t + warp * t * (1.0 - t));

@@ -24,7 +24,7 @@ pub struct WriterOptions {
 
 impl Default for WriterOptions {
     /// 256 KiB chunks, zstd level 3: a few chunks per large toolpath, so a
-    /// killed node loses little (see README for measured sizes).
+    /// killed node loses little (bag sizes in docs/results.md, "Recording").
     fn default() -> Self {
         WriterOptions {
             chunk_size: 256 * 1024,

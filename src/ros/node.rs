@@ -71,9 +71,10 @@ pub mod qos {
     /// over the cap whether or not the reader has taken them, after the RTPS
     /// reader has acknowledged them, so the writer never repairs them. A burst
     /// arrives as a few 64 KB datagrams of ~350 coalesced jobs, each inserted
-    /// under one lock, so the node cannot take in between: a burst of more than
-    /// ~128 jobs lost jobs with KEEP_ALL (docs/architecture.md, "Job bursts").
-    /// Jobs are a few hundred bytes, so 10 000 cost a few MB.
+    /// under one lock, so the node cannot take in between: with KEEP_ALL a
+    /// burst of more than ~128 jobs loses jobs (docs/architecture.md, "Job
+    /// bursts: the RustDDS reader cache"). Jobs are a few hundred bytes, so
+    /// 10 000 cost a few MB.
     pub const JOB_READER_DEPTH: usize = 10_000;
     /// The node's reader of `job`: [`job`] with [`JOB_READER_DEPTH`]. History
     /// is not part of QoS matching, so publishers still see the documented

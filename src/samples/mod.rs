@@ -1,6 +1,6 @@
 //! Built-in sample surfaces and pockets, each with a ready job for its planner
 //! (`toolpath sample NAME [--job]`). They are the embedded default the demo
-//! plans, and the reference cases of docs/methods (see the tests in
+//! plans, and the reference cases of docs/methods.md (see the tests in
 //! tests/samples.rs for the checked properties).
 
 pub mod pockets;

@@ -1,5 +1,6 @@
-//! Belt-grinding material-removal simulation (paper section 3, algorithm 3,
-//! without the solid modeller that made it too slow for interactive use).
+//! Belt-grinding material-removal simulation (docs/methods.md, "Belt removal
+//! (Hamann)"; the belt-grinding paper's section 3, algorithm 3, without the
+//! solid modeller that makes it too slow for interactive use).
 //!
 //! The part is a height field over the surface's parameter grid: every node
 //! holds a surface point and its normal, and the simulation records how deep

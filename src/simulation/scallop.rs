@@ -1,6 +1,6 @@
 //! Scallop simulator: the residual material height left on a surface by a
 //! milling result (flat-end, ball or torus cutter), from the exact cutter
-//! solid swept along the passes.
+//! solid swept along the passes (docs/methods.md, "Swept cutter and residual").
 //!
 //! The surface is sampled on a uv grid (cell centres, each with its area).
 //! At a sample `p` with tool-side unit normal `n`, the residual is the lowest

@@ -3,14 +3,15 @@
 //! the lowest point of the solid along a line (the "drop" used by the scallop
 //! simulator and by planners that need the real cutter profile).
 //!
-//! All three are one family, the generalised torus: cutter radius `R`, corner
-//! radius `rc` (0 = flat-end, `R` = ball), tube-centre circle radius
-//! `R0 = R - rc` at height `rc` above the tip, flat bottom disc of radius `R0`,
-//! cylinder of radius `R` from height `rc` up to the flute length `L`.
-//! In the meridian half-plane (radial distance `r`, height `z` along the axis
-//! from the tip) the profile is the rectangle `[0, R] x [0, L]` with its
-//! bottom outer corner rounded by a quarter circle centred at `(R0, rc)`.
-//! The solid is convex, so a line meets it in one interval.
+//! All three are one family (docs/methods.md, "Cutter solids"), the generalised
+//! torus: cutter radius `R`, corner radius `rc` (0 = flat-end, `R` = ball),
+//! tube-centre circle radius `R0 = R - rc` at height `rc` above the tip, flat
+//! bottom disc of radius `R0`, cylinder of radius `R` from height `rc` up to
+//! the flute length `L`. In the meridian half-plane (radial distance `r`,
+//! height `z` along the axis from the tip) the profile is the rectangle
+//! `[0, R] x [0, L]` with its bottom outer corner rounded by a quarter circle
+//! centred at `(R0, rc)`. The solid is convex, so a line meets it in one
+//! interval.
 
 use super::Tool;
 use crate::error::{Error, Result};
@@ -207,7 +208,7 @@ impl CutterShape {
             let r = w.norm();
             let dr = (r - r0).max(0.0);
             // sqrt, not hypot: mm-sized values cannot overflow, and this loop is
-            // the simulator's hot spot (hypot took a quarter of its time).
+            // the simulator's hot spot (hypot costs a quarter of its time).
             let dist = (dz * dz + dr * dr).sqrt();
             let g = dist - rc;
             if g <= tol {

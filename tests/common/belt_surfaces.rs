@@ -55,7 +55,8 @@ pub fn interpolate(f: impl Fn(f64) -> f64, n: usize) -> Vec<f64> {
     x.iter().copied().collect()
 }
 
-/// z = 5 sin(2 pi x / 100) on [0, 100]^2 (methods.md D): u along x, v along y.
+/// z = 5 sin(2 pi x / 100) on [0, 100]^2 (docs/methods.md, "Belt references"):
+/// u along x, v along y.
 pub fn sine_wave() -> NurbsSurface {
     let n = 61;
     let knots = clamped_knots(n, 3);

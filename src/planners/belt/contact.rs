@@ -1,5 +1,5 @@
 //! The belt-grinding contact model shared by `belt_iso_parametric` and
-//! `belt_iso_planar` (methods.md D).
+//! `belt_iso_planar` (docs/methods.md, "Belt contact").
 //!
 //! Seen along the feed `t`, the contact wheel with its belt is a straight
 //! segment of length `w` (the belt width) lying in the tangent plane across the

@@ -1,9 +1,10 @@
-//! Strategy `belt_iso_parametric` (paper, algorithm 1): contact paths along
-//! iso-parameter curves, feed along `u` or `v` (`job.feed_direction`, default
-//! `u`). Starting at the low edge of the other parameter, each next curve is
-//! the smallest parameter reached by the next-contact search of the belt
-//! contact model from every point of the current curve (the most conservative
-//! candidate), within one belt width; a last curve runs along the far edge.
+//! Strategy `belt_iso_parametric` (the belt-grinding paper's algorithm 1;
+//! docs/methods.md, "Belt paths"): contact paths along iso-parameter curves,
+//! feed along `u` or `v` (`job.feed_direction`, default `u`). Starting at the
+//! low edge of the other parameter, each next curve is the smallest parameter
+//! reached by the next-contact search of the belt contact model from every
+//! point of the current curve (the most conservative candidate), within one
+//! belt width; a last curve runs along the far edge.
 
 use super::contact::{self, BeltSpec};
 use crate::error::{Error, Result};

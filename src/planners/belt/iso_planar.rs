@@ -1,4 +1,5 @@
-//! Strategy `belt_iso_planar` (paper, algorithm 2, with methods.md D):
+//! Strategy `belt_iso_planar` (the belt-grinding paper's algorithm 2;
+//! docs/methods.md, "Belt paths" and "Section normal"):
 //! contact paths are the intersections of parallel planes with the surface.
 //!
 //! Section-plane normal: the minimum-curvature directions have no sign, so they

@@ -1,5 +1,6 @@
-//! The MPEC error curve of a torus cutter and the lead-angle bisection
-//! (methods.md B, which corrects the paper).
+//! The MPEC error curve of a torus cutter and the lead-angle search
+//! (docs/methods.md, "The error curve" and "The lead angle", which correct
+//! the published method).
 //!
 //! Everything here works in the tool's second reference frame at a drive point
 //! P1: x along the feed e1, y across it along e2 = e3 x e1, z along the surface
@@ -127,8 +128,9 @@ pub fn tip_and_axis(tool: CutterShape, pos: Position) -> ([f64; 3], [f64; 3]) {
 /// at the characteristic point x = cx(psi) when the part is level along the
 /// feed there, and behind or ahead of it by rho dh/dx / sqrt(1 + (dh/dx)^2)
 /// where the part slopes along the feed (the rear of a tool following a
-/// concave feed curve: methods.md B evaluates only at cx, which the swept-tool
-/// check in tests/mpec.rs shows to miss gouges of r (dh/dx)^2 / 2).
+/// concave feed curve). Evaluating only at cx, as the method is usually
+/// stated, misses gouges of about r (dh/dx)^2 / 2 (docs/methods.md, "The
+/// error curve"; the swept-tool check in tests/mpec.rs finds them).
 #[inline]
 fn sphere_error(pose: &Pose, h: &dyn LocalHeight, psi: f64, y: f64) -> Option<f64> {
     let c = pose.centre(psi);
@@ -178,7 +180,7 @@ fn sphere_clearance(pose: &Pose, h: &dyn LocalHeight, psi: f64) -> f64 {
 /// Brent's minimisation of `f` on [a, b] (parabolic steps, golden-section
 /// fallback) to an abscissa tolerance `tol`: a handful of evaluations on the
 /// smooth, locally parabolic error functions here, where plain golden
-/// section needed 12 to 16. Returns (x, f(x)).
+/// section needs 12 to 16. Returns (x, f(x)).
 fn brent_min(a: f64, b: f64, tol: f64, f: impl Fn(f64) -> f64) -> (f64, f64) {
     const C: f64 = 0.381_966_011_250_105_1;
     let (mut a, mut b) = (a.min(b), a.max(b));
@@ -402,7 +404,8 @@ fn outer_crossings_near(
 }
 
 /// The crossing of g = 0 between a (g <= 0) and b (g > 0, possibly infinite),
-/// by the shared Illinois bracket (bisection while g(b) is not finite).
+/// by the shared Illinois bracket (docs/methods.md, "One root finder";
+/// bisection while g(b) is not finite).
 /// Returns the inner end once within 1e-9 mm of the level or 1e-6 mm of the
 /// crossing.
 fn crossing(a: f64, ga: f64, b: f64, gb: f64, g: impl Fn(f64) -> f64) -> f64 {
@@ -612,14 +615,15 @@ fn smallest_lead(s: &LeadSearch, margin: impl Fn(f64) -> f64) -> Option<f64> {
 /// Positions the tool at one drive point.
 ///
 /// `kappa_across` is the part's normal curvature across the feed at P1
-/// (kappa(e2) > 0: concave towards the tool). A "W" forms only then: the
-/// tool's own cross-section curvature at lead theta, about sin(theta) / R0,
-/// goes to 0 with theta, so some lead makes the part curve up faster than the
-/// tool. MPEC: middle at +delta, lead raised by bisection until the dips touch
-/// -delta. Otherwise (convex or flat across) the conventional position: the
-/// tool touches P1 (middle 0), the lead is the smallest one >= theta_min that
-/// keeps the error >= -delta (rear gouging), and the strip is where the
-/// scallop stays below +delta.
+/// (kappa(e2) > 0: concave towards the tool). A "W" forms only then: the tool's
+/// own cross-section curvature at lead theta, about sin(theta) / R0, goes to 0
+/// with theta, so some lead makes the part curve up faster than the tool. MPEC:
+/// middle at +delta, and the smallest lead whose dips stay at or above -delta,
+/// found by regula falsi (Illinois) on a bracket of the lead (see
+/// `smallest_lead`). Otherwise (convex or flat across) the conventional
+/// position: the tool touches P1 (middle 0), the lead is the smallest one >=
+/// theta_min that keeps the error >= -delta (rear gouging), and the strip is
+/// where the scallop stays below +delta.
 pub fn solve(
     tool: CutterShape,
     h: &dyn LocalHeight,
@@ -659,7 +663,8 @@ mod tests {
         CutterShape::torus(D63R6.0, D63R6.1)
     }
 
-    /// methods.md B reference: kf = 0, kc = 1/1198, delta = 0.01.
+    /// The reference of docs/methods.md, "The lead angle": kf = 0,
+    /// kc = 1/1198, delta = 0.01.
     #[test]
     fn quadric_reference_lead_and_width() {
         let h = Quadric {

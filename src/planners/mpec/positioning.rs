@@ -1,13 +1,14 @@
 //! Strategy `mpec`: mid-point error control tool positioning for a torus
-//! cutter with wide strips (mpec-torus-5axis-positioning.txt, corrected by
-//! methods.md B).
+//! cutter with wide strips (docs/methods.md, "MPEC: error curve and lead",
+//! "The part under the tool" and "Pass spacing").
 //!
 //! Drive curves are iso-parametric curves along `feed_direction`. At every
-//! drive point the tool sits with the middle of its "W" error curve at
-//! +delta and the lead angle is raised by bisection until the dips touch
-//! -delta ([`super::error_curve`]). A pass's usable width is its
-//! narrowest strip; the next drive curve is placed so that the facing
-//! half-widths of adjacent passes meet, found iteratively on the surface.
+//! drive point the tool sits with the middle of its "W" error curve at +delta
+//! and the lead angle is the smallest whose dips stay at or above -delta, found
+//! by regula falsi (Illinois) on a bracket ([`super::error_curve`]). A pass's
+//! usable width is its narrowest strip; the next drive curve is placed so that
+//! the facing half-widths of adjacent passes meet, found iteratively on the
+//! surface.
 //!
 //! The part is seen by the error-curve core as a height field over the
 //! tangent plane at the drive point. That height field comes from the real

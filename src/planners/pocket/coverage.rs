@@ -1,5 +1,6 @@
 //! What the tools sweep: exact point-to-path distances through a uniform
-//! grid of segments, and a raster of the pocket for the uncut area.
+//! grid of segments, and a raster of the pocket for the uncut area
+//! (docs/methods.md, "Tool sequence").
 
 use crate::geometry::pocket::{Pocket, Point2};
 

@@ -1,5 +1,6 @@
 //! Strategy `pocket_mat`: multi-tool 2.5-axis pocketing from the medial-axis
-//! transform (Ba & Cao 2013, corrected by methods.md C).
+//! transform (after Ba & Cao 2013; docs/methods.md, "Medial-axis tool
+//! choice", "Tool sequence").
 //!
 //! 1. Medial axis (x, y, r) of the pocket; Dmax; minimum concave-corner radius.
 //! 2. Roughing with Dc in [Dmax/2, Dmax] (rounded to the catalogue): contour

@@ -1,5 +1,5 @@
-//! Tool sizes by the rules of the medial-axis paper (section C of
-//! methods.md), rounded to the available catalogue (sorted ascending).
+//! Tool sizes by the rules of the medial-axis method (docs/methods.md, "Tool
+//! sequence"), rounded to the available catalogue (sorted ascending).
 
 use crate::error::{Error, Result};
 
@@ -70,7 +70,8 @@ mod tests {
     #[test]
     fn paper_rules_on_the_default_catalogue() {
         let c = DEFAULT_TOOL_CATALOGUE;
-        // Rectangle 100 x 60: Dmax = 60 -> 30 mm (R = 15), as in methods.md C.
+        // Rectangle 100 x 60: Dmax = 60 -> 30 mm (R = 15), as in
+        // docs/methods.md, "Pocket references".
         assert_eq!(roughing_diameter(60.0, &c).unwrap(), 30.0);
         // Leaf of the paper: Dmax = 46.856 -> 25 in this catalogue (24 in the paper's).
         assert_eq!(roughing_diameter(46.856, &c).unwrap(), 25.0);

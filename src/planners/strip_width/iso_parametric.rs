@@ -2,7 +2,8 @@
 //! `feed_direction`, u by default), zig-zag, with the next iso-parameter
 //! chosen so that the strips of neighbouring passes meet at the scallop
 //! height everywhere along the pass (the narrowest gap decides). Same cutter
-//! model and tool axis as `tensor_regions`, so the two compare fairly.
+//! model and tool axis as `tensor_regions`, so the two compare fairly
+//! (docs/methods.md, "Iso-parametric passes").
 
 use super::pass_ends::extend_pass;
 use super::passes::{sample_curve, Contact, PassSettings};

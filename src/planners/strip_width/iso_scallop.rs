@@ -1,7 +1,8 @@
 //! Strategy `iso_scallop`: the whole surface as one region, Lee-style
 //! iso-scallop offsetting from the boundary curve at the start of the
 //! cross-feed parameter (feed along `feed_direction`, u by default). Same
-//! cutter model and tool axis as `tensor_regions`.
+//! cutter model and tool axis as `tensor_regions` (docs/methods.md,
+//! "Iso-scallop offsetting").
 
 use super::offset::cover;
 use super::passes::{sample_curve, PassSettings};

@@ -1,8 +1,10 @@
 //! Pass ends: how a pass runs in and out past the edges of its region or of
-//! the surface (docs/methods.md, "Pass ends"). A run-out past an edge the
-//! surface falls away from follows the surface continued past the edge, lifted
-//! by the posed bottom disc's depth below the real surface; a pass that meets
-//! an edge at a grazing angle walks along it in parameter space.
+//! the surface (docs/methods.md, "Pass ends: run-ins, run-outs and edge
+//! walks"). On the surface an extension follows it with real contacts; a
+//! pass heading along a domain edge walks the edge in parameter space; past
+//! an edge a flat end runs straight in the edge contact's tangent plane, or
+//! on the surface continued past the edge where it falls away, each pose
+//! lifted by the posed bottom disc's depth below the real surface.
 
 use super::passes::{walk_on_surface, Contact, PassSettings};
 use crate::error::Result;
@@ -40,7 +42,6 @@ pub fn edges_at(
     edges
 }
 
-/// `next` moved back onto the domain edges `from` lies on.
 /// Largest angle between a heading and a domain edge it counts as running
 /// along, deg.
 const ALONG_EDGE_DEG: f64 = 20.0;
@@ -107,17 +108,33 @@ fn walk_along_edge(
 /// Run-in and run-out of a pass, so that the whole strip is cut up to the
 /// pass ends and past the surface edges.
 ///
-/// - Run-out: the edge points of the flat end lag R (1 - cos phi) cos(lambda)
-///   behind the contact at lateral offset R sin phi, so the pass continues
-///   by that lag past its last contact.
-/// - Where an end meets a surface edge at an angle theta, one side of the
-///   strip reaches the edge half-width * cot(theta) before (run-in) or after
-///   (run-out) the contact: the pass continues by that much more.
+/// How far:
+/// - Lag: the rim points of the flat end lag R (1 - cos phi) cos(lambda)
+///   behind the contact at lateral offset R sin phi, so a pass end continues
+///   by that lag (5 % margin) past its last contact. A pass start needs none,
+///   except where it starts on a domain edge and runs along it with the edge
+///   going on behind the start: it runs in by the lag too.
+/// - Oblique edges: where an end meets a surface edge at an angle theta, one
+///   side of the strip reaches the edge half-width * cot(theta) before
+///   (run-in) or after (run-out) the contact: the pass continues by that much
+///   more, at most 2 R. An edge the pass runs along adds nothing, except at
+///   a corner, where its overrun is kept.
 ///
-/// On the surface the extension follows it (real contacts: a straight run
-/// in the tangent plane would dip below a surface concave along the feed);
-/// past a surface edge it runs straight in the edge's tangent plane, keeping
-/// the edge's (u, v), for at most [`RUN_OUT_MAX`] tool radii.
+/// Where:
+/// - On the surface the extension follows it with real contacts (a straight
+///   run in the tangent plane would dip below a surface concave along the
+///   feed).
+/// - Where it reaches a domain edge it heads along (within
+///   `ALONG_EDGE_DEG`), it walks that edge in parameter space, the other
+///   parameter held on its bound (a walk in 3-D drifts off a curved edge
+///   line), up to the corner.
+/// - Past a surface edge, for at most [`RUN_OUT_MAX`] tool radii: straight in
+///   the edge contact's tangent plane, or, for a flat end where the surface
+///   continued past the edge falls below that plane (convex along the run),
+///   on that continued surface, posed to its normal. Every pose there is
+///   lifted along the edge normal by the depth its bottom disc reaches below
+///   the real surface beyond the edge contact's own (a ball by the curvature
+///   along the run).
 pub fn extend_pass(
     surface: &NurbsSurface,
     points: &mut Vec<PathPoint>,
@@ -137,8 +154,8 @@ pub fn extend_pass(
 
 /// Longest straight run past a surface edge, in tool radii: a pass meeting
 /// the edge at 35 deg needs half-width x cot(35 deg) plus the lag (up to
-/// about 2.3 R) before the far side of its strip has crossed the edge;
-/// shorter caps left scallops above h along oblique edges.
+/// about 2.3 R) before the far side of its strip has crossed the edge; a
+/// shorter cap leaves scallops above h along oblique edges.
 pub const RUN_OUT_MAX: f64 = 2.3;
 
 /// The points to add after the last (`at_end`) or before the first point,
@@ -503,8 +520,8 @@ mod tests {
     use super::*;
 
     /// A walk along a curved edge (the edge line bends in 3-D) stays on it,
-    /// covers the asked arc length and stops at the corner; a 3-D walk
-    /// drifted off such an edge and was clipped at once.
+    /// covers the asked arc length and stops at the corner (a walk in 3-D
+    /// drifts off such an edge and is clipped at once).
     #[test]
     fn edge_walk_follows_a_curved_edge_to_the_corner() {
         let surface = crate::geometry::interpolation::interpolate_height_field(

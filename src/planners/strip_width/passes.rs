@@ -1,6 +1,7 @@
 //! Shared by the strip-width planners (iso_parametric, iso_scallop,
 //! tensor_regions): tool poses along a pass of contact points, the widths each
-//! pose leaves, and chord-tolerance sampling of a pass.
+//! pose leaves, and chord-tolerance sampling of a pass (docs/methods.md,
+//! "Spacing margin and chord tolerance").
 
 use super::width::{curvatures_along, cutter_of_job, gouge_error, Curvatures, WidthError};
 use crate::error::Result;

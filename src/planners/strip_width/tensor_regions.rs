@@ -1,8 +1,9 @@
-//! Strategy `tensor_regions` (Xu, Li, Liu 2016, corrected by methods.md A):
-//! the strip-width tensor field, its degenerate points, the separatrices of
-//! the trisectors, the regions they bound, and in each region an initial
-//! pass through its widest-strip point along the optimal feed, then
-//! iso-scallop passes offset to both sides.
+//! Strategy `tensor_regions` (after Xu, Li, Liu 2016, with the corrections of
+//! docs/methods.md, "The strip-width tensor and its degenerate points" and
+//! "Partition at trisectors"): the strip-width tensor field, its degenerate
+//! points, the separatrices of the trisectors, the regions they bound, and in
+//! each region an initial pass through its widest-strip point along the
+//! optimal feed, then iso-scallop passes offset to both sides.
 
 use super::offset::cover;
 use super::passes::PassSettings;

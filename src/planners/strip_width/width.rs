@@ -1,6 +1,7 @@
 //! The machining-strip-width tensor field of a flat-end (or ball) cutter with a
-//! fixed lead angle and zero side tilt (methods.md A), and the exact strip
-//! width of one pass from the cutter's real profile.
+//! fixed lead angle and zero side tilt, and the exact strip width of one pass
+//! from the cutter's real profile (docs/methods.md, "Strip width of a tilted
+//! flat end" and "Feed direction field").
 //!
 //! - Tensor: H = 1/2 (K_b G - D), K_b = sin(lambda) / R. The optimal feed is the
 //!   eigenvector of the generalised problem H t = mu G t with the largest mu,
@@ -13,7 +14,7 @@
 //!   across the feed is its osculating circle (curvature kappa_cross), and the
 //!   residual is measured along the circle's normal; the half-width is the arc
 //!   length on the surface up to where the residual reaches the scallop h.
-//!   This replaces the quadratic estimate W2, which is 6-27 % too wide.
+//!   The quadratic estimate W2 is not used: it is 6-27 % too wide.
 
 use crate::error::{Error, Result};
 use crate::formats::Job;

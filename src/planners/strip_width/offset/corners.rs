@@ -1,6 +1,7 @@
 //! Where a pass turns sharply: corner spikes that carry the tool out along the
 //! bisector and sweep across the tip, and run-ons past a turning contact, so
-//! the strip edge behind the contact still reaches the corner material.
+//! the strip edge behind the contact still reaches the corner material
+//! (docs/methods.md, "Corner spikes" and "Run-ons before turns").
 
 use crate::error::Result;
 use crate::geometry::NurbsSurface;
@@ -12,10 +13,8 @@ use nalgebra::{Point3, Vector2, Vector3};
 pub(super) const SPIKE_MIN_TURN_DEG: f64 = 30.0;
 
 /// Length of a corner spike in shifts of the corner that would close the
-/// gap outside it by the discs' geometry, d (1 - s) / (2 s). Measured with
-/// the simulator (tensor_regions, max scallop, with the tip sweep below):
-/// on the anisotropic mould (`wing_mould`) 3 / 4 shifts 0.0551 / 0.0462 mm,
-/// on the earlier nearly isotropic one 0.0493 either way.
+/// gap outside it by the discs' geometry, d (1 - s) / (2 s): with it,
+/// tensor_regions on `wing_mould` stays within h by the simulator (0.0462 mm).
 pub(super) const SPIKE_SHARE: f64 = 4.0;
 
 /// Half-length of the sweep across a spike's tip, in cutter radii. At the
@@ -23,14 +22,11 @@ pub(super) const SPIKE_SHARE: f64 = 4.0;
 /// width along the bisector there, reaching past the tip and to both sides
 /// of it, where the material outside a corner spreads (most to one side
 /// where the corners of successive passes do not line up along the
-/// bisector). Measured as above on the anisotropic mould: 0.46 / 0.48 /
-/// 0.5 / 0.6 / 0.8 R: 0.0551 / 0.0551 / 0.0462 / 0.0462 / 0.0462 mm; on the
-/// second test surface (chevrons of about 105 deg) 0.6 R left 0.0649 mm
-/// just beyond the sweep's end, 0.8 R 0.0496 (+0.9 % path on the mould).
-/// The previous spike, four legs along the bisector a band (h / sin(lead))
-/// apart, left 0.0597 on the mould: a tilted flat bottom moving sideways
-/// cuts only the band behind its contact line, and spots were left just
-/// beyond the outer legs.
+/// bisector). Legs along the bisector would not do: a tilted flat bottom
+/// moving sideways cuts only a band h / sin(lead) wide behind its contact
+/// line. 0.8 R reaches the material beside chevrons of about 105 deg
+/// (0.0496 mm by the simulator on the second surface of
+/// `tests/wing_mould.rs`).
 pub(super) const SPIKE_SWEEP_RADII: f64 = 0.8;
 
 /// A corner spike: unit direction out of the corner and length, mm.
@@ -195,8 +191,8 @@ pub(super) fn edge_lag(s: &PassSettings, c: &Contact, towards: Vector3<f64>) -> 
 /// `RUN_ON_MIN_TURN_DEG` within the lag of its inner strip edge, with that
 /// lag. Turning towards its inner side swings the rim's end there back,
 /// so the strip's inner edge just before the turn falls short by about
-/// lag x tan(turn) (0.16 mm at a 21 deg kink of an offset pass: 0.051 mm
-/// between two kinked passes, by the simulator).
+/// lag x tan(turn): 0.16 mm at a 21 deg kink of an offset pass, enough
+/// for a scallop above h between two kinked passes.
 pub(super) fn turn_starts(s: &PassSettings, contacts: &[Contact]) -> Result<Vec<Option<f64>>> {
     let n = contacts.len();
     let mut out = vec![None; n];

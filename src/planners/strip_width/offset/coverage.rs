@@ -1,6 +1,7 @@
 //! Which parts of a region the passes so far leave uncut: the strips of the
 //! passes in a spatial hash, the samples of a front beyond every strip, and
-//! the gap lines that start the passes over uncut material.
+//! the gap lines that start the passes over uncut material (docs/methods.md,
+//! "Iso-scallop offsetting").
 
 use super::*;
 use crate::formats::Pass;

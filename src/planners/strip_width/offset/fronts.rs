@@ -1,6 +1,7 @@
 //! Offsetting one front to the next: each contact carried across the feed to
 //! where the two half-widths meet at the scallop height, smoothed, extended to
-//! the region's edges, and split into runs over uncut material.
+//! the region's edges, and split into runs over uncut material
+//! (docs/methods.md, "Iso-scallop offsetting").
 
 use super::*;
 use crate::error::Result;

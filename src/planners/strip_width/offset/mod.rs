@@ -1,4 +1,5 @@
-//! Lee-style iso-scallop offsetting (Lee 1998, methods.md A), shared by
+//! Lee-style iso-scallop offsetting (after Lee 1998; docs/methods.md,
+//! "Iso-scallop offsetting"), shared by
 //! `iso_scallop` (the whole surface as one region, from a boundary curve) and
 //! `tensor_regions` (per region, from the pass through its widest-strip
 //! point). Each point of the current pass is carried across the feed, on the
@@ -32,8 +33,8 @@ const MAX_PASSES: usize = 5_000;
 /// Whether `travel` is within 30 deg of a domain edge through `uv` that a
 /// walk heading `exit` (3-D tangent) leaves the domain through. Only the
 /// edge that stopped the walk counts: at a corner, an offset stopped by the
-/// edge across the pass is not a point of a pass along the other edge (it
-/// was, and every pass after it then hooked round into that edge).
+/// edge across the pass is not a point of a pass along the other edge
+/// (otherwise every later pass hooks round into that edge).
 fn runs_along_boundary(
     surface: &NurbsSurface,
     uv: Vector2<f64>,

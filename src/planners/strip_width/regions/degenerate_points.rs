@@ -1,9 +1,9 @@
-//! Degenerate points of the strip-width tensor field (methods.md A): where
-//! the field is isotropic, e = f = 0 with e, f the deviator of
-//! S = L^-1 H L^-T in the orthonormal Cholesky frame (the paper's literal
-//! "T12 = T21" is not sufficient). Found by sign changes of e and f over a
-//! grid, then Newton; classified by delta = a d - b c (Delmarcelle) with the
-//! derivatives taken in the orthonormal frame; separatrix directions from
+//! Degenerate points of the strip-width tensor field (docs/methods.md,
+//! "Degenerate points"): where the field is isotropic, e = f = 0 with e, f the
+//! deviator of S = L^-1 H L^-T in the orthonormal Cholesky frame (the paper's
+//! literal "T12 = T21" is not sufficient). Found by sign changes of e and f
+//! over a grid, then Newton; classified by delta = a d - b c (Delmarcelle) with
+//! the derivatives taken in the orthonormal frame; separatrix directions from
 //! the cubic d x^3 + (c + 2b) x^2 + (2a - d) x - c = 0, keeping the half-rays
 //! along which the feed (major eigenvector) is radial.
 

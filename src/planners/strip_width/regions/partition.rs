@@ -1,8 +1,8 @@
-//! Partitioning a surface into machining regions (paper section 2.2): trace
-//! the separatrices of each trisector along the optimal feed field to the
-//! boundary or another degenerate point, then split the parameter domain
-//! into the faces of the planar graph formed by the separatrices and the
-//! domain boundary. Also the field-line tracing the initial passes use (on
+//! Partitioning a surface into machining regions (docs/methods.md, "Partition
+//! at trisectors"; Xu, Li, Liu 2016, section 2.2): trace the separatrices of
+//! each trisector along the optimal feed field to the boundary or another
+//! degenerate point, then split the parameter domain into the faces of the
+//! planar graph formed by the separatrices and the domain boundary. Also the field-line tracing the initial passes use (on
 //! the shared tracer in geometry::field_trace).
 
 use super::degenerate_points::{DegeneratePoint, Kind};
