@@ -53,6 +53,14 @@ impl Bracket {
         }
     }
 
+    /// The chord's crossing kept at least the fraction `keep` of the bracket
+    /// away from either end, measured from `pos`: a guard for functions whose
+    /// chord lands next to one end for many steps.
+    pub fn trial_clamped(&self, keep: f64) -> f64 {
+        let w = (self.f_pos / (self.f_pos - self.f_neg)).clamp(keep, 1.0 - keep);
+        self.pos - w * (self.pos - self.neg)
+    }
+
     /// Replaces the end on the trial point's side of the root by (x, f(x)).
     /// When the same end is replaced twice running, the other end's value is
     /// halved (Illinois), so the bracket closes from both sides.

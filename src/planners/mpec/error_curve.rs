@@ -586,30 +586,17 @@ fn smallest_lead(s: &LeadSearch, margin: impl Fn(f64) -> f64) -> Option<f64> {
     if m_hi < 0.0 {
         return None;
     }
-    let mut side = 0i8;
+    // The margin rises with the lead: the smallest lead with a margin >= 0
+    // is the bracket's positive end once the bracket is within tolerance.
+    let mut br = Bracket::new(lo, m_lo, hi, m_hi);
     for _ in 0..100 {
-        if hi - lo <= s.theta_tol || m_hi < 1e-9 {
+        if br.width() <= s.theta_tol || br.f_pos < 1e-9 {
             break;
         }
-        // Regula falsi, kept off the bracket ends.
-        let t = (m_hi / (m_hi - m_lo)).clamp(0.01, 0.99);
-        let mid = hi - t * (hi - lo);
-        let m = margin(mid);
-        if m >= 0.0 {
-            (hi, m_hi) = (mid, m);
-            if side == 1 {
-                m_lo *= 0.5;
-            }
-            side = 1;
-        } else {
-            (lo, m_lo) = (mid, m);
-            if side == -1 {
-                m_hi *= 0.5;
-            }
-            side = -1;
-        }
+        let mid = br.trial_clamped(0.01);
+        br.narrow(mid, margin(mid));
     }
-    Some(hi)
+    Some(br.pos)
 }
 
 /// Positions the tool at one drive point.

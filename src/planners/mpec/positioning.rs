@@ -574,9 +574,7 @@ impl<'a> Planner<'a> {
             if br.f_neg > -1e-6 || br.width() <= 1e-12 * (1.0 + br.neg.abs()) {
                 break;
             }
-            // The chord's crossing, kept 1 % away from either end.
-            let w = (br.f_pos / (br.f_pos - br.f_neg)).clamp(0.01, 0.99);
-            let m = br.pos - w * (br.pos - br.neg);
+            let m = br.trial_clamped(0.01);
             br.narrow(m, g(m));
         }
         br.neg
