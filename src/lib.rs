@@ -9,10 +9,13 @@
 //! 4. `simulation` (scallop simulator, material removal)
 //! 5. `machines` (kinematics, timed joint trajectories)
 //! 6. `pipeline` (plan + verify + stats: what every edge calls)
-//! 7. edges: `cli`, `ros` (the node), `recording` (MCAP), `ipc` (iceoryx2), `plot`
+//! 7. `messages` (the node's ROS 2 messages, their conversions, topic names
+//!    and the output messages of a planned job: what the node and the bags share)
+//! 8. edges, each using only those before it: `ipc` (iceoryx2), `plot`,
+//!    `recording` (MCAP bags), then `ros` (the node, which records), then `cli`
 //!
-//! Nothing in layers 1-5 imports from `ros`, `recording`, `ipc`, `plot` or `cli`
-//! (checked by tests/layering.rs).
+//! Nothing in layers 1-7 imports from an edge, and no edge imports one listed
+//! after it (checked by tests/layering.rs).
 
 pub mod error;
 pub mod geometry;
@@ -30,10 +33,13 @@ pub mod machines;
 
 pub mod pipeline;
 
-pub mod cli;
+pub mod messages;
+
 pub mod ipc;
 pub mod plot;
 pub mod recording;
 pub mod ros;
+
+pub mod cli;
 
 pub use error::{Error, Result};

@@ -2,11 +2,11 @@
 //! validated with the same checks and reasons as the CLI's files; results
 //! become Toolpath, PoseArray, JointTrajectory and MarkerArray messages.
 
-use super::msgs;
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, JobFile, Machine, PlanResult, Shape, Strategy};
 use crate::geometry::{NurbsSurface, Pocket};
 use crate::machines::{self, JointTrajectory};
+use crate::messages as msgs;
 use crate::tools::Tool;
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
@@ -225,6 +225,18 @@ pub fn prevalidate_job(m: &msgs::Job) -> Result<JobFile> {
     };
     Job::new(file.clone(), stand_in)?;
     Ok(file)
+}
+
+/// The job message on its shape as a validated job. A shape of the wrong kind
+/// for the strategy is named by the message's `surface_id`.
+pub fn job_from_msg(m: &msgs::Job, shape: &Shape) -> Result<Job> {
+    let file = job_file_from_msg(m)?;
+    Job::new(file, shape.clone()).map_err(|e| match e {
+        Error::Invalid { field, message } if field == "surface" => {
+            Error::invalid("surface_id", format!("\"{}\": {message}", m.surface_id))
+        }
+        e => e,
+    })
 }
 
 /// The message form of a job (for clients: the demo, tests).
