@@ -209,6 +209,135 @@ fn finite(field: &str, v: Option<f64>) -> Result<()> {
     }
 }
 
+impl JobFile {
+    /// Checks every field that does not depend on the shape, with the reasons
+    /// [`Job::new`] gives: a job message is refused before its shape arrives.
+    pub fn validate(&self) -> Result<()> {
+        self.checked_parameters()?;
+        self.checked_tool_and_machine()?;
+        Ok(())
+    }
+
+    /// The tool's sizes and the numbers; returns the tool catalogue (sorted,
+    /// each diameter once).
+    fn checked_parameters(&self) -> Result<Vec<f64>> {
+        self.tool.validate().map_err(|e| e.within("tool"))?;
+        finite_positive("scallop", self.scallop)?;
+        finite_positive("tolerance", self.tolerance)?;
+        finite_positive("feed_rate", self.feed_rate)?;
+        finite_positive("simulation_resolution", self.simulation_resolution)?;
+        finite("lead_angle_deg", self.lead_angle_deg)?;
+        finite("side_tilt_deg", self.side_tilt_deg)?;
+        if let Some(l) = self.lead_angle_deg {
+            if !(-89.0..=89.0).contains(&l) {
+                return Err(Error::invalid(
+                    "lead_angle_deg",
+                    format!("{l} is outside -89..89 degrees"),
+                ));
+            }
+        }
+        if let Some(n) = self.section_normal {
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            if !len.is_finite() || len < 1e-12 {
+                return Err(Error::invalid(
+                    "section_normal",
+                    "must be a finite non-zero vector",
+                ));
+            }
+        }
+        let catalogue = match &self.tool_catalogue {
+            Some(c) => {
+                if c.is_empty() {
+                    return Err(Error::invalid(
+                        "tool_catalogue",
+                        "is empty: list at least one tool diameter",
+                    ));
+                }
+                for (i, &d) in c.iter().enumerate() {
+                    finite_positive(&format!("tool_catalogue[{i}]"), Some(d))?;
+                }
+                let mut c = c.clone();
+                c.sort_by(f64::total_cmp);
+                c.dedup();
+                c
+            }
+            None => DEFAULT_TOOL_CATALOGUE.to_vec(),
+        };
+        if let Some(g) = &self.grinding {
+            let fields = [
+                ("c_a", g.c_a),
+                ("k_a", g.k_a),
+                ("k_t", g.k_t),
+                ("belt_speed", g.belt_speed),
+                ("force", g.force),
+                ("feed_speed", g.feed_speed),
+            ];
+            for (name, v) in fields {
+                finite_positive(&format!("grinding.{name}"), Some(v))?;
+            }
+        }
+        Ok(catalogue)
+    }
+
+    /// The tool kind against the strategy and the machine against the tool;
+    /// returns the machine (the strategy's default when not given).
+    fn checked_tool_and_machine(&self) -> Result<Machine> {
+        let tool_ok = match self.strategy {
+            Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric => {
+                matches!(
+                    self.tool,
+                    Tool::FlatEnd { .. } | Tool::Ball { .. } | Tool::Torus { .. }
+                )
+            }
+            Strategy::Mpec => matches!(self.tool, Tool::Torus { .. }),
+            Strategy::PocketMat => matches!(self.tool, Tool::FlatEnd { .. }),
+            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => {
+                matches!(self.tool, Tool::Belt { .. })
+            }
+        };
+        if !tool_ok {
+            return Err(Error::invalid(
+                "tool.kind",
+                format!(
+                    "strategy {} cannot use a {} tool",
+                    self.strategy.name(),
+                    self.tool.kind()
+                ),
+            ));
+        }
+        let machine = self.machine.unwrap_or(self.strategy.default_machine());
+        if (machine == Machine::Belt6) != matches!(self.tool, Tool::Belt { .. }) {
+            return Err(Error::invalid(
+                "machine",
+                format!(
+                    "machine {} cannot carry a {} tool",
+                    machine.name(),
+                    self.tool.kind()
+                ),
+            ));
+        }
+        Ok(machine)
+    }
+}
+
+/// A pocket for `pocket_mat`, a NURBS surface for every other strategy.
+fn check_shape_kind(strategy: Strategy, shape: &Shape) -> Result<()> {
+    match (shape, strategy.needs_pocket()) {
+        (Shape::Pocket(_), false) => Err(Error::invalid(
+            "surface",
+            format!(
+                "strategy {} needs a NURBS surface, got a pocket",
+                strategy.name()
+            ),
+        )),
+        (Shape::Surface(_), true) => Err(Error::invalid(
+            "surface",
+            "strategy pocket_mat needs a pocket, got a NURBS surface",
+        )),
+        _ => Ok(()),
+    }
+}
+
 impl Job {
     /// Validates a parsed job file. `base_dir` resolves `{"file": ...}` surfaces.
     pub fn from_file(f: JobFile, base_dir: Option<&Path>) -> Result<Self> {
@@ -242,113 +371,9 @@ impl Job {
 
     /// Validates the parameters of `f` against an already-built shape.
     pub fn new(f: JobFile, shape: Shape) -> Result<Self> {
-        f.tool.validate().map_err(|e| e.within("tool"))?;
-        finite_positive("scallop", f.scallop)?;
-        finite_positive("tolerance", f.tolerance)?;
-        finite_positive("feed_rate", f.feed_rate)?;
-        finite_positive("simulation_resolution", f.simulation_resolution)?;
-        finite("lead_angle_deg", f.lead_angle_deg)?;
-        finite("side_tilt_deg", f.side_tilt_deg)?;
-        if let Some(l) = f.lead_angle_deg {
-            if !(-89.0..=89.0).contains(&l) {
-                return Err(Error::invalid(
-                    "lead_angle_deg",
-                    format!("{l} is outside -89..89 degrees"),
-                ));
-            }
-        }
-        if let Some(n) = f.section_normal {
-            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-            if !len.is_finite() || len < 1e-12 {
-                return Err(Error::invalid(
-                    "section_normal",
-                    "must be a finite non-zero vector",
-                ));
-            }
-        }
-        let catalogue = match f.tool_catalogue {
-            Some(c) => {
-                if c.is_empty() {
-                    return Err(Error::invalid(
-                        "tool_catalogue",
-                        "is empty: list at least one tool diameter",
-                    ));
-                }
-                for (i, &d) in c.iter().enumerate() {
-                    finite_positive(&format!("tool_catalogue[{i}]"), Some(d))?;
-                }
-                let mut c = c;
-                c.sort_by(f64::total_cmp);
-                c.dedup();
-                c
-            }
-            None => DEFAULT_TOOL_CATALOGUE.to_vec(),
-        };
-        if let Some(g) = &f.grinding {
-            let fields = [
-                ("c_a", g.c_a),
-                ("k_a", g.k_a),
-                ("k_t", g.k_t),
-                ("belt_speed", g.belt_speed),
-                ("force", g.force),
-                ("feed_speed", g.feed_speed),
-            ];
-            for (name, v) in fields {
-                finite_positive(&format!("grinding.{name}"), Some(v))?;
-            }
-        }
-        match (&shape, f.strategy.needs_pocket()) {
-            (Shape::Pocket(_), false) => {
-                return Err(Error::invalid(
-                    "surface",
-                    format!(
-                        "strategy {} needs a NURBS surface, got a pocket",
-                        f.strategy.name()
-                    ),
-                ))
-            }
-            (Shape::Surface(_), true) => {
-                return Err(Error::invalid(
-                    "surface",
-                    "strategy pocket_mat needs a pocket, got a NURBS surface",
-                ))
-            }
-            _ => {}
-        }
-        let tool_ok = match f.strategy {
-            Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric => {
-                matches!(
-                    f.tool,
-                    Tool::FlatEnd { .. } | Tool::Ball { .. } | Tool::Torus { .. }
-                )
-            }
-            Strategy::Mpec => matches!(f.tool, Tool::Torus { .. }),
-            Strategy::PocketMat => matches!(f.tool, Tool::FlatEnd { .. }),
-            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => {
-                matches!(f.tool, Tool::Belt { .. })
-            }
-        };
-        if !tool_ok {
-            return Err(Error::invalid(
-                "tool.kind",
-                format!(
-                    "strategy {} cannot use a {} tool",
-                    f.strategy.name(),
-                    f.tool.kind()
-                ),
-            ));
-        }
-        let machine = f.machine.unwrap_or(f.strategy.default_machine());
-        if (machine == Machine::Belt6) != matches!(f.tool, Tool::Belt { .. }) {
-            return Err(Error::invalid(
-                "machine",
-                format!(
-                    "machine {} cannot carry a {} tool",
-                    machine.name(),
-                    f.tool.kind()
-                ),
-            ));
-        }
+        let catalogue = f.checked_parameters()?;
+        check_shape_kind(f.strategy, &shape)?;
+        let machine = f.checked_tool_and_machine()?;
         Ok(Self {
             job_id: f.job_id,
             shape,
