@@ -11,11 +11,12 @@
 //! 6. `pipeline` (plan + verify + stats: what every edge calls)
 //! 7. `messages` (the node's ROS 2 messages, their conversions, topic names
 //!    and the output messages of a planned job: what the node and the bags share)
-//! 8. edges, each using only those before it: `ipc` (iceoryx2), `plot`,
-//!    `recording` (MCAP bags), then `ros` (the node, which records), then `cli`
+//! 8. edges: `ipc` (iceoryx2), `plot` and `recording` (MCAP bags), none of
+//!    which uses another; above them `ros` (the node, which records into
+//!    bags); above all `cli`
 //!
-//! Nothing in layers 1-7 imports from an edge, and no edge imports one listed
-//! after it (checked by tests/layering.rs).
+//! Nothing in layers 1-7 imports from an edge, and an edge imports only edges
+//! below it (checked by tests/layering.rs).
 
 pub mod error;
 pub mod geometry;
