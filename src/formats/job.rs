@@ -182,6 +182,12 @@ pub struct Job {
 /// Default feed rate, mm/min.
 pub const DEFAULT_FEED_RATE: f64 = 1000.0;
 
+/// Depth below the surface a finishing cut may reach before it counts as a
+/// gouge, mm, for jobs without a tolerance band: the limit the strip-width
+/// planners are accepted with (tests/wing_mould.rs); the simulator finds
+/// 0.0009 to 0.0024 mm on wing_mould.
+pub const DEFAULT_GOUGE_TOLERANCE: f64 = 0.005;
+
 /// Standard metric end-mill diameters, mm.
 pub const DEFAULT_TOOL_CATALOGUE: [f64; 22] = [
     1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 25.0, 30.0,
@@ -447,6 +453,15 @@ impl Job {
                 format!("required by strategy {}", self.strategy.name()),
             )
         })
+    }
+
+    /// How deep a cut may go below the surface before it is a gouge, mm:
+    /// MPEC's band (`tolerance`, its +-delta), else [`DEFAULT_GOUGE_TOLERANCE`].
+    pub fn gouge_tolerance(&self) -> f64 {
+        match (self.strategy, self.tolerance) {
+            (Strategy::Mpec, Some(delta)) => delta,
+            _ => DEFAULT_GOUGE_TOLERANCE,
+        }
     }
     /// Lead angle in radians (default 0 when absent).
     pub fn lead_angle(&self) -> f64 {
