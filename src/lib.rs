@@ -9,10 +9,14 @@
 //! 4. `simulation` (scallop simulator, material removal)
 //! 5. `machines` (kinematics, timed joint trajectories)
 //! 6. `pipeline` (plan + verify + stats: what every edge calls)
-//! 7. edges: `cli`, `ros` (the node), `recording` (MCAP), `ipc` (iceoryx2), `plot`
+//! 7. `messages` (the node's ROS 2 messages, their conversions, topic names
+//!    and the output messages of a planned job: what the node and the bags share)
+//! 8. edges: `ipc` (iceoryx2), `plot` and `recording` (MCAP bags), none of
+//!    which uses another; above them `ros` (the node, which records into
+//!    bags); above all `cli`
 //!
-//! Nothing in layers 1-5 imports from `ros`, `recording`, `ipc`, `plot` or `cli`
-//! (checked by tests/layering.rs).
+//! Nothing in layers 1-7 imports from an edge, and an edge imports only edges
+//! below it (checked by tests/layering.rs).
 
 pub mod error;
 pub mod geometry;
@@ -30,10 +34,13 @@ pub mod machines;
 
 pub mod pipeline;
 
-pub mod cli;
+pub mod messages;
+
 pub mod ipc;
 pub mod plot;
 pub mod recording;
 pub mod ros;
+
+pub mod cli;
 
 pub use error::{Error, Result};

@@ -5,9 +5,9 @@
 use std::path::{Path, PathBuf};
 use toolpath_planner::formats::Strategy;
 use toolpath_planner::machines::Machines;
+use toolpath_planner::messages::{self as msgs, topics};
 use toolpath_planner::recording::runs::{self, replay, topic_specs, Recorded};
 use toolpath_planner::recording::{read_bag, BagWriter, WriterOptions};
-use toolpath_planner::ros::msgs;
 
 fn golden_bags() -> Vec<PathBuf> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("bags");
@@ -93,11 +93,11 @@ fn copy_with(
     }
     for (i, m) in bag.messages.iter().enumerate() {
         let spec = specs.iter().find(|s| s.topic == m.topic).unwrap();
-        if m.topic == runs::TOOLPATH {
+        if m.topic == topics::absolute("/", topics::TOOLPATH) {
             let mut t: msgs::Toolpath = bag.decode(i, spec).unwrap();
             edit(&mut t);
             w.write(&m.topic, m.log_time, &t).unwrap();
-        } else if m.topic == runs::JOB_STATUS {
+        } else if m.topic == topics::absolute("/", topics::JOB_STATUS) {
             let mut s: msgs::JobStatus = bag.decode(i, spec).unwrap();
             edit_status(&mut s);
             w.write(&m.topic, m.log_time, &s).unwrap();

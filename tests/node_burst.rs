@@ -19,8 +19,8 @@ use std::collections::BTreeMap;
 use std::net::{IpAddr, Ipv4Addr};
 use std::time::{Duration, Instant};
 use toolpath_planner::cli::bench_node;
-use toolpath_planner::ros::msgs;
-use toolpath_planner::ros::node::{qos, topics, RosNode};
+use toolpath_planner::messages::{self as msgs, topics};
+use toolpath_planner::ros::node::{qos, RosNode};
 
 /// A fresh domain in 1..=230 (test files run one after another; a random
 /// domain keeps concurrent runs in other checkouts apart).

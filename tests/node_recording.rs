@@ -14,9 +14,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 use toolpath_planner::machines::Machines;
+use toolpath_planner::messages::{self as msgs, topics};
 use toolpath_planner::recording::read_bag;
 use toolpath_planner::recording::runs::{self, replay};
-use toolpath_planner::ros::msgs;
 
 const BIN: &str = env!("CARGO_BIN_EXE_toolpath");
 
@@ -117,22 +117,22 @@ fn republished_golden_bags_match_and_the_node_records_them() {
     assert!(bag_dir.join("metadata.yaml").is_file());
     let bag = read_bag(&bag_dir).unwrap();
     assert!(bag.truncated.is_none());
-    let count = |topic: &str| bag.messages_on(topic).count();
-    assert!(count(runs::SURFACE) >= 2 && count(runs::JOB) == 3);
-    assert_eq!(count(runs::TOOLPATH), 3);
-    assert_eq!(count(runs::MILL5_TRAJECTORY), 2);
-    assert_eq!(count(runs::BELT6_TRAJECTORY), 1);
-    assert_eq!(count(runs::TOOL_POSES), 3);
-    assert_eq!(count(runs::MARKERS), 3);
+    let count = |relative: &str| bag.messages_on(&topics::absolute("/", relative)).count();
+    assert!(count(topics::SURFACE) >= 2 && count(topics::JOB) == 3);
+    assert_eq!(count(topics::TOOLPATH), 3);
+    assert_eq!(count(topics::MILL5_TRAJECTORY), 2);
+    assert_eq!(count(topics::BELT6_TRAJECTORY), 1);
+    assert_eq!(count(topics::TOOL_POSES), 3);
+    assert_eq!(count(topics::MARKERS), 3);
     let spec = runs::topic_specs()
         .into_iter()
-        .find(|s| s.topic == runs::JOB_STATUS)
+        .find(|s| s.topic == topics::absolute("/", topics::JOB_STATUS))
         .unwrap();
     let finals: Vec<msgs::JobStatus> = bag
         .messages
         .iter()
         .enumerate()
-        .filter(|(_, m)| m.topic == runs::JOB_STATUS)
+        .filter(|(_, m)| m.topic == spec.topic)
         .map(|(i, _)| bag.decode::<msgs::JobStatus>(i, &spec).unwrap())
         .filter(|s| s.is_final())
         .collect();

@@ -104,7 +104,39 @@ fn residual(s: &NurbsSurface) -> ResidualOverlay {
         nv,
         xyz,
         residual: res,
+        gouge_tolerance: 0.005,
     }
+}
+
+/// `map` with the samples of u in [0.3, 0.5], v in [0.2, 0.4] cut `depth` mm
+/// below the surface.
+fn with_cut_below(mut map: ResidualOverlay, depth: f64) -> ResidualOverlay {
+    for i in 0..map.nu {
+        for j in 0..map.nv {
+            let (u, v) = (
+                i as f64 / (map.nu - 1) as f64,
+                j as f64 / (map.nv - 1) as f64,
+            );
+            if (0.3..=0.5).contains(&u) && (0.2..=0.4).contains(&v) {
+                map.residual[i * map.nv + j] = Some(-depth);
+            }
+        }
+    }
+    map
+}
+
+/// Pixels of `c` in the residual-map panel (the third, above the legend):
+/// their count and the mean pixel position.
+fn in_map_panel(img: &image::RgbImage, c: (u8, u8, u8)) -> (usize, f64, f64) {
+    let (mut n, mut sx, mut sy) = (0, 0.0, 0.0);
+    for (x, y, p) in img.enumerate_pixels() {
+        if x >= 2 * 640 && y < 40 + 600 && (p[0], p[1], p[2]) == c {
+            n += 1;
+            sx += x as f64;
+            sy += y as f64;
+        }
+    }
+    (n, sx / n.max(1) as f64, sy / n.max(1) as f64)
 }
 
 fn pocket() -> Pocket {
@@ -219,6 +251,86 @@ fn freeform_result_with_residual_map() {
     let svg2 = dir.path().join("bump2.svg");
     plot::draw(&input, &svg2).unwrap();
     assert_eq!(text, std::fs::read_to_string(&svg2).unwrap());
+}
+
+#[test]
+fn gouge_is_marked_only_beyond_the_tolerance() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = bump();
+    let r = freeform_result(&s);
+    let draw = |map: &ResidualOverlay, name: &str| {
+        let input = PlotInput {
+            result: &r,
+            surface: Some(&s),
+            pocket: None,
+            residual: Some(map),
+        };
+        let png = dir.path().join(name);
+        plot::draw(&input, &png).unwrap();
+        colors(&png).3
+    };
+    let gouge = plot::gouge_color();
+    // 0.004 mm below the surface is within the 0.005 mm tolerance: no gouge.
+    let within = with_cut_below(residual(&s), 0.004);
+    let (n, _, _) = in_map_panel(&draw(&within, "within.png"), gouge);
+    assert_eq!(n, 0, "cells within the tolerance painted as gouge");
+    // 0.006 mm is beyond it: the patch is red, where it lies. Its centre
+    // (u 0.4, v 0.3) is at x = 40 mm, y = 24 mm of the 100 x 80 mm part, left
+    // of and below the middle of the top view.
+    let beyond = with_cut_below(residual(&s), 0.006);
+    let (n, x, y) = in_map_panel(&draw(&beyond, "beyond.png"), gouge);
+    assert!(n > 2000, "gouge cells beyond the tolerance: {n} pixels");
+    let (mid_x, mid_y) = (2.0 * 640.0 + 0.5 * 550.0, 40.0 + 300.0 + 12.0);
+    assert!(
+        x < mid_x - 20.0 && y > mid_y + 20.0,
+        "gouge drawn at ({x}, {y})"
+    );
+    // The tolerance is the map's, not a fixed number: at 0.003 mm the
+    // 0.004 mm cut is a gouge.
+    let strict = ResidualOverlay {
+        gouge_tolerance: 0.003,
+        ..within.clone()
+    };
+    let (n, _, _) = in_map_panel(&draw(&strict, "strict.png"), gouge);
+    assert!(
+        n > 2000,
+        "gouge cells beyond a 0.003 mm tolerance: {n} pixels"
+    );
+    // The legend states the threshold.
+    let svg = dir.path().join("within.svg");
+    plot::draw(
+        &PlotInput {
+            result: &r,
+            surface: Some(&s),
+            pocket: None,
+            residual: Some(&within),
+        },
+        &svg,
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&svg).unwrap();
+    if plot::font_available() {
+        assert!(
+            text.contains("gouge &gt; 0.005 mm") || text.contains("gouge > 0.005 mm"),
+            "legend without the threshold"
+        );
+    }
+    let bad = ResidualOverlay {
+        gouge_tolerance: f64::NAN,
+        ..within
+    };
+    let e = plot::draw(
+        &PlotInput {
+            result: &r,
+            surface: None,
+            pocket: None,
+            residual: Some(&bad),
+        },
+        &dir.path().join("bad.png"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("residual.gouge_tolerance"), "{e}");
 }
 
 #[test]

@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
-# The whole test suite: Rust unit, integration and doc tests, then the Python tests.
+# The whole test suite: installs what the tests need (.ci/install, quick when
+# it is all there), then Rust unit, integration and doc tests, then the Python tests.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+bash .ci/install
 cargo test --locked
 if ls tests/python/test_*.py >/dev/null 2>&1; then
   # `cargo test` has just built target/debug/toolpath for the integration tests (dependencies
   # at opt-level 3, this crate at 1): the Python tests drive that binary, which spares CI a
   # second build of the stack (a plain `cargo build` resolves other dependency features).
-  TOOLPATH_BIN="${TOOLPATH_BIN:-$PWD/target/debug/toolpath}" python3 -m pytest -q tests/python
+  TOOLPATH_BIN="${TOOLPATH_BIN:-$PWD/target/debug/toolpath}" "$(bash .ci/python)" -m pytest -q tests/python
 fi

@@ -13,12 +13,11 @@
 
 use crate::error::{Error, Result};
 use crate::formats::{Job, Shape};
+use crate::messages::{self as msgs, convert, topics, JobStatus};
 use crate::pipeline::{self, RunOptions};
 use crate::planners::NoProgress;
 use crate::plot::{self, PlotInput};
-use crate::ros::convert;
-use crate::ros::msgs::{self, JobStatus};
-use crate::ros::node::{qos, topics, RosNode};
+use crate::ros::node::{qos, RosNode};
 use crate::samples;
 use futures::StreamExt;
 use std::collections::BTreeMap;

@@ -1,8 +1,8 @@
 use crate::error::{Error, Result};
 use crate::formats;
 use crate::machines::Machines;
+use crate::messages as msgs;
 use crate::recording::runs;
-use crate::ros::msgs;
 use std::path::Path;
 
 /// `toolpath record JOB -o BAG [--require-success]`: plans the job as the

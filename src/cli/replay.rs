@@ -1,7 +1,7 @@
 use crate::error::{Error, Result};
 use crate::machines::Machines;
-use crate::recording::republish::{self, PublishOptions};
 use crate::recording::runs;
+use crate::ros::republish::{self, PublishOptions};
 use crate::ros::NodeConfig;
 use std::net::{IpAddr, Ipv4Addr};
 use std::path::Path;

@@ -210,116 +210,17 @@ pub struct Job {
 /// Default feed rate, mm/min.
 pub const DEFAULT_FEED_RATE: f64 = 1000.0;
 
+/// Depth below the surface a finishing cut may reach before it counts as a
+/// gouge, mm, for jobs without a tolerance band: the limit the strip-width
+/// planners are accepted with (tests/wing_mould.rs); the simulator finds
+/// 0.0009 to 0.0024 mm on wing_mould.
+pub const DEFAULT_GOUGE_TOLERANCE: f64 = 0.005;
+
 /// Standard metric end-mill diameters, mm.
 pub const DEFAULT_TOOL_CATALOGUE: [f64; 22] = [
     1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 25.0, 30.0,
     32.0, 35.0, 40.0, 45.0, 50.0,
 ];
-
-/// Sizes, tolerances and angles: finite, positive where they must be, in range.
-fn check_numbers(f: &JobFile) -> Result<()> {
-    f.tool.validate().map_err(|e| e.within("tool"))?;
-    finite_positive("scallop", f.scallop)?;
-    finite_positive("tolerance", f.tolerance)?;
-    finite_positive("feed_rate", f.feed_rate)?;
-    finite_positive("simulation_resolution", f.simulation_resolution)?;
-    finite("lead_angle_deg", f.lead_angle_deg)?;
-    finite("side_tilt_deg", f.side_tilt_deg)?;
-    if let Some(l) = f.lead_angle_deg {
-        if !(-89.0..=89.0).contains(&l) {
-            return Err(Error::invalid(
-                "lead_angle_deg",
-                format!("{l} is outside -89..89 degrees"),
-            ));
-        }
-    }
-    if let Some(n) = f.section_normal {
-        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        if !len.is_finite() || len < 1e-12 {
-            return Err(Error::invalid(
-                "section_normal",
-                "must be a finite non-zero vector",
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// The job's tool catalogue, sorted and without duplicates (the standard
-/// metric sizes when the job gives none).
-fn tool_catalogue(given: Option<Vec<f64>>) -> Result<Vec<f64>> {
-    Ok(match given {
-        Some(c) => {
-            if c.is_empty() {
-                return Err(Error::invalid(
-                    "tool_catalogue",
-                    "is empty: list at least one tool diameter",
-                ));
-            }
-            for (i, &d) in c.iter().enumerate() {
-                finite_positive(&format!("tool_catalogue[{i}]"), Some(d))?;
-            }
-            let mut c = c;
-            c.sort_by(f64::total_cmp);
-            c.dedup();
-            c
-        }
-        None => DEFAULT_TOOL_CATALOGUE.to_vec(),
-    })
-}
-
-/// The belt-grinding removal parameters are finite and positive.
-fn check_grinding(g: Option<&GrindingParams>) -> Result<()> {
-    if let Some(g) = g {
-        let fields = [
-            ("c_a", g.c_a),
-            ("k_a", g.k_a),
-            ("k_t", g.k_t),
-            ("belt_speed", g.belt_speed),
-            ("force", g.force),
-            ("feed_speed", g.feed_speed),
-        ];
-        for (name, v) in fields {
-            finite_positive(&format!("grinding.{name}"), Some(v))?;
-        }
-    }
-    Ok(())
-}
-
-/// The shape suits the strategy (surface or pocket), the strategy accepts
-/// the tool, and the machine can carry it.
-fn check_shape_and_tool(f: &JobFile, shape: &Shape) -> Result<()> {
-    match (shape, f.strategy.needs_pocket()) {
-        (Shape::Pocket(_), false) => {
-            return Err(Error::invalid(
-                "surface",
-                format!(
-                    "strategy {} needs a NURBS surface, got a pocket",
-                    f.strategy.name()
-                ),
-            ))
-        }
-        (Shape::Surface(_), true) => {
-            return Err(Error::invalid(
-                "surface",
-                "strategy pocket_mat needs a pocket, got a NURBS surface",
-            ))
-        }
-        _ => {}
-    }
-    if !f.strategy.accepts(&f.tool) {
-        return Err(Error::invalid(
-            "tool.kind",
-            format!(
-                "strategy {} cannot use a {} tool (it plans {})",
-                f.strategy.name(),
-                f.tool.kind(),
-                f.strategy.tool_kinds()
-            ),
-        ));
-    }
-    Ok(())
-}
 
 fn finite_positive(field: &str, v: Option<f64>) -> Result<()> {
     if let Some(x) = v {
@@ -338,6 +239,123 @@ fn finite(field: &str, v: Option<f64>) -> Result<()> {
         Some(x) if !x.is_finite() => {
             Err(Error::invalid(field, format!("{x} is not a finite number")))
         }
+        _ => Ok(()),
+    }
+}
+
+impl JobFile {
+    /// Checks every field that does not depend on the shape, with the reasons
+    /// [`Job::new`] gives: a job message is refused before its shape arrives.
+    pub fn validate(&self) -> Result<()> {
+        self.checked_parameters()?;
+        self.checked_tool_and_machine()?;
+        Ok(())
+    }
+
+    /// The tool's sizes and the numbers; returns the tool catalogue (sorted,
+    /// each diameter once).
+    fn checked_parameters(&self) -> Result<Vec<f64>> {
+        self.tool.validate().map_err(|e| e.within("tool"))?;
+        finite_positive("scallop", self.scallop)?;
+        finite_positive("tolerance", self.tolerance)?;
+        finite_positive("feed_rate", self.feed_rate)?;
+        finite_positive("simulation_resolution", self.simulation_resolution)?;
+        finite("lead_angle_deg", self.lead_angle_deg)?;
+        finite("side_tilt_deg", self.side_tilt_deg)?;
+        if let Some(l) = self.lead_angle_deg {
+            if !(-89.0..=89.0).contains(&l) {
+                return Err(Error::invalid(
+                    "lead_angle_deg",
+                    format!("{l} is outside -89..89 degrees"),
+                ));
+            }
+        }
+        if let Some(n) = self.section_normal {
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            if !len.is_finite() || len < 1e-12 {
+                return Err(Error::invalid(
+                    "section_normal",
+                    "must be a finite non-zero vector",
+                ));
+            }
+        }
+        let catalogue = match &self.tool_catalogue {
+            Some(c) => {
+                if c.is_empty() {
+                    return Err(Error::invalid(
+                        "tool_catalogue",
+                        "is empty: list at least one tool diameter",
+                    ));
+                }
+                for (i, &d) in c.iter().enumerate() {
+                    finite_positive(&format!("tool_catalogue[{i}]"), Some(d))?;
+                }
+                let mut c = c.clone();
+                c.sort_by(f64::total_cmp);
+                c.dedup();
+                c
+            }
+            None => DEFAULT_TOOL_CATALOGUE.to_vec(),
+        };
+        if let Some(g) = &self.grinding {
+            let fields = [
+                ("c_a", g.c_a),
+                ("k_a", g.k_a),
+                ("k_t", g.k_t),
+                ("belt_speed", g.belt_speed),
+                ("force", g.force),
+                ("feed_speed", g.feed_speed),
+            ];
+            for (name, v) in fields {
+                finite_positive(&format!("grinding.{name}"), Some(v))?;
+            }
+        }
+        Ok(catalogue)
+    }
+
+    /// The tool kind against the strategy and the machine against the tool;
+    /// returns the machine (the strategy's default when not given).
+    fn checked_tool_and_machine(&self) -> Result<Machine> {
+        if !self.strategy.accepts(&self.tool) {
+            return Err(Error::invalid(
+                "tool.kind",
+                format!(
+                    "strategy {} cannot use a {} tool (it plans {})",
+                    self.strategy.name(),
+                    self.tool.kind(),
+                    self.strategy.tool_kinds()
+                ),
+            ));
+        }
+        let machine = self.machine.unwrap_or(self.strategy.default_machine());
+        if (machine == Machine::Belt6) != matches!(self.tool, Tool::Belt { .. }) {
+            return Err(Error::invalid(
+                "machine",
+                format!(
+                    "machine {} cannot carry a {} tool",
+                    machine.name(),
+                    self.tool.kind()
+                ),
+            ));
+        }
+        Ok(machine)
+    }
+}
+
+/// A pocket for `pocket_mat`, a NURBS surface for every other strategy.
+fn check_shape_kind(strategy: Strategy, shape: &Shape) -> Result<()> {
+    match (shape, strategy.needs_pocket()) {
+        (Shape::Pocket(_), false) => Err(Error::invalid(
+            "surface",
+            format!(
+                "strategy {} needs a NURBS surface, got a pocket",
+                strategy.name()
+            ),
+        )),
+        (Shape::Surface(_), true) => Err(Error::invalid(
+            "surface",
+            "strategy pocket_mat needs a pocket, got a NURBS surface",
+        )),
         _ => Ok(()),
     }
 }
@@ -375,21 +393,9 @@ impl Job {
 
     /// Validates the parameters of `f` against an already-built shape.
     pub fn new(f: JobFile, shape: Shape) -> Result<Self> {
-        check_numbers(&f)?;
-        let catalogue = tool_catalogue(f.tool_catalogue.clone())?;
-        check_grinding(f.grinding.as_ref())?;
-        check_shape_and_tool(&f, &shape)?;
-        let machine = f.machine.unwrap_or(f.strategy.default_machine());
-        if (machine == Machine::Belt6) != matches!(f.tool, Tool::Belt { .. }) {
-            return Err(Error::invalid(
-                "machine",
-                format!(
-                    "machine {} cannot carry a {} tool",
-                    machine.name(),
-                    f.tool.kind()
-                ),
-            ));
-        }
+        let catalogue = f.checked_parameters()?;
+        check_shape_kind(f.strategy, &shape)?;
+        let machine = f.checked_tool_and_machine()?;
         Ok(Self {
             job_id: f.job_id,
             shape,
@@ -463,6 +469,15 @@ impl Job {
                 format!("required by strategy {}", self.strategy.name()),
             )
         })
+    }
+
+    /// How deep a cut may go below the surface before it is a gouge, mm:
+    /// MPEC's band (`tolerance`, its +-delta), else [`DEFAULT_GOUGE_TOLERANCE`].
+    pub fn gouge_tolerance(&self) -> f64 {
+        match (self.strategy, self.tolerance) {
+            (Strategy::Mpec, Some(delta)) => delta,
+            _ => DEFAULT_GOUGE_TOLERANCE,
+        }
     }
     /// Lead angle in radians (default 0 when absent).
     pub fn lead_angle(&self) -> f64 {

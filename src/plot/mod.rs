@@ -24,12 +24,15 @@ use std::sync::OnceLock;
 /// Residual height sampled on a (u, v) grid: `xyz[i * nv + j]` is the surface
 /// point of sample (i along u, j along v) and `residual` its residual height in
 /// mm (`None` where the simulator found no cut: uncovered).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ResidualOverlay {
     pub nu: usize,
     pub nv: usize,
     pub xyz: Vec<[f64; 3]>,
     pub residual: Vec<Option<f64>>,
+    /// Cuts deeper than this below the surface (mm) are painted as gouges;
+    /// shallower ones are within the job's tolerance and get the colour map.
+    pub gouge_tolerance: f64,
 }
 
 impl ResidualOverlay {
@@ -61,6 +64,15 @@ impl ResidualOverlay {
                     self.residual.len(),
                     self.nu,
                     self.nv
+                ),
+            ));
+        }
+        if !(self.gouge_tolerance.is_finite() && self.gouge_tolerance >= 0.0) {
+            return Err(Error::invalid(
+                "residual.gouge_tolerance",
+                format!(
+                    "must be a finite depth >= 0 mm, got {}",
+                    self.gouge_tolerance
                 ),
             ));
         }
@@ -237,13 +249,19 @@ pub fn tool_color(index: usize) -> (u8, u8, u8) {
     render::TOOL_COLORS[index % render::TOOL_COLORS.len()]
 }
 
+/// Colour of residual-map cells cut deeper than the gouge tolerance.
+pub fn gouge_color() -> (u8, u8, u8) {
+    render::GOUGE
+}
+
 /// Colour-map colour for `t` in [0, 1] (viridis-like).
 pub fn colormap(t: f64) -> (u8, u8, u8) {
     render::colormap(t)
 }
 
 /// The residual-height map of a milling result, from the scallop simulator
-/// (at the job's simulation resolution). `None` for pockets and belt grinding.
+/// (at the job's simulation resolution), judged against the job's gouge
+/// tolerance. `None` for pockets and belt grinding.
 pub fn residual_for(
     job: &crate::formats::Job,
     result: &PlanResult,
@@ -258,5 +276,6 @@ pub fn residual_for(
         nv: map.nv,
         xyz: map.xyz,
         residual: map.residual,
+        gouge_tolerance: job.gouge_tolerance(),
     }))
 }

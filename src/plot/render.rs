@@ -38,10 +38,8 @@ const WEDGE: (u8, u8, u8) = (0, 0, 200);
 const SEPARATRIX: (u8, u8, u8) = (0, 0, 0);
 const FEED: (u8, u8, u8) = (60, 60, 60);
 const OUTLINE: (u8, u8, u8) = (150, 150, 150);
-/// Cells where the tool cut below the surface (negative residual).
+/// Cells where the tool cut below the surface by more than the gouge tolerance.
 pub const GOUGE: (u8, u8, u8) = (230, 0, 0);
-/// Residuals below this (mm) count as gouges, not round-off.
-const GOUGE_TOL: f64 = 1e-4;
 /// Residual samples the simulator left uncut.
 pub const UNCUT: (u8, u8, u8) = (255, 0, 255);
 
@@ -413,11 +411,11 @@ impl Scene {
         {
             self.legend.push((UNCUT, "uncut".into()));
         }
-        if input
-            .residual
-            .is_some_and(|m| m.residual.iter().flatten().any(|&x| x < -GOUGE_TOL))
-        {
-            self.legend.push((GOUGE, "gouge".into()));
+        // Stated whenever a map is shown: no red then reads as "no gouge
+        // beyond the tolerance", not as "gouges not looked for".
+        if let Some(m) = input.residual {
+            self.legend
+                .push((GOUGE, format!("gouge > {} mm", m.gouge_tolerance)));
         }
     }
 
@@ -812,7 +810,7 @@ fn residual_quads(map: &super::ResidualOverlay, panel: &Panel, max: f64, d: &mut
                 .collect();
             let color = if known.len() < vals.len() {
                 UNCUT
-            } else if known.iter().any(|&x| x < -GOUGE_TOL) {
+            } else if known.iter().any(|&x| x < -map.gouge_tolerance) {
                 GOUGE
             } else {
                 let mean = known.iter().sum::<f64>() / known.len() as f64;

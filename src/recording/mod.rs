@@ -12,11 +12,12 @@
 //!
 //! This module is generic over topics: a [`TopicSpec`] names the topic, its
 //! type, its full definition text and its QoS. The node's message structs and
-//! their .msg texts live in `crate::ros`.
+//! their .msg texts live in [`crate::messages`]; [`runs`] records and replays
+//! the node's jobs with them. Republishing a bag to a live node is DDS, so it
+//! lives with the node (`crate::ros::republish`).
 
 mod metadata;
 mod reader;
-pub mod republish;
 pub mod runs;
 mod writer;
 

@@ -9,22 +9,12 @@ use super::{read_bag, ros2_type_name, Bag, BagWriter, Qos, TopicSpec, WriterOpti
 use crate::error::{Error, Result};
 use crate::formats::{Job, Machine, Shape};
 use crate::machines::Machines;
+use crate::messages::{self as msgs, convert, final_state, job_outputs, topics};
+use crate::messages::{JobOutputs, RosMessage};
 use crate::pipeline::{self, RunOptions};
 use crate::planners::NoProgress;
-use crate::ros::convert;
-use crate::ros::msgs::{self, RosMessage};
 use std::collections::BTreeMap;
 use std::path::Path;
-
-pub const SURFACE: &str = "/surface";
-pub const POCKET: &str = "/pocket";
-pub const JOB: &str = "/job";
-pub const TOOLPATH: &str = "/toolpath";
-pub const TOOL_POSES: &str = "/tool_poses";
-pub const MILL5_TRAJECTORY: &str = "/mill5/joint_trajectory";
-pub const BELT6_TRAJECTORY: &str = "/belt6/joint_trajectory";
-pub const JOB_STATUS: &str = "/job_status";
-pub const MARKERS: &str = "/markers";
 
 /// Positions (mm) may differ by this much in a replay before it is a difference.
 pub const POSITION_TOLERANCE_MM: f64 = 1e-6;
@@ -41,6 +31,12 @@ fn spec<M: RosMessage>(topic: &str, qos: Qos) -> TopicSpec {
     )
 }
 
+/// The name of the node topic `relative` in a bag of a node without a
+/// namespace (`/job`): how every bag reads once [`strip_namespace`] has run.
+fn root(relative: &str) -> String {
+    topics::absolute("/", relative)
+}
+
 /// Every topic of the node, with the QoS it offers (inputs: as the clients publish them).
 pub fn topic_specs() -> Vec<TopicSpec> {
     topic_specs_in("/")
@@ -48,19 +44,18 @@ pub fn topic_specs() -> Vec<TopicSpec> {
 
 /// [`topic_specs`] of a node in `namespace` (`/cell_b`: `/cell_b/job`, ...).
 pub fn topic_specs_in(namespace: &str) -> Vec<TopicSpec> {
-    let ns = namespace.trim_end_matches('/');
-    let t = |topic: &str| format!("{ns}{topic}");
+    let t = |relative: &str| topics::absolute(namespace, relative);
     let results = Qos::reliable_transient_local(10);
     vec![
-        spec::<msgs::Surface>(&t(SURFACE), Qos::reliable_transient_local(100)),
-        spec::<msgs::Pocket>(&t(POCKET), Qos::reliable_transient_local(100)),
-        spec::<msgs::Job>(&t(JOB), Qos::reliable_volatile(100)),
-        spec::<msgs::Toolpath>(&t(TOOLPATH), results),
-        spec::<msgs::PoseArray>(&t(TOOL_POSES), results),
-        spec::<msgs::JointTrajectory>(&t(MILL5_TRAJECTORY), results),
-        spec::<msgs::JointTrajectory>(&t(BELT6_TRAJECTORY), results),
-        spec::<msgs::JobStatus>(&t(JOB_STATUS), Qos::reliable_transient_local(1000)),
-        spec::<msgs::MarkerArray>(&t(MARKERS), results),
+        spec::<msgs::Surface>(&t(topics::SURFACE), Qos::reliable_transient_local(100)),
+        spec::<msgs::Pocket>(&t(topics::POCKET), Qos::reliable_transient_local(100)),
+        spec::<msgs::Job>(&t(topics::JOB), Qos::reliable_volatile(100)),
+        spec::<msgs::Toolpath>(&t(topics::TOOLPATH), results),
+        spec::<msgs::PoseArray>(&t(topics::TOOL_POSES), results),
+        spec::<msgs::JointTrajectory>(&t(topics::MILL5_TRAJECTORY), results),
+        spec::<msgs::JointTrajectory>(&t(topics::BELT6_TRAJECTORY), results),
+        spec::<msgs::JobStatus>(&t(topics::JOB_STATUS), Qos::reliable_transient_local(1000)),
+        spec::<msgs::MarkerArray>(&t(topics::MARKERS), results),
     ]
 }
 
@@ -68,11 +63,12 @@ pub fn topic_specs_in(namespace: &str) -> Vec<TopicSpec> {
 /// the node had none, so that replay finds its topics.
 fn strip_namespace(bag: &mut Bag) {
     let job_type = ros2_type_name(&msgs::Job::full_name());
+    let job_topic = root(topics::JOB);
     let Some(ns) = bag
         .topics
         .values()
         .filter(|t| t.type_name == job_type)
-        .find_map(|t| t.topic.strip_suffix(JOB).filter(|ns| !ns.is_empty()))
+        .find_map(|t| t.topic.strip_suffix(&job_topic).filter(|ns| !ns.is_empty()))
         .map(str::to_string)
     else {
         return;
@@ -100,17 +96,6 @@ fn spec_of(topic: &str) -> Result<TopicSpec> {
         .ok_or_else(|| Error::invalid(topic, "not a topic of the node"))
 }
 
-/// The outputs of one planned job, as the node publishes them.
-#[derive(Clone, Debug, PartialEq)]
-pub struct JobOutputs {
-    pub toolpath: msgs::Toolpath,
-    pub poses: msgs::PoseArray,
-    pub machine: Machine,
-    pub trajectory: msgs::JointTrajectory,
-    pub markers: msgs::MarkerArray,
-    pub summary: String,
-}
-
 /// Plans `job_msg` on `shape` as the node does and builds its output messages.
 pub fn plan_outputs(
     job_msg: &msgs::Job,
@@ -118,32 +103,16 @@ pub fn plan_outputs(
     machines: &Machines,
     header: &msgs::Header,
 ) -> Result<JobOutputs> {
-    let file = convert::job_file_from_msg(job_msg)?;
-    let job = Job::new(file, shape.clone())?;
+    let job = convert::job_from_msg(job_msg, shape)?;
     let result = pipeline::run(&job, &NoProgress, RunOptions::default())?;
     let trajectory = crate::machines::trajectory(&job, &result, machines)?;
-    let toolpath = convert::toolpath_msg(
+    Ok(job_outputs(
         &job,
         &job_msg.surface_id,
         &result,
-        trajectory.duration(),
-        header.clone(),
-    );
-    let summary = format!(
-        "{} passes, {} points, {:.1} mm, trajectory {:.1} s",
-        toolpath.stats.passes,
-        toolpath.stats.points,
-        toolpath.stats.path_length_mm,
-        trajectory.duration()
-    );
-    Ok(JobOutputs {
-        poses: convert::pose_array(&job, &result, header.clone()),
-        machine: job.machine,
-        trajectory: convert::joint_trajectory_msg(&trajectory, header.clone()),
-        markers: convert::markers(&result, header.clone()),
-        toolpath,
-        summary,
-    })
+        &trajectory,
+        header,
+    ))
 }
 
 fn status(
@@ -198,20 +167,20 @@ pub fn record_job_into(
     let shape_id = format!("{}_shape", job.job_id);
     match &job.shape {
         Shape::Surface(s) => w.write(
-            SURFACE,
+            &root(topics::SURFACE),
             t(w),
             &convert::surface_to_msg(&shape_id, s, header.clone()),
         )?,
         Shape::Pocket(p) => w.write(
-            POCKET,
+            &root(topics::POCKET),
             t(w),
             &convert::pocket_to_msg(&shape_id, p, header.clone()),
         )?,
     }
     let job_msg = convert::job_to_msg(job, &shape_id, header.clone());
-    w.write(JOB, t(w), &job_msg)?;
+    w.write(&root(topics::JOB), t(w), &job_msg)?;
     w.write(
-        JOB_STATUS,
+        &root(topics::JOB_STATUS),
         t(w),
         &status(
             &header,
@@ -222,7 +191,7 @@ pub fn record_job_into(
         ),
     )?;
     w.write(
-        JOB_STATUS,
+        &root(topics::JOB_STATUS),
         t(w),
         &status(
             &header,
@@ -234,31 +203,21 @@ pub fn record_job_into(
     )?;
     let last = match plan_outputs(&job_msg, &job.shape, machines, &header) {
         Ok(out) => {
-            w.write(TOOLPATH, t(w), &out.toolpath)?;
-            w.write(TOOL_POSES, t(w), &out.poses)?;
-            let traj_topic = match out.machine {
-                Machine::Mill5 => MILL5_TRAJECTORY,
-                Machine::Belt6 => BELT6_TRAJECTORY,
-            };
-            w.write(traj_topic, t(w), &out.trajectory)?;
-            w.write(MARKERS, t(w), &out.markers)?;
+            w.write(&root(topics::TOOLPATH), t(w), &out.toolpath)?;
+            w.write(&root(topics::TOOL_POSES), t(w), &out.poses)?;
+            w.write(&root(out.trajectory_topic()), t(w), &out.trajectory)?;
+            w.write(&root(topics::MARKERS), t(w), &out.markers)?;
             status(
                 &header,
                 &job.job_id,
                 msgs::JobStatus::SUCCEEDED,
                 1.0,
-                out.summary,
+                out.summary(),
             )
         }
-        Err(e) => {
-            let state = match e {
-                Error::Invalid { .. } => msgs::JobStatus::REJECTED,
-                _ => msgs::JobStatus::FAILED,
-            };
-            status(&header, &job.job_id, state, 0.0, e.to_string())
-        }
+        Err(e) => status(&header, &job.job_id, final_state(&e), 0.0, e.to_string()),
     };
-    w.write(JOB_STATUS, t(w), &last)?;
+    w.write(&root(topics::JOB_STATUS), t(w), &last)?;
     // The job's messages form a unit: put them on disk now.
     w.flush()?;
     Ok(last)
@@ -288,8 +247,10 @@ impl ReplayReport {
     }
 }
 
-fn decode_all<M: RosMessage>(bag: &Bag, topic: &str) -> Result<Vec<M>> {
-    let spec = spec_of(topic)?;
+/// Every message of the node topic `relative` in a bag without a namespace.
+fn decode_all<M: RosMessage>(bag: &Bag, relative: &str) -> Result<Vec<M>> {
+    let topic = root(relative);
+    let spec = spec_of(&topic)?;
     bag.messages
         .iter()
         .enumerate()
@@ -370,7 +331,7 @@ impl Recorded {
         let mut bag = read_bag(path)?;
         strip_namespace(&mut bag);
         bag.check_types(&topic_specs())?;
-        let jobs = decode_all::<msgs::Job>(&bag, JOB)?;
+        let jobs = decode_all::<msgs::Job>(&bag, topics::JOB)?;
         if jobs.is_empty() {
             return Err(Error::invalid(
                 path.display().to_string(),
@@ -378,14 +339,14 @@ impl Recorded {
             ));
         }
         Ok(Recorded {
-            surfaces: decode_all(&bag, SURFACE)?,
-            pockets: decode_all(&bag, POCKET)?,
+            surfaces: decode_all(&bag, topics::SURFACE)?,
+            pockets: decode_all(&bag, topics::POCKET)?,
             jobs,
-            toolpaths: decode_all(&bag, TOOLPATH)?,
-            poses: decode_all(&bag, TOOL_POSES)?,
-            statuses: decode_all(&bag, JOB_STATUS)?,
-            mill5: decode_all(&bag, MILL5_TRAJECTORY)?,
-            belt6: decode_all(&bag, BELT6_TRAJECTORY)?,
+            toolpaths: decode_all(&bag, topics::TOOLPATH)?,
+            poses: decode_all(&bag, topics::TOOL_POSES)?,
+            statuses: decode_all(&bag, topics::JOB_STATUS)?,
+            mill5: decode_all(&bag, topics::MILL5_TRAJECTORY)?,
+            belt6: decode_all(&bag, topics::BELT6_TRAJECTORY)?,
             truncated: bag.truncated.clone(),
         })
     }
@@ -493,19 +454,13 @@ pub fn replay(path: &Path, machines: &Machines) -> Result<ReplayReport> {
         };
         let new = match &planned {
             Ok(out) => RunOutputs {
-                state: Some((msgs::JobStatus::SUCCEEDED, out.summary.clone())),
+                state: Some((msgs::JobStatus::SUCCEEDED, out.summary())),
                 toolpath: Some(&out.toolpath),
                 poses: Some(&out.poses),
                 trajectory: Some((out.machine, &out.trajectory)),
             },
             Err(e) => RunOutputs {
-                state: Some((
-                    match e {
-                        Error::Invalid { .. } => msgs::JobStatus::REJECTED,
-                        _ => msgs::JobStatus::FAILED,
-                    },
-                    e.to_string(),
-                )),
+                state: Some((final_state(e), e.to_string())),
                 ..Default::default()
             },
         };

@@ -1,12 +1,12 @@
 //! The ROS 2 node (ros2-client, pure Rust): a thin adapter over
-//! [`crate::pipeline::run`]. `msgs` holds the message structs and their .msg
-//! texts, `convert` maps messages to the crate's formats and back, `node` is
-//! the runtime, `config` the launch-config file, `recorder` the bag of a run.
+//! [`crate::pipeline::run`] that speaks the messages of [`crate::messages`].
+//! `node` is the runtime (and the DDS helpers the clients share), `config`
+//! the launch-config file, `recorder` the bag of a run, `republish` the
+//! replay of a bag's inputs to a running node.
 
 pub mod config;
-pub mod convert;
-pub mod msgs;
 pub mod node;
 pub mod recorder;
+pub mod republish;
 
 pub use config::NodeConfig;

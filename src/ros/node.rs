@@ -9,14 +9,13 @@
 //! status; a panic inside a planner becomes FAILED, never a dead node.
 
 use super::config::{IpcSettings, NodeConfig};
-use super::convert;
-use super::msgs::{self, RosMessage};
 use super::recorder::Recorder;
 use crate::error::{Error, Result};
 use crate::formats::job::DEFAULT_FEED_RATE;
-use crate::formats::{Job, Machine, PlanResult, Shape};
+use crate::formats::{Machine, PlanResult, Shape};
 use crate::ipc::ToolpathPublisher;
 use crate::machines::Machines;
+use crate::messages::{self as msgs, convert, final_state, topics, JobOutputs, RosMessage};
 use crate::pipeline::{self, RunOptions};
 use crate::planners::Progress;
 use futures::StreamExt;
@@ -32,19 +31,6 @@ use std::time::{Duration, Instant};
 
 /// Start of the per-job timing line the node logs at debug level.
 pub const TIMING_TAG: &str = "timing:";
-
-/// Topic names, relative to the node namespace.
-pub mod topics {
-    pub const SURFACE: &str = "surface";
-    pub const POCKET: &str = "pocket";
-    pub const JOB: &str = "job";
-    pub const TOOLPATH: &str = "toolpath";
-    pub const TOOL_POSES: &str = "tool_poses";
-    pub const MILL5_TRAJECTORY: &str = "mill5/joint_trajectory";
-    pub const BELT6_TRAJECTORY: &str = "belt6/joint_trajectory";
-    pub const JOB_STATUS: &str = "job_status";
-    pub const MARKERS: &str = "markers";
-}
 
 /// QoS of the topics (all reliable).
 pub mod qos {
@@ -115,8 +101,7 @@ pub mod qos {
 
 /// Absolute ROS name of a relative topic in `namespace`.
 pub fn topic_name(namespace: &str, relative: &str) -> Result<Name> {
-    let ns = namespace.trim_end_matches('/');
-    let full = format!("{ns}/{relative}");
+    let full = topics::absolute(namespace, relative);
     Name::parse(&full).map_err(|e| {
         Error::invalid(
             "node.namespace",
@@ -446,13 +431,6 @@ impl Progress for StatusProgress<'_> {
     }
 }
 
-fn final_state(e: &Error) -> u8 {
-    match e {
-        Error::Invalid { .. } => msgs::JobStatus::REJECTED,
-        _ => msgs::JobStatus::FAILED,
-    }
-}
-
 /// Plans one job and publishes its outputs; returns the success summary.
 fn plan_and_publish(
     p: &Pending,
@@ -461,13 +439,7 @@ fn plan_and_publish(
     machines: &Machines,
     options: RunOptions,
 ) -> Result<String> {
-    let file = convert::job_file_from_msg(&p.msg)?;
-    let job = Job::new(file, shape.clone()).map_err(|e| match (e, shape) {
-        (Error::Invalid { field, message }, _) if field == "surface" => {
-            Error::invalid("surface_id", format!("\"{}\": {message}", p.msg.surface_id))
-        }
-        (e, _) => e,
-    })?;
+    let job = convert::job_from_msg(&p.msg, shape)?;
     outputs.status(&job.job_id, msgs::JobStatus::RUNNING, 0.0, String::new());
     let progress = StatusProgress {
         outputs,
@@ -478,22 +450,26 @@ fn plan_and_publish(
     let result = pipeline::run(&job, &progress, options)?;
     let planning = planning_started.elapsed();
     let trajectory = crate::machines::trajectory(&job, &result, machines)?;
-    let header = outputs.header();
-    let toolpath = convert::toolpath_msg(
+    let out = msgs::job_outputs(
         &job,
         &p.msg.surface_id,
         &result,
-        trajectory.duration(),
-        header.clone(),
+        &trajectory,
+        &outputs.header(),
     );
     let summary = format!(
-        "{} passes, {} points, {:.1} mm, trajectory {:.1} s, planned in {:.1} ms",
-        toolpath.stats.passes,
-        toolpath.stats.points,
-        toolpath.stats.path_length_mm,
-        trajectory.duration(),
+        "{}, planned in {:.1} ms",
+        out.summary(),
         result.stats.compute_ms
     );
+    let trajectory_topic = out.trajectory_topic();
+    let JobOutputs {
+        toolpath,
+        poses,
+        machine,
+        trajectory,
+        markers,
+    } = out;
     outputs.publish(&outputs.toolpath, topics::TOOLPATH, toolpath);
     // `toolpath bench-node` reads this line (target: debug, this module).
     log::debug!(
@@ -502,21 +478,13 @@ fn plan_and_publish(
         p.received.elapsed().as_secs_f64() * 1e3,
         planning.as_secs_f64() * 1e3
     );
-    outputs.publish(
-        &outputs.poses,
-        topics::TOOL_POSES,
-        convert::pose_array(&job, &result, header.clone()),
-    );
-    let traj = convert::joint_trajectory_msg(&trajectory, header.clone());
-    match job.machine {
-        Machine::Mill5 => outputs.publish(&outputs.mill5, topics::MILL5_TRAJECTORY, traj),
-        Machine::Belt6 => outputs.publish(&outputs.belt6, topics::BELT6_TRAJECTORY, traj),
-    }
-    outputs.publish(
-        &outputs.markers,
-        topics::MARKERS,
-        convert::markers(&result, header),
-    );
+    outputs.publish(&outputs.poses, topics::TOOL_POSES, poses);
+    let publisher = match machine {
+        Machine::Mill5 => &outputs.mill5,
+        Machine::Belt6 => &outputs.belt6,
+    };
+    outputs.publish(publisher, trajectory_topic, trajectory);
+    outputs.publish(&outputs.markers, topics::MARKERS, markers);
     if let Some(tx) = &outputs.ipc {
         let _ = tx.send(result);
     }

@@ -10,8 +10,8 @@
 //! metadata.yaml are written.
 
 use super::config::RecordingSettings;
-use super::msgs::RosMessage;
 use crate::error::{Error, Result};
+use crate::messages::{topics, RosMessage};
 use crate::recording::{now_ns, runs, to_cdr, BagSummary, BagWriter, WriterOptions};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{self, Receiver, Sender, TryRecvError};
@@ -122,7 +122,7 @@ impl Recorder {
     pub fn record<M: RosMessage>(&self, relative: &str, msg: &M) {
         let msg = msg.clone();
         self.send(Entry::Message {
-            topic: format!("{}/{relative}", self.namespace),
+            topic: topics::absolute(&self.namespace, relative),
             time_ns: now_ns(),
             encode: Box::new(move || to_cdr(&msg)),
         });

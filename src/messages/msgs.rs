@@ -4,7 +4,7 @@
 //! The definitions themselves are embedded ([`definition`], [`schema_text`]) so
 //! that the recorder can write `ros2msg` schemas. Our own package is
 //! `toolpath_msgs` (msg/msg/*.msg); the standard ROS 2 types we use are copied
-//! verbatim (without comments) into src/ros/defs/.
+//! verbatim (without comments) into src/messages/defs/.
 //!
 //! Units: `toolpath_msgs` carries mm and degrees (as the result files do); the
 //! standard messages (PoseArray, JointTrajectory, MarkerArray) carry metres and

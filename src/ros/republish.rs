@@ -7,10 +7,12 @@
 //! before this replay started belongs to someone else (the node's results and
 //! statuses are transient-local, a new reader may be handed old ones).
 
-use super::runs::{compare_outputs, outputs_of, point_count, JobReplay, Recorded, ReplayReport};
+use super::node::{qos, RosNode};
 use crate::error::{Error, Result};
-use crate::ros::msgs;
-use crate::ros::node::{qos, topics, RosNode};
+use crate::messages::{self as msgs, topics};
+use crate::recording::runs::{
+    compare_outputs, outputs_of, point_count, JobReplay, Recorded, ReplayReport,
+};
 use futures::StreamExt;
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::ros2::QosProfile;

@@ -2,11 +2,11 @@
 //! validated with the same checks and reasons as the CLI's files; results
 //! become Toolpath, PoseArray, JointTrajectory and MarkerArray messages.
 
-use super::msgs;
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, JobFile, Machine, PlanResult, Shape, Strategy};
 use crate::geometry::{NurbsSurface, Pocket};
 use crate::machines::{self, JointTrajectory};
+use crate::messages as msgs;
 use crate::tools::Tool;
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
@@ -212,19 +212,25 @@ pub fn job_file_from_msg(m: &msgs::Job) -> Result<JobFile> {
 }
 
 /// Checks everything about a job message that does not need its shape, with
-/// the CLI's reasons (the strategy decides which kind of shape is expected).
+/// the CLI's reasons: every field, and that it names a shape. Whether the
+/// shape is of the kind the strategy needs is checked once it has arrived
+/// ([`job_from_msg`]).
 pub fn prevalidate_job(m: &msgs::Job) -> Result<JobFile> {
     let file = job_file_from_msg(m)?;
-    let stand_in = if file.strategy.needs_pocket() {
-        Shape::Pocket(Pocket::new(
-            &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
-            &[],
-        )?)
-    } else {
-        Shape::Surface(crate::samples::surfaces::plane())
-    };
-    Job::new(file.clone(), stand_in)?;
+    file.validate()?;
     Ok(file)
+}
+
+/// The job message on its shape as a validated job. A shape of the wrong kind
+/// for the strategy is named by the message's `surface_id`.
+pub fn job_from_msg(m: &msgs::Job, shape: &Shape) -> Result<Job> {
+    let file = job_file_from_msg(m)?;
+    Job::new(file, shape.clone()).map_err(|e| match e {
+        Error::Invalid { field, message } if field == "surface" => {
+            Error::invalid("surface_id", format!("\"{}\": {message}", m.surface_id))
+        }
+        e => e,
+    })
 }
 
 /// The message form of a job (for clients: the demo, tests).
@@ -660,6 +666,36 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("unknown machine \"lathe\""));
+    }
+
+    #[test]
+    fn jobs_are_checked_without_a_shape_then_against_the_shape_that_arrives() {
+        let mut m = job_msg();
+        m.strategy = "pocket_mat".into();
+        m.surface_id = "plate".into();
+        assert_eq!(prevalidate_job(&m).unwrap().strategy, Strategy::PocketMat);
+        let plane = Shape::Surface(crate::samples::surfaces::plane());
+        assert_eq!(
+            job_from_msg(&m, &plane).unwrap_err().to_string(),
+            "invalid input: surface_id: \"plate\": strategy pocket_mat needs a pocket, got a NURBS surface"
+        );
+        let square =
+            Pocket::new(&[[0.0, 0.0], [40.0, 0.0], [40.0, 40.0], [0.0, 40.0]], &[]).unwrap();
+        let job = job_from_msg(&m, &Shape::Pocket(square)).unwrap();
+        assert_eq!(
+            (job.job_id.as_str(), job.strategy),
+            ("j", Strategy::PocketMat)
+        );
+        m.tool.kind = "ball".into();
+        assert_eq!(
+            prevalidate_job(&m).unwrap_err().to_string(),
+            "invalid input: tool.kind: strategy pocket_mat cannot use a ball tool"
+        );
+        m.surface_id = " ".into();
+        assert_eq!(
+            prevalidate_job(&m).unwrap_err().to_string(),
+            "invalid input: surface_id: must name a surface or pocket"
+        );
     }
 
     #[test]

@@ -1,0 +1,126 @@
+//! What a job publishes once it is planned: the same messages whether the
+//! node sends them over DDS, `toolpath record` writes them into a bag or
+//! replay compares them with a recording.
+
+use super::{convert, topics};
+use super::{Header, JobStatus, MarkerArray, PoseArray, Toolpath};
+use crate::error::Error;
+use crate::formats::{Job, Machine, PlanResult};
+use crate::machines::JointTrajectory;
+
+/// The output messages of one planned job, all stamped with one header (so
+/// that clients can match them to their Toolpath by stamp).
+#[derive(Clone, Debug, PartialEq)]
+pub struct JobOutputs {
+    pub toolpath: Toolpath,
+    pub poses: PoseArray,
+    /// The machine the trajectory drives: it goes out on that machine's topic.
+    pub machine: Machine,
+    pub trajectory: super::JointTrajectory,
+    pub markers: MarkerArray,
+}
+
+impl JobOutputs {
+    /// The (relative) topic of [`Self::trajectory`].
+    pub fn trajectory_topic(&self) -> &'static str {
+        topics::trajectory(self.machine)
+    }
+
+    /// The SUCCEEDED status text: passes, points, length and trajectory time.
+    pub fn summary(&self) -> String {
+        let s = &self.toolpath.stats;
+        format!(
+            "{} passes, {} points, {:.1} mm, trajectory {:.1} s",
+            s.passes, s.points, s.path_length_mm, s.trajectory_duration_s
+        )
+    }
+}
+
+/// The output messages of `job` planned into `result` and timed into
+/// `trajectory`; `surface_id` is the shape id the job message named.
+pub fn job_outputs(
+    job: &Job,
+    surface_id: &str,
+    result: &PlanResult,
+    trajectory: &JointTrajectory,
+    header: &Header,
+) -> JobOutputs {
+    JobOutputs {
+        toolpath: convert::toolpath_msg(
+            job,
+            surface_id,
+            result,
+            trajectory.duration(),
+            header.clone(),
+        ),
+        poses: convert::pose_array(job, result, header.clone()),
+        machine: job.machine,
+        trajectory: convert::joint_trajectory_msg(trajectory, header.clone()),
+        markers: convert::markers(result, header.clone()),
+    }
+}
+
+/// The final state of a job that ends with `e`: REJECTED when its input is
+/// bad (the client must change it), FAILED otherwise.
+pub fn final_state(e: &Error) -> u8 {
+    match e {
+        Error::Invalid { .. } => JobStatus::REJECTED,
+        _ => JobStatus::FAILED,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machines::Machines;
+    use crate::pipeline::{self, RunOptions};
+    use crate::planners::NoProgress;
+
+    #[test]
+    fn outputs_share_the_header_and_name_the_job() {
+        let job = crate::samples::job("plane").unwrap();
+        let options = RunOptions {
+            skip_verify: true,
+            no_timing: true,
+        };
+        let result = pipeline::run(&job, &NoProgress, options).unwrap();
+        let trajectory = crate::machines::trajectory(&job, &result, &Machines::default()).unwrap();
+        let header = Header {
+            stamp: super::super::Time { sec: 7, nanosec: 9 },
+            frame_id: "workpiece".into(),
+        };
+        let out = job_outputs(&job, "plane_shape", &result, &trajectory, &header);
+        assert_eq!(out.toolpath.header, header);
+        assert_eq!(out.poses.header, header);
+        assert_eq!(out.trajectory.header, header);
+        assert!(out.markers.markers.iter().all(|m| m.header == header));
+        assert_eq!(out.toolpath.job_id, job.job_id);
+        assert_eq!(out.toolpath.surface_id, "plane_shape");
+        // One pose per point of every pass, one trajectory point per timed sample.
+        let points: usize = result.passes.iter().map(|p| p.points.len()).sum();
+        assert_eq!(out.poses.poses.len(), points);
+        assert_eq!(out.trajectory.points.len(), trajectory.timed.times.len());
+        assert_eq!(out.trajectory_topic(), topics::MILL5_TRAJECTORY);
+        assert_eq!(
+            out.summary(),
+            format!(
+                "{} passes, {points} points, {:.1} mm, trajectory {:.1} s",
+                result.passes.len(),
+                result.cl_path_length(),
+                trajectory.duration()
+            )
+        );
+    }
+
+    #[test]
+    fn bad_input_is_rejected_and_everything_else_failed() {
+        assert_eq!(
+            final_state(&Error::invalid("tool.radius", "must be positive")),
+            JobStatus::REJECTED
+        );
+        assert_eq!(
+            final_state(&Error::planning("no passes")),
+            JobStatus::FAILED
+        );
+    }
+}
