@@ -38,7 +38,7 @@ fn hamann_egg_crate(c: &mut Criterion) {
     let Tool::Belt {
         width,
         wheel_radius,
-    } = job.tool
+    } = job.tool.expect("a belt job has a tool")
     else {
         unreachable!("egg_crate is a belt job")
     };

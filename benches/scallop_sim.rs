@@ -67,9 +67,18 @@ fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("scallop_sim");
     group.sample_size(10);
 
-    let dense = synthetic(&surface, job.tool.radius(), job.lead_angle(), 2.8, 2.0);
+    let dense = synthetic(
+        &surface,
+        job.tool().unwrap().radius(),
+        job.lead_angle(),
+        2.8,
+        2.0,
+    );
     group.bench_function("wing_mould_synthetic_dense", |b| {
-        b.iter(|| simulate(&surface, &job.tool, black_box(&dense), &settings).expect("simulates"))
+        b.iter(|| {
+            simulate(&surface, job.tool().unwrap(), black_box(&dense), &settings)
+                .expect("simulates")
+        })
     });
 
     for strategy in [
@@ -85,7 +94,8 @@ fn bench(c: &mut Criterion) {
         };
         group.bench_function(format!("wing_mould_{}", strategy.name()), |b| {
             b.iter(|| {
-                simulate(&surface, &job.tool, black_box(&result), &settings).expect("simulates")
+                simulate(&surface, job.tool().unwrap(), black_box(&result), &settings)
+                    .expect("simulates")
             })
         });
     }

@@ -21,7 +21,7 @@ fn benches(c: &mut Criterion) {
         b.iter(|| {
             simulate(
                 surface,
-                &job.tool,
+                job.tool().unwrap(),
                 black_box(&result),
                 &ScallopSettings::default(),
             )

@@ -117,7 +117,7 @@ pub fn is_milling(strategy: Strategy) -> bool {
 pub fn verify_milling(job: &Job, result: &PlanResult) -> Result<ScallopReport> {
     let surface = job.surface()?;
     let settings = ScallopSettings::with_resolution(job.simulation_resolution);
-    scallop::simulate(surface, &job.tool, result, &settings)
+    scallop::simulate(surface, job.tool()?, result, &settings)
 }
 
 /// Puts the simulator's figures into the result's stats: max_scallop_mm,

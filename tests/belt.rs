@@ -24,10 +24,10 @@ fn job(
         job_id: "belt_test".into(),
         surface: serde_json::Value::Null,
         strategy,
-        tool: Tool::Belt {
+        tool: Some(Tool::Belt {
             width,
             wheel_radius,
-        },
+        }),
         machine: None,
         scallop: Some(scallop),
         tolerance: None,
@@ -381,10 +381,10 @@ fn bad_input_gives_clear_errors() {
     );
     // A non-belt tool.
     let mut f = job(flat.clone(), Strategy::BeltIsoParametric, 10.0, 25.0, 0.01);
-    f.tool = Tool::Ball {
+    f.tool = Some(Tool::Ball {
         radius: 3.0,
         length: None,
-    };
+    });
     assert!(run(flat.clone(), f).is_err());
     // A flat part plans fine with the automatic normal (with a warning).
     let r = run(

@@ -65,11 +65,11 @@ fn job_file(feed: FeedDirection) -> JobFile {
         job_id: "mpec_test".into(),
         surface: serde_json::Value::Null,
         strategy: Strategy::Mpec,
-        tool: Tool::Torus {
+        tool: Some(Tool::Torus {
             radius: R,
             corner_radius: RC,
             length: None,
-        },
+        }),
         machine: None,
         scallop: None,
         tolerance: Some(DELTA),
@@ -130,11 +130,11 @@ fn convex_across_the_feed_is_not_applicable() {
 fn bad_input_gives_clear_errors() {
     let s = quadric(0.0, 1.0 / 1198.0, 100.0, 100.0);
     let mut f = job_file(FeedDirection::U);
-    f.tool = Tool::Torus {
+    f.tool = Some(Tool::Torus {
         radius: 6.0,
         corner_radius: 6.0,
         length: None,
-    };
+    });
     match Job::new(f, Shape::Surface(s.clone())) {
         Err(Error::Invalid { field, .. }) => assert_eq!(field, "tool.corner_radius"),
         other => panic!("{other:?}"),
@@ -412,7 +412,7 @@ fn die_saddle_plan() {
 fn assert_simulated_within_band(job: &Job, r: &PlanResult) {
     let report = toolpath_planner::simulation::scallop::simulate(
         job.surface().unwrap(),
-        &job.tool,
+        job.tool().unwrap(),
         r,
         &toolpath_planner::simulation::scallop::ScallopSettings::default(),
     )

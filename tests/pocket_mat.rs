@@ -503,3 +503,34 @@ fn multi_pass_roughing_clears_islands_along_the_axis() {
         assert!(d <= 4.0 * 2f64.sqrt() + 0.2, "{q:?}");
     }
 }
+
+/// pocket_mat takes its tools from the catalogue, so a pocket job needs no
+/// `tool`; every other strategy still does, and says so.
+#[test]
+fn pocket_job_without_a_tool_plans_and_others_need_one() {
+    let square = "[[0,0],[100,0],[100,60],[0,60]]";
+    let text = format!(
+        r#"{{"job_id": "t", "strategy": "pocket_mat",
+            "surface": {{"kind": "pocket", "outer": {square}, "holes": []}}}}"#
+    );
+    let job = formats::parse_job(&text, None).unwrap();
+    assert!(job.tool.is_none());
+    let opts = toolpath_planner::pipeline::RunOptions::PLAN_ONLY;
+    let without = toolpath_planner::pipeline::run(&job, &NoProgress, opts).unwrap();
+    // The same pocket with a tool named plans the same passes: the tools come
+    // from the medial axis and the catalogue either way.
+    let with = formats::parse_job(&job_text(square, "[]", ""), None).unwrap();
+    let with = toolpath_planner::pipeline::run(&with, &NoProgress, opts).unwrap();
+    assert_eq!(
+        serde_json::to_string(&without.tools).unwrap(),
+        serde_json::to_string(&with.tools).unwrap()
+    );
+    // A 100 x 60 rectangle: Dmax = 60, roughed with the 30 mm tool.
+    let tools = without.tools.as_ref().unwrap();
+    assert_eq!(tools[0].diameter, 30.0);
+    let plane = samples::job("plane").unwrap();
+    let mut f = plane.to_file();
+    f.tool = None;
+    let e = formats::Job::new(f, plane.shape.clone()).unwrap_err();
+    assert!(e.to_string().contains("tool"), "{e}");
+}

@@ -67,33 +67,33 @@ fn jobs_use_the_planner_each_sample_is_for() {
         let job = expect(name, Strategy::TensorRegions);
         assert_eq!(
             job.tool,
-            Tool::FlatEnd {
+            Some(Tool::FlatEnd {
                 radius: 2.5,
                 length: None
-            }
+            })
         );
         assert_eq!(job.lead_angle_deg, Some(5.0));
         assert_eq!(job.scallop, Some(0.05));
     }
     let die = expect("die_saddle", Strategy::Mpec);
-    assert_eq!(die.tool.radius(), 31.5);
-    assert_eq!(die.tool.corner_radius(), 6.0);
+    assert_eq!(die.tool().unwrap().radius(), 31.5);
+    assert_eq!(die.tool().unwrap().corner_radius(), 6.0);
     assert_eq!(die.tolerance, Some(0.01));
     for name in ["sine_wave", "egg_crate", "turbine_blade"] {
         let job = expect(name, Strategy::BeltIsoPlanar);
         assert_eq!(
             job.tool,
-            Tool::Belt {
+            Some(Tool::Belt {
                 width: 10.0,
                 // The egg crate's dips (radius ~32 mm) need a smaller wheel.
                 wheel_radius: if name == "egg_crate" { 25.0 } else { 50.0 }
-            }
+            })
         );
         assert_eq!(job.scallop, Some(0.01));
     }
     for name in ["rect_pocket", "pocket_with_hole", "leaf_pocket"] {
         let job = expect(name, Strategy::PocketMat);
-        assert_eq!(job.tool.radius(), 5.0);
+        assert_eq!(job.tool().unwrap().radius(), 5.0);
         assert!(job.shape.as_pocket().is_some());
     }
 }

@@ -22,7 +22,7 @@ fn job_file(strategy: Strategy, tool: Tool, shape: &Shape) -> JobFile {
         job_id: "verify_test".into(),
         surface: shape.to_json(),
         strategy,
-        tool,
+        tool: Some(tool),
         machine: None,
         scallop: Some(0.2),
         tolerance: None,

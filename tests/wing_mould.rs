@@ -29,7 +29,13 @@ fn with_strategy(mut job: Job, strategy: Strategy) -> Job {
 fn plan_and_simulate(job: &Job) -> (PlanResult, ScallopReport) {
     let result = planners::plan(job, &NoProgress).unwrap();
     let surface = job.surface().unwrap();
-    let report = simulate(surface, &job.tool, &result, &ScallopSettings::default()).unwrap();
+    let report = simulate(
+        surface,
+        job.tool().unwrap(),
+        &result,
+        &ScallopSettings::default(),
+    )
+    .unwrap();
     (result, report)
 }
 
@@ -291,7 +297,7 @@ fn iso_scallop_finishes_on_a_strongly_anisotropic_bowl() {
     // wall beside it. Scallop: 0.074 mm where the fronts fold, held to 1.7 h.
     assert_machined("anisotropic bowl iso_scallop", &report, 1.7 * H);
     let surface = job.surface().unwrap();
-    let sim = Simulator::new(surface, &job.tool, &result).unwrap();
+    let sim = Simulator::new(surface, job.tool().unwrap(), &result).unwrap();
     let n = 120;
     for i in 3..=n - 3 {
         for j in 3..=n - 3 {

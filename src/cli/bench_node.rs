@@ -60,10 +60,10 @@ fn bench_job(job_id: &str, surface: NurbsSurface) -> Result<Job> {
         job_id: job_id.into(),
         surface: serde_json::Value::Null,
         strategy: Strategy::IsoParametric,
-        tool: Tool::FlatEnd {
+        tool: Some(Tool::FlatEnd {
             radius: 2.5,
             length: None,
-        },
+        }),
         machine: Some(Machine::Mill5),
         scallop: Some(0.5),
         tolerance: None,

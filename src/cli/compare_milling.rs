@@ -40,11 +40,12 @@ pub fn table(job: &Job) -> Result<String> {
                 .map_or("1".into(), |x| x.len().to_string()),
         ]);
     }
+    let tool = job.tool()?;
     let mut out = format!(
         "{}: {} R{} lead {} deg, scallop {} mm, feed {} mm/min\n",
         job.job_id,
-        job.tool.kind(),
-        job.tool.radius(),
+        tool.kind(),
+        tool.radius(),
         job.lead_angle_deg.unwrap_or(0.0),
         job.scallop.unwrap_or(f64::NAN),
         job.feed_rate

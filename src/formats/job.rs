@@ -159,7 +159,9 @@ pub struct JobFile {
     pub job_id: String,
     pub surface: serde_json::Value,
     pub strategy: Strategy,
-    pub tool: Tool,
+    /// Required but for `pocket_mat`, which takes its tools from `tool_catalogue`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool: Option<Tool>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub machine: Option<Machine>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -192,7 +194,8 @@ pub struct Job {
     pub job_id: String,
     pub shape: Shape,
     pub strategy: Strategy,
-    pub tool: Tool,
+    /// `None` only for `pocket_mat` (its tools come from the catalogue).
+    pub tool: Option<Tool>,
     pub machine: Machine,
     pub scallop: Option<f64>,
     pub tolerance: Option<f64>,
@@ -255,7 +258,9 @@ impl JobFile {
     /// The tool's sizes and the numbers; returns the tool catalogue (sorted,
     /// each diameter once).
     fn checked_parameters(&self) -> Result<Vec<f64>> {
-        self.tool.validate().map_err(|e| e.within("tool"))?;
+        if let Some(tool) = &self.tool {
+            tool.validate().map_err(|e| e.within("tool"))?;
+        }
         finite_positive("scallop", self.scallop)?;
         finite_positive("tolerance", self.tolerance)?;
         finite_positive("feed_rate", self.feed_rate)?;
@@ -316,25 +321,44 @@ impl JobFile {
     /// The tool kind against the strategy and the machine against the tool;
     /// returns the machine (the strategy's default when not given).
     fn checked_tool_and_machine(&self) -> Result<Machine> {
-        if !self.strategy.accepts(&self.tool) {
+        let machine = self.machine.unwrap_or(self.strategy.default_machine());
+        let Some(tool) = &self.tool else {
+            if self.strategy != Strategy::PocketMat {
+                return Err(Error::invalid(
+                    "tool",
+                    format!(
+                        "is missing: strategy {} needs one of its {}",
+                        self.strategy.name(),
+                        self.strategy.tool_kinds()
+                    ),
+                ));
+            }
+            if machine == Machine::Belt6 {
+                return Err(Error::invalid(
+                    "machine",
+                    "machine belt6 cannot carry pocket_mat's milling tools",
+                ));
+            }
+            return Ok(machine);
+        };
+        if !self.strategy.accepts(tool) {
             return Err(Error::invalid(
                 "tool.kind",
                 format!(
                     "strategy {} cannot use a {} tool (it plans {})",
                     self.strategy.name(),
-                    self.tool.kind(),
+                    tool.kind(),
                     self.strategy.tool_kinds()
                 ),
             ));
         }
-        let machine = self.machine.unwrap_or(self.strategy.default_machine());
-        if (machine == Machine::Belt6) != matches!(self.tool, Tool::Belt { .. }) {
+        if (machine == Machine::Belt6) != matches!(tool, Tool::Belt { .. }) {
             return Err(Error::invalid(
                 "machine",
                 format!(
                     "machine {} cannot carry a {} tool",
                     machine.name(),
-                    self.tool.kind()
+                    tool.kind()
                 ),
             ));
         }
@@ -480,6 +504,36 @@ impl Job {
         }
     }
     /// Lead angle in radians (default 0 when absent).
+    /// The job's tool; an error for a job without one (a pocket job, whose
+    /// tools come from the catalogue).
+    pub fn tool(&self) -> Result<&Tool> {
+        self.tool.as_ref().ok_or_else(|| {
+            Error::invalid(
+                "tool",
+                format!(
+                    "is missing: strategy {} needs a tool here",
+                    self.strategy.name()
+                ),
+            )
+        })
+    }
+
+    /// Flute length for the machine's kinematics: the tool's, or for a job
+    /// without a tool the default length of the largest catalogue tool.
+    pub fn tool_length(&self) -> f64 {
+        match &self.tool {
+            Some(tool) => tool.length(),
+            None => {
+                let d = self.tool_catalogue.iter().copied().fold(0.0, f64::max);
+                Tool::FlatEnd {
+                    radius: 0.5 * d,
+                    length: None,
+                }
+                .length()
+            }
+        }
+    }
+
     pub fn lead_angle(&self) -> f64 {
         self.lead_angle_deg.unwrap_or(0.0).to_radians()
     }

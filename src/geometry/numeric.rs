@@ -118,7 +118,8 @@ mod tests {
     #[test]
     fn finds_roots_of_smooth_and_kinked_functions() {
         // Exact roots: cube root of 2, pi/4 for cos - sin, 0.3 for a kink.
-        let cases: [(&dyn Fn(f64) -> f64, f64, f64, f64); 3] = [
+        type Case<'a> = (&'a dyn Fn(f64) -> f64, f64, f64, f64);
+        let cases: [Case; 3] = [
             (&|x: f64| x * x * x - 2.0, 0.0, 3.0, 2f64.cbrt()),
             (
                 &|x: f64| x.sin() - x.cos(),

@@ -274,7 +274,7 @@ pub fn trajectory(job: &Job, result: &PlanResult, machines: &Machines) -> Result
         match job.machine {
             Machine::Mill5 => {
                 let cfg = &machines.mill5;
-                let l = cfg.pivot_length_mm + job.tool.length();
+                let l = cfg.pivot_length_mm + job.tool_length();
                 let input: Vec<([f64; 3], [f64; 3])> =
                     poses.iter().map(|t| (t.tip, t.axis)).collect();
                 let q = mill5::inverse_path(cfg, l, &input)?;
@@ -325,7 +325,7 @@ mod tests {
             job_id: "t".into(),
             surface: serde_json::Value::Null,
             strategy,
-            tool,
+            tool: Some(tool),
             machine: None,
             scallop: Some(0.05),
             tolerance: Some(0.01),

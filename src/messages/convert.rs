@@ -143,24 +143,26 @@ pub fn job_file_from_msg(m: &msgs::Job) -> Result<JobFile> {
     let strategy = Strategy::parse(&m.strategy)?;
     let t = &m.tool;
     let length = opt_nonzero(t.length);
+    // An empty kind means no tool: pocket_mat takes its tools from the catalogue.
     let tool = match t.kind.as_str() {
-        "flat_end" => Tool::FlatEnd {
+        "" => None,
+        "flat_end" => Some(Tool::FlatEnd {
             radius: t.radius,
             length,
-        },
-        "ball" => Tool::Ball {
+        }),
+        "ball" => Some(Tool::Ball {
             radius: t.radius,
             length,
-        },
-        "torus" => Tool::Torus {
+        }),
+        "torus" => Some(Tool::Torus {
             radius: t.radius,
             corner_radius: t.corner_radius,
             length,
-        },
-        "belt" => Tool::Belt {
+        }),
+        "belt" => Some(Tool::Belt {
             width: t.width,
             wheel_radius: t.radius,
-        },
+        }),
         other => {
             return Err(Error::invalid(
                 "tool.kind",
@@ -241,7 +243,7 @@ pub fn job_to_msg(job: &Job, surface_id: &str, header: msgs::Header) -> msgs::Jo
         surface_id: surface_id.to_string(),
         machine: job.machine.name().to_string(),
         strategy: job.strategy.name().to_string(),
-        tool: tool_to_msg(&job.tool),
+        tool: job.tool.as_ref().map(tool_to_msg).unwrap_or_default(),
         scallop: job.scallop.unwrap_or(0.0),
         tolerance: job.tolerance.unwrap_or(0.0),
         lead_angle_deg: job.lead_angle_deg.unwrap_or(0.0),
@@ -305,7 +307,7 @@ pub fn toolpath_msg(
         .map(|p| msgs::ToolpathPass {
             region: u32::try_from(p.region).unwrap_or(u32::MAX),
             stage: String::new(),
-            tool_diameter: 2.0 * job.tool.radius(),
+            tool_diameter: job.tool.map_or(f64::NAN, |t| 2.0 * t.radius()),
             min_strip_width: p.min_strip_width.unwrap_or(f64::NAN),
             points: p
                 .points
@@ -376,7 +378,7 @@ pub fn toolpath_msg(
         surface_id: surface_id.to_string(),
         strategy: result.strategy.clone(),
         machine: job.machine.name().to_string(),
-        tool: tool_to_msg(&job.tool),
+        tool: job.tool.as_ref().map(tool_to_msg).unwrap_or_default(),
         stats: msgs::ToolpathStats {
             path_length_mm: s.path_length_mm,
             passes: u32::try_from(s.passes).unwrap_or(u32::MAX),

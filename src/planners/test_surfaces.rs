@@ -83,10 +83,10 @@ pub fn job(
         job_id: "test".into(),
         surface: serde_json::Value::Null,
         strategy,
-        tool: crate::tools::Tool::FlatEnd {
+        tool: Some(crate::tools::Tool::FlatEnd {
             radius,
             length: None,
-        },
+        }),
         machine: None,
         scallop: Some(scallop),
         tolerance: None,

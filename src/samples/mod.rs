@@ -109,7 +109,7 @@ fn base_job(name: &str, strategy: Strategy, tool: Tool) -> JobFile {
         job_id: format!("{name}_job"),
         surface: serde_json::Value::Null,
         strategy,
-        tool,
+        tool: Some(tool),
         machine: None,
         scallop: None,
         tolerance: None,

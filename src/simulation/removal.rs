@@ -403,17 +403,17 @@ pub fn simulate_job(job: &crate::formats::Job, result: &PlanResult) -> Result<Si
     let crate::tools::Tool::Belt {
         width,
         wheel_radius,
-    } = job.tool
+    } = *job.tool()?
     else {
         return Err(Error::invalid(
             "tool.kind",
             format!(
                 "the removal simulation needs a belt tool, got {} (milling results are checked by the scallop simulator)",
-                job.tool.kind()
+                job.tool()?.kind()
             ),
         ));
     };
-    job.tool.validate().map_err(|e| e.within("tool"))?;
+    job.tool()?.validate().map_err(|e| e.within("tool"))?;
     let resolution = job
         .simulation_resolution
         .unwrap_or(default_resolution(width));

@@ -35,18 +35,18 @@ impl BeltSpec {
         let Tool::Belt {
             width,
             wheel_radius,
-        } = job.tool
+        } = *job.tool()?
         else {
             return Err(Error::invalid(
                 "tool.kind",
                 format!(
                     "strategy {} needs a belt tool, got {}",
                     job.strategy.name(),
-                    job.tool.kind()
+                    job.tool()?.kind()
                 ),
             ));
         };
-        job.tool.validate().map_err(|e| e.within("tool"))?;
+        job.tool()?.validate().map_err(|e| e.within("tool"))?;
         Ok(Self {
             width,
             wheel_radius,

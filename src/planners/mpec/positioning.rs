@@ -273,11 +273,14 @@ impl<'a> Planner<'a> {
             radius,
             corner_radius,
             ..
-        } = job.tool
+        } = *job.tool()?
         else {
             return Err(Error::invalid(
                 "tool.kind",
-                format!("strategy mpec needs a torus tool, got {}", job.tool.kind()),
+                format!(
+                    "strategy mpec needs a torus tool, got {}",
+                    job.tool()?.kind()
+                ),
             ));
         };
         if corner_radius >= radius {

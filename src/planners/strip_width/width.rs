@@ -46,7 +46,7 @@ const GOUGE_SLACK: f64 = 1e-3;
 /// The posed cutter of a milling job (flat-end or ball). A negative lead angle
 /// is refused: the heel would cut.
 pub fn cutter_of_job(job: &Job) -> Result<LeadCutter> {
-    LeadCutter::from_tool(&job.tool, job.lead_angle()).map_err(|e| match e {
+    LeadCutter::from_tool(job.tool()?, job.lead_angle()).map_err(|e| match e {
         LeadCutterError::NegativeLead => Error::invalid(
             "lead_angle_deg",
             format!(
