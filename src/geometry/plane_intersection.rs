@@ -86,92 +86,175 @@ impl SectionOptions {
 /// vertical ones (along v) `+ 1`.
 type EdgeId = usize;
 
-/// All intersection curves of `surface` with `plane`.
+/// All intersection curves of `surface` with `plane`: signed distances on a
+/// grid, the crossing on every grid edge with a sign change, marching squares
+/// to link them cell by cell, and the links chained into curves.
 pub fn intersect_plane(
     surface: &NurbsSurface,
     plane: &Plane,
     options: &SectionOptions,
 ) -> Vec<SectionCurve> {
-    let (nu, nv) = (options.cells_u.max(1), options.cells_v.max(1));
-    let ((u0, u1), (v0, v1)) = surface.domain();
-    let uat = |i: usize| u0 + (u1 - u0) * i as f64 / nu as f64;
-    let vat = |j: usize| v0 + (v1 - v0) * j as f64 / nv as f64;
-    let dist = |u: f64, v: f64| plane.distance(&surface.point(u, v));
-    // Values on the grid; zero counts as positive so that every crossing is a strict sign change.
-    let vals: Vec<f64> = (0..=nu)
-        .flat_map(|i| (0..=nv).map(move |j| (i, j)))
-        .map(|(i, j)| dist(uat(i), vat(j)))
-        .collect();
-    let val = |i: usize, j: usize| vals[i * (nv + 1) + j];
-    let pos = |x: f64| x >= 0.0;
-    let edge_u = |i: usize, j: usize| 2 * (i * (nv + 1) + j); // (i, j) -> (i + 1, j)
-    let edge_v = |i: usize, j: usize| 2 * (i * (nv + 1) + j) + 1; // (i, j) -> (i, j + 1)
-                                                                  // Crossing point on every edge with a sign change.
-    let mut crossing: BTreeMap<EdgeId, Vector2<f64>> = BTreeMap::new();
-    for i in 0..=nu {
-        for j in 0..=nv {
-            if i < nu && pos(val(i, j)) != pos(val(i + 1, j)) {
-                let t = root_on_edge(
-                    |u| dist(u, vat(j)),
-                    uat(i),
-                    uat(i + 1),
-                    val(i, j),
-                    val(i + 1, j),
-                );
-                crossing.insert(edge_u(i, j), Vector2::new(t, vat(j)));
-            }
-            if j < nv && pos(val(i, j)) != pos(val(i, j + 1)) {
-                let t = root_on_edge(
-                    |v| dist(uat(i), v),
-                    vat(j),
-                    vat(j + 1),
-                    val(i, j),
-                    val(i, j + 1),
-                );
-                crossing.insert(edge_v(i, j), Vector2::new(uat(i), t));
-            }
-        }
-    }
-    // Marching squares: each cell links its crossed edges in pairs.
-    let mut links: BTreeMap<EdgeId, Vec<EdgeId>> = BTreeMap::new();
-    for i in 0..nu {
-        for j in 0..nv {
-            // Edges in counter-clockwise order round the cell: bottom, right, top, left.
-            let edges = [
-                edge_u(i, j),
-                edge_v(i + 1, j),
-                edge_u(i, j + 1),
-                edge_v(i, j),
-            ];
-            let crossed: Vec<EdgeId> = edges
+    let grid = Grid::new(surface, plane, options);
+    let crossing = grid.edge_crossings();
+    let links = grid.cell_links(&crossing);
+    let max_seg = if options.max_segment > 0.0 {
+        options.max_segment
+    } else {
+        f64::INFINITY
+    };
+    chains(&links)
+        .into_iter()
+        .map(|(chain, closed)| {
+            let uv: Vec<Vector2<f64>> = chain
                 .iter()
-                .copied()
-                .filter(|e| crossing.contains_key(e))
+                .filter_map(|e| crossing.get(e).copied())
                 .collect();
-            let pairs: Vec<(EdgeId, EdgeId)> = match crossed.len() {
-                2 => vec![(crossed[0], crossed[1])],
-                4 => {
-                    // Saddle: decide by the value at the cell centre.
-                    let centre = pos(dist(
-                        0.5 * (uat(i) + uat(i + 1)),
-                        0.5 * (vat(j) + vat(j + 1)),
-                    ));
-                    if centre == pos(val(i, j)) {
-                        // The corner (i, j) region connects through the centre: cut off the other two corners.
-                        vec![(edges[0], edges[1]), (edges[2], edges[3])]
-                    } else {
-                        vec![(edges[3], edges[0]), (edges[1], edges[2])]
-                    }
+            build_curve(surface, plane, uv, closed, max_seg)
+        })
+        .collect()
+}
+
+/// The signed distance to the plane on a grid over the parameter domain.
+struct Grid<'a> {
+    surface: &'a NurbsSurface,
+    plane: &'a Plane,
+    nu: usize,
+    nv: usize,
+    u: (f64, f64),
+    v: (f64, f64),
+    /// Values at the grid vertices, row i = u index.
+    vals: Vec<f64>,
+}
+
+impl<'a> Grid<'a> {
+    fn new(surface: &'a NurbsSurface, plane: &'a Plane, options: &SectionOptions) -> Self {
+        let (nu, nv) = (options.cells_u.max(1), options.cells_v.max(1));
+        let (u, v) = surface.domain();
+        let mut grid = Self {
+            surface,
+            plane,
+            nu,
+            nv,
+            u,
+            v,
+            vals: Vec::new(),
+        };
+        grid.vals = (0..=nu)
+            .flat_map(|i| (0..=nv).map(move |j| (i, j)))
+            .map(|(i, j)| grid.dist(grid.uat(i), grid.vat(j)))
+            .collect();
+        grid
+    }
+
+    fn uat(&self, i: usize) -> f64 {
+        self.u.0 + (self.u.1 - self.u.0) * i as f64 / self.nu as f64
+    }
+
+    fn vat(&self, j: usize) -> f64 {
+        self.v.0 + (self.v.1 - self.v.0) * j as f64 / self.nv as f64
+    }
+
+    fn dist(&self, u: f64, v: f64) -> f64 {
+        self.plane.distance(&self.surface.point(u, v))
+    }
+
+    fn val(&self, i: usize, j: usize) -> f64 {
+        self.vals[i * (self.nv + 1) + j]
+    }
+
+    /// (i, j) -> (i + 1, j)
+    fn edge_u(&self, i: usize, j: usize) -> EdgeId {
+        2 * (i * (self.nv + 1) + j)
+    }
+
+    /// (i, j) -> (i, j + 1)
+    fn edge_v(&self, i: usize, j: usize) -> EdgeId {
+        2 * (i * (self.nv + 1) + j) + 1
+    }
+
+    /// The crossing point on every grid edge with a sign change (zero counts
+    /// as positive, so that every crossing is a strict sign change).
+    fn edge_crossings(&self) -> BTreeMap<EdgeId, Vector2<f64>> {
+        let pos = |x: f64| x >= 0.0;
+        let mut crossing = BTreeMap::new();
+        for i in 0..=self.nu {
+            for j in 0..=self.nv {
+                if i < self.nu && pos(self.val(i, j)) != pos(self.val(i + 1, j)) {
+                    let t = root_on_edge(
+                        |u| self.dist(u, self.vat(j)),
+                        self.uat(i),
+                        self.uat(i + 1),
+                        self.val(i, j),
+                        self.val(i + 1, j),
+                    );
+                    crossing.insert(self.edge_u(i, j), Vector2::new(t, self.vat(j)));
                 }
-                _ => vec![],
-            };
-            for (a, b) in pairs {
-                links.entry(a).or_default().push(b);
-                links.entry(b).or_default().push(a);
+                if j < self.nv && pos(self.val(i, j)) != pos(self.val(i, j + 1)) {
+                    let t = root_on_edge(
+                        |v| self.dist(self.uat(i), v),
+                        self.vat(j),
+                        self.vat(j + 1),
+                        self.val(i, j),
+                        self.val(i, j + 1),
+                    );
+                    crossing.insert(self.edge_v(i, j), Vector2::new(self.uat(i), t));
+                }
             }
         }
+        crossing
     }
-    // Chains: start at edges with one link (curve ends on the boundary), then the loops.
+
+    /// Marching squares: each cell links its crossed edges in pairs; a saddle
+    /// cell (four crossings) is decided by the value at its centre.
+    fn cell_links(
+        &self,
+        crossing: &BTreeMap<EdgeId, Vector2<f64>>,
+    ) -> BTreeMap<EdgeId, Vec<EdgeId>> {
+        let pos = |x: f64| x >= 0.0;
+        let mut links: BTreeMap<EdgeId, Vec<EdgeId>> = BTreeMap::new();
+        for i in 0..self.nu {
+            for j in 0..self.nv {
+                // Edges in counter-clockwise order round the cell: bottom, right, top, left.
+                let edges = [
+                    self.edge_u(i, j),
+                    self.edge_v(i + 1, j),
+                    self.edge_u(i, j + 1),
+                    self.edge_v(i, j),
+                ];
+                let crossed: Vec<EdgeId> = edges
+                    .iter()
+                    .copied()
+                    .filter(|e| crossing.contains_key(e))
+                    .collect();
+                let pairs: Vec<(EdgeId, EdgeId)> = match crossed.len() {
+                    2 => vec![(crossed[0], crossed[1])],
+                    4 => {
+                        let centre = pos(self.dist(
+                            0.5 * (self.uat(i) + self.uat(i + 1)),
+                            0.5 * (self.vat(j) + self.vat(j + 1)),
+                        ));
+                        if centre == pos(self.val(i, j)) {
+                            // The corner (i, j) region connects through the centre: cut off the other two corners.
+                            vec![(edges[0], edges[1]), (edges[2], edges[3])]
+                        } else {
+                            vec![(edges[3], edges[0]), (edges[1], edges[2])]
+                        }
+                    }
+                    _ => vec![],
+                };
+                for (a, b) in pairs {
+                    links.entry(a).or_default().push(b);
+                    links.entry(b).or_default().push(a);
+                }
+            }
+        }
+        links
+    }
+}
+
+/// Chains of linked edges: first from edges with one link (curves that end on
+/// the boundary), then the loops; `true` marks a closed chain.
+fn chains(links: &BTreeMap<EdgeId, Vec<EdgeId>>) -> Vec<(Vec<EdgeId>, bool)> {
     let mut used: BTreeMap<EdgeId, bool> = links.keys().map(|&e| (e, false)).collect();
     let mut chains: Vec<(Vec<EdgeId>, bool)> = Vec::new();
     let starts: Vec<EdgeId> = links
@@ -210,21 +293,7 @@ pub fn intersect_plane(
             chains.push((chain, closed));
         }
     }
-    let max_seg = if options.max_segment > 0.0 {
-        options.max_segment
-    } else {
-        f64::INFINITY
-    };
     chains
-        .into_iter()
-        .map(|(chain, closed)| {
-            let uv: Vec<Vector2<f64>> = chain
-                .iter()
-                .filter_map(|e| crossing.get(e).copied())
-                .collect();
-            build_curve(surface, plane, uv, closed, max_seg)
-        })
-        .collect()
 }
 
 /// Root of `f` on [a, b] with f(a) = fa, f(b) = fb of opposite signs, to a

@@ -691,7 +691,7 @@ mod tests {
         m.tool.kind = "ball".into();
         assert_eq!(
             prevalidate_job(&m).unwrap_err().to_string(),
-            "invalid input: tool.kind: strategy pocket_mat cannot use a ball tool"
+            "invalid input: tool.kind: strategy pocket_mat cannot use a ball tool (it plans flat-end cutters)"
         );
         m.surface_id = " ".into();
         assert_eq!(

@@ -301,6 +301,42 @@ fn stage_length(passes: &[Vec<Point2>]) -> f64 {
     passes.iter().map(|p| polyline_length_2d(p)).sum()
 }
 
+/// The stages planned so far, with what they have machined: the swept
+/// tool-centre paths (exact), the raster of uncut area, and where the tool is.
+struct Stages {
+    stages: Vec<Stage>,
+    swept: Swept,
+    raster: Raster,
+    at: Point2,
+}
+
+impl Stages {
+    /// Adds a stage: its passes ordered from where the tool is, swept into
+    /// the coverage, with the uncut area after it.
+    fn push(
+        &mut self,
+        stage: &'static str,
+        d: f64,
+        passes: Vec<Vec<Point2>>,
+        length: Option<f64>,
+        residual: Option<f64>,
+    ) {
+        let (passes, end) = order_paths(passes, self.at);
+        self.at = end;
+        self.swept.add(&passes, 0.5 * d);
+        self.raster.sweep(&passes, 0.5 * d);
+        let path_length = length.unwrap_or_else(|| stage_length(&passes));
+        self.stages.push(Stage {
+            stage,
+            diameter: d,
+            passes,
+            path_length,
+            residual_dmax: residual,
+            uncut_after: self.raster.uncut_area(),
+        });
+    }
+}
+
 /// The multi-tool plan of the paper for `pocket` and a sorted catalogue.
 pub fn plan_pocket(
     pocket: &Pocket,
@@ -322,33 +358,11 @@ pub fn plan_pocket(
     let boundary = SegmentIndex::from_pocket(pocket);
     let dense = dense_branches(&ma);
     let h = resolution.unwrap_or_else(|| default_resolution(pocket));
-    let mut raster = Raster::new(pocket, h);
-    let mut swept = Swept::default();
-    let mut stages: Vec<Stage> = Vec::new();
-    let mut warnings = Vec::new();
-    let mut at = pocket.outer[0];
-
-    let mut push = |stage: &'static str,
-                    d: f64,
-                    passes: Vec<Vec<Point2>>,
-                    length: Option<f64>,
-                    residual: Option<f64>,
-                    swept: &mut Swept,
-                    raster: &mut Raster,
-                    at: &mut Point2| {
-        let (passes, end) = order_paths(passes, *at);
-        *at = end;
-        swept.add(&passes, 0.5 * d);
-        raster.sweep(&passes, 0.5 * d);
-        let path_length = length.unwrap_or_else(|| stage_length(&passes));
-        stages.push(Stage {
-            stage,
-            diameter: d,
-            passes,
-            path_length,
-            residual_dmax: residual,
-            uncut_after: raster.uncut_area(),
-        });
+    let mut done = Stages {
+        stages: Vec::new(),
+        swept: Swept::default(),
+        raster: Raster::new(pocket, h),
+        at: pocket.outer[0],
     };
 
     let (passes, length) = contour_passes(&shape, &dense, d_rough);
@@ -357,21 +371,14 @@ pub fn plan_pocket(
             "no room for the roughing tool of diameter {d_rough} mm"
         )));
     }
-    push(
-        "roughing",
-        d_rough,
-        passes,
-        Some(length),
-        None,
-        &mut swept,
-        &mut raster,
-        &mut at,
-    );
+    done.push("roughing", d_rough, passes, Some(length), None);
     progress.set(0.5);
 
+    // Corner cleaning: tools in decreasing order while the medial axis still
+    // leaves circles unmachined that the root tool would not clear.
     let mut previous = d_rough;
     loop {
-        let residual = residual_dmax(&dense, &swept);
+        let residual = residual_dmax(&dense, &done.swept);
         if residual <= 0.0 {
             break;
         }
@@ -382,38 +389,20 @@ pub fn plan_pocket(
             break;
         }
         previous = d;
-        let passes = cleaning_passes(&shape, &boundary, &swept, d);
-        if passes.is_empty() {
-            continue;
+        let passes = cleaning_passes(&shape, &boundary, &done.swept, d);
+        if !passes.is_empty() {
+            done.push("corner", d, passes, None, Some(residual));
         }
-        push(
-            "corner",
-            d,
-            passes,
-            None,
-            Some(residual),
-            &mut swept,
-            &mut raster,
-            &mut at,
-        );
     }
     progress.set(0.8);
 
     if d_root < previous - 1e-9 {
-        let passes = cleaning_passes(&shape, &boundary, &swept, d_root);
+        let passes = cleaning_passes(&shape, &boundary, &done.swept, d_root);
         if !passes.is_empty() {
-            push(
-                "root",
-                d_root,
-                passes,
-                None,
-                None,
-                &mut swept,
-                &mut raster,
-                &mut at,
-            );
+            done.push("root", d_root, passes, None, None);
         }
     }
+    let mut warnings = Vec::new();
     if d_root > 2.0 * ma.min_corner_radius + 1e-9 {
         warnings.push(format!(
             "the smallest concave-corner radius is {:.3} mm: the root tool ({} mm) leaves the sharpest corners uncut",
@@ -422,7 +411,7 @@ pub fn plan_pocket(
     }
     Ok(PocketPlan {
         medial_axis: ma,
-        stages,
+        stages: done.stages,
         resolution: h,
         warnings,
     })
