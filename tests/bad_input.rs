@@ -104,7 +104,7 @@ fn missing_fields() {
         &without(job.clone(), "", "strategy"),
         &["missing field `strategy`"],
     );
-    rejects(&without(job.clone(), "", "tool"), &["missing field `tool`"]);
+    rejects(&without(job.clone(), "", "tool"), &["tool: is missing"]);
     rejects(
         &without(job.clone(), "", "surface"),
         &["missing field `surface`"],
