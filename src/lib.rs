@@ -8,7 +8,8 @@
 //! 3. `planners` (one module per method)
 //! 4. `simulation` (scallop simulator, material removal)
 //! 5. `machines` (kinematics, timed joint trajectories)
-//! 6. `pipeline` (plan + verify + stats: what every edge calls)
+//! 6. `pipeline` (plan + verify + stats: what every edge calls), `post` (NC
+//!    programs from results)
 //! 7. edges: `cli`, `ros` (the node), `recording` (MCAP), `ipc` (iceoryx2), `plot`
 //!
 //! Nothing in layers 1-5 imports from `ros`, `recording`, `ipc`, `plot` or `cli`
@@ -29,6 +30,7 @@ pub mod simulation;
 pub mod machines;
 
 pub mod pipeline;
+pub mod post;
 
 pub mod cli;
 pub mod ipc;
