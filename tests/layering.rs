@@ -13,7 +13,7 @@ fn rank(module: &str) -> Option<u32> {
         "planners" => 3,
         "simulation" => 4,
         "machines" => 5,
-        "pipeline" => 6,
+        "pipeline" | "post" => 6,
         "cli" | "ros" | "recording" | "ipc" | "plot" => 7,
         _ => return None,
     })

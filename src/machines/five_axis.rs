@@ -407,6 +407,17 @@ impl FiveAxis {
         Ok([m[0], m[1], m[2] + l, t, c])
     }
 
+    /// Joints that put the tip at `tip` (workpiece frame) with the rotaries at
+    /// `r`, which must be a solution for the pose's axis: a whole turn of C
+    /// or the other branch moves X Y Z on a table machine (the part turns
+    /// about the tool axis), not on a head.
+    pub fn joints_at(&self, tool_length: f64, tip: [f64; 3], r: [f64; 2]) -> [f64; 5] {
+        let l = self.spindle_offset(tool_length);
+        let m = self.part_to_machine(r, tip);
+        let s = self.spindle_direction(r);
+        [m[0] + l * s[0], m[1] + l * s[1], m[2] + l * s[2], r[0], r[1]]
+    }
+
     /// Joints of consecutive poses, continuous in tilt and C.
     pub fn inverse_path(
         &self,
@@ -504,6 +515,11 @@ mod tests {
                 assert!(close(axis, axis2, 1e-12), "{k:?} axis {axis:?} -> {axis2:?}");
                 let (tip3, axis3) = m.forward(l, &q);
                 assert!(close(tip3, tip2, 1e-9) && close(axis3, axis2, 1e-12));
+                // The other branch: same axis, the part turned about it, X Y Z moved.
+                let pi = std::f64::consts::PI;
+                let other = m.joints_at(l, tip, [-q[3], q[4] + pi]);
+                let (tip4, axis4) = fk_matrices(&m, l, &other);
+                assert!(close(tip, tip4, 1e-9) && close(axis, axis4, 1e-12));
                 if let Some(p) = prev {
                     assert!((q[4] - p[4]).abs() < 3.2, "C jumps {} -> {}", p[4], q[4]);
                 }

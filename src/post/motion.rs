@@ -434,8 +434,8 @@ fn limit_error(m: &FiveAxis, q: &[[f64; 5]], labels: &[String], what: &str) -> E
                     r[3].to_degrees(),
                     (-r[3]).to_degrees(),
                     m.name,
-                    t.min.to_degrees(),
-                    t.max.to_degrees()
+                    deg(t.min),
+                    deg(t.max)
                 ),
             );
         }
@@ -446,10 +446,15 @@ fn limit_error(m: &FiveAxis, q: &[[f64; 5]], labels: &[String], what: &str) -> E
             "{what}: the pass from here turns C through {:.1} deg, which fits no whole-turn shift of machine {}'s range {}..{} deg",
             (hi - lo).to_degrees(),
             m.name,
-            lc.min.to_degrees(),
-            lc.max.to_degrees()
+            deg(lc.min),
+            deg(lc.max)
         ),
     )
+}
+
+/// Degrees for messages, rounded off the radian round trip (-120, not -119.99999999999999).
+fn deg(x: f64) -> f64 {
+    (x.to_degrees() * 1e9).round() / 1e9
 }
 
 /// Every joint of every waypoint within the travel, or an error naming it.
@@ -463,12 +468,7 @@ fn check_limits(m: &FiveAxis, steps: &[Step], what: &str) -> Result<()> {
                 continue;
             }
             let (val, lo, hi, unit) = if l.rotary {
-                (
-                    x.to_degrees(),
-                    l.min.to_degrees(),
-                    l.max.to_degrees(),
-                    "deg",
-                )
+                (x.to_degrees(), deg(l.min), deg(l.max), "deg")
             } else {
                 (x, l.min, l.max, "mm")
             };
@@ -534,6 +534,9 @@ pub fn plan(job: &Job, result: &PlanResult, pm: &PostMachine) -> Result<Motion> 
             .map_err(|e| Error::invalid(pass.labels[0].clone(), e.to_string()))?;
         fit_pass(&mut q, m, prev_rot)
             .ok_or_else(|| limit_error(m, &q, &pass.labels, &what))?;
+        for (qk, pose) in q.iter_mut().zip(&pass.poses) {
+            *qk = m.joints_at(tool_length, pose.0, [qk[3], qk[4]]);
+        }
         let first = q[0];
         let last = q[q.len() - 1];
         if current_tool != Some(pass.tool) {
