@@ -201,6 +201,6 @@ mod tests {
         let e = PostMachine::parse("nc:\n  coolent_on: M8\n")
             .unwrap_err()
             .to_string();
-        assert!(e.contains("nc: unknown field `coolent_on`"), "{e}");
+        assert!(e.contains("nc.coolent_on: unknown field `coolent_on`"), "{e}");
     }
 }
