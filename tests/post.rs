@@ -300,7 +300,10 @@ fn read_program(text: &str, format: &str, tilt: char) -> Vec<Blk> {
                 continue;
             }
             tokens.remove(0);
-        } else if tokens.first().is_some_and(|t| t.starts_with('O') || *t == "%") {
+        } else if tokens
+            .first()
+            .is_some_and(|t| t.starts_with('O') || *t == "%")
+        {
             continue;
         }
         let mut machine = false;
@@ -346,9 +349,10 @@ fn read_program(text: &str, format: &str, tilt: char) -> Vec<Blk> {
                                 c if c == tilt => 3,
                                 _ => panic!("line {line_no}: unexpected word {tok} in {raw}"),
                             };
-                            pos[k] = Some(rest.parse().unwrap_or_else(|_| {
-                                panic!("line {line_no}: bad number {tok}")
-                            }));
+                            pos[k] =
+                                Some(rest.parse().unwrap_or_else(|_| {
+                                    panic!("line {line_no}: bad number {tok}")
+                                }));
                             axis_word = true;
                         }
                     }
@@ -502,7 +506,7 @@ fn replay(text: &str, format: &str, m: &Mach, job: &Job, result: &PlanResult) ->
                     g93: b.g93,
                 });
             }
-            let q: Vec<f64> = b.pos.iter().map(|v| *v).collect::<Option<Vec<f64>>>()?;
+            let q: Vec<f64> = b.pos.iter().copied().collect::<Option<Vec<f64>>>()?;
             let q = [q[0], q[1], q[2], q[3], q[4]];
             let (tip, axis) = if joint {
                 let (tip, axis, _) = m.fk(l, q);
@@ -540,7 +544,10 @@ fn replay(text: &str, format: &str, m: &Mach, job: &Job, result: &PlanResult) ->
         if b.has_angles {
             for (j, &(lo, hi)) in m.limits.iter().enumerate() {
                 if (j >= 3 || joint) && (b.q[j] < lo - 1e-9 || b.q[j] > hi + 1e-9) {
-                    bad.push(format!("line {}: axis {j} = {} outside {lo}..{hi}", b.line, b.q[j]));
+                    bad.push(format!(
+                        "line {}: axis {j} = {} outside {lo}..{hi}",
+                        b.line, b.q[j]
+                    ));
                 }
             }
         }
@@ -632,7 +639,10 @@ fn replay(text: &str, format: &str, m: &Mach, job: &Job, result: &PlanResult) ->
             k += 1;
         }
         if k == known.len() {
-            bad.push(format!("pass {p}: its first point {:?} is in no block", pass[0]));
+            bad.push(format!(
+                "pass {p}: its first point {:?} is in no block",
+                pass[0]
+            ));
             break;
         }
         for (j, point) in pass.iter().enumerate().skip(1) {
@@ -763,7 +773,11 @@ fn tcp_formats_hold_to_three_printed_decimals_with_block_numbers() {
         &["plane", "monkey_saddle"],
     );
     let text = post_text(&cases()[0], &mill5_3_decimals(), "fanuc-tcp").unwrap();
-    assert!(text.contains("\nN10 G21 ") && text.contains(" Z0.218\n"), "{}", &text[..800]);
+    assert!(
+        text.contains("\nN10 G21 ") && text.contains(" Z0.218\n"),
+        "{}",
+        &text[..800]
+    );
 }
 
 /// A result written here: a pass whose axis precesses through 330 deg of
@@ -847,7 +861,10 @@ fn rotaries_unwrap_hold_c_at_vertical_and_keep_one_branch_per_pass() {
     assert_eq!(cut.len(), 166 + 41 + 21);
     // Pass 0: C runs 330 deg (across +-180) without a jump, A stays on one branch.
     let c: Vec<f64> = cut[..166].iter().map(|q| q[4]).collect();
-    assert!((c[165] - c[0]).abs() > 329.9 && (c[165] - c[0]).abs() < 330.1, "{c:?}");
+    assert!(
+        (c[165] - c[0]).abs() > 329.9 && (c[165] - c[0]).abs() < 330.1,
+        "{c:?}"
+    );
     assert!(c.windows(2).all(|w| (w[1] - w[0]).abs() < 2.01));
     assert!(cut[..166]
         .iter()
@@ -934,7 +951,11 @@ fn the_command_writes_the_same_bytes_twice_and_reports_the_largest_rotary_step()
         text,
         post_text(case, &read(&machine), "fanuc-joint").unwrap()
     );
-    assert!(text.starts_with("%\nO2000 (MONKEY_SADDLE_JOB)\n"), "{}", &text[..200]);
+    assert!(
+        text.starts_with("%\nO2000 (MONKEY_SADDLE_JOB)\n"),
+        "{}",
+        &text[..200]
+    );
     assert!(text.contains("\nG93 ") && text.contains("\nG94 "));
     // The cell config reads as its mill5 head.
     let (code, stdout, stderr) = run(&[
@@ -948,7 +969,11 @@ fn the_command_writes_the_same_bytes_twice_and_reports_the_largest_rotary_step()
         "heidenhain-tcpm",
     ]);
     assert_eq!(code, 0, "{stderr}");
-    assert!(stdout.starts_with("0 BEGIN PGM MONKEY_SADDLE_JOB MM\n"), "{}", &stdout[..100]);
+    assert!(
+        stdout.starts_with("0 BEGIN PGM MONKEY_SADDLE_JOB MM\n"),
+        "{}",
+        &stdout[..100]
+    );
     assert!(stderr.contains("for machine mill5"), "{stderr}");
 }
 
@@ -966,7 +991,10 @@ fn bad_input_exits_2_with_a_message_naming_it() {
     // Unknown format.
     let (code, _, err) = post(&[result, "--job", job, "--format", "mazak"]);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("unknown format \"mazak\": expected one of apt, linuxcnc-tcp"), "{err}");
+    assert!(
+        err.contains("unknown format \"mazak\": expected one of apt, linuxcnc-tcp"),
+        "{err}"
+    );
     // A machine definition without its C axis.
     let yaml = read(&repo("launch_configs/machines/trunnion_ac.yaml"));
     let no_c: String = yaml
@@ -1036,7 +1064,10 @@ fn bad_input_exits_2_with_a_message_naming_it() {
             && err.contains("100.000"),
         "{err}"
     );
-    assert!(err.contains("outside machine mill5's range -95..95 deg"), "{err}");
+    assert!(
+        err.contains("outside machine mill5's range -95..95 deg"),
+        "{err}"
+    );
     let mut both = case.result.clone();
     let t = 125f64.to_radians();
     both.passes[2].points[9].axis = [0.0, t.sin(), t.cos()];
@@ -1046,11 +1077,19 @@ fn bad_input_exits_2_with_a_message_naming_it() {
         "--job",
         job3.to_str().unwrap(),
         "--machine",
-        repo("launch_configs/machines/trunnion_ac.yaml").to_str().unwrap(),
+        repo("launch_configs/machines/trunnion_ac.yaml")
+            .to_str()
+            .unwrap(),
         "--format",
         "sinumerik-traori",
     ]);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("passes[2].points[9]: machine trunnion_ac: the pose needs A = "), "{err}");
-    assert!(err.contains("outside machine trunnion_ac's range -120..30 deg"), "{err}");
+    assert!(
+        err.contains("passes[2].points[9]: machine trunnion_ac: the pose needs A = "),
+        "{err}"
+    );
+    assert!(
+        err.contains("outside machine trunnion_ac's range -120..30 deg"),
+        "{err}"
+    );
 }

@@ -184,10 +184,7 @@ impl FiveAxisConfig {
         }
         let point = |field: &str, p: &Option<[f64; 3]>| -> Result<[f64; 3]> {
             let p = p.ok_or_else(|| {
-                Error::invalid(
-                    field,
-                    format!("missing: {} kinematics needs it", k.name()),
-                )
+                Error::invalid(field, format!("missing: {} kinematics needs it", k.name()))
             })?;
             for (i, v) in p.iter().enumerate() {
                 finite(&format!("{field}[{i}]"), *v)?;
@@ -402,7 +399,8 @@ impl FiveAxis {
             )));
         }
         let a = [axis[0] / n, axis[1] / n, axis[2] / n];
-        let (t, c) = mill5::tilt_and_turn(a, self.turn_of(a), prev.map(|p| (p[3], p[4])), turn_hint);
+        let (t, c) =
+            mill5::tilt_and_turn(a, self.turn_of(a), prev.map(|p| (p[3], p[4])), turn_hint);
         let m = self.part_to_machine([t, c], tip);
         Ok([m[0], m[1], m[2] + l, t, c])
     }
@@ -415,7 +413,13 @@ impl FiveAxis {
         let l = self.spindle_offset(tool_length);
         let m = self.part_to_machine(r, tip);
         let s = self.spindle_direction(r);
-        [m[0] + l * s[0], m[1] + l * s[1], m[2] + l * s[2], r[0], r[1]]
+        [
+            m[0] + l * s[0],
+            m[1] + l * s[1],
+            m[2] + l * s[2],
+            r[0],
+            r[1],
+        ]
     }
 
     /// Joints of consecutive poses, continuous in tilt and C.
@@ -441,7 +445,7 @@ mod tests {
     use nalgebra::{Matrix4, Translation3, Vector4};
 
     fn table(k: Kinematics) -> FiveAxis {
-        let rot = Some(RotaryAxis::new(-120.0, 120.0, 90.0, 360.0));
+        let rot = RotaryAxis::new(-120.0, 120.0, 90.0, 360.0);
         let lin = Some(LinearAxis::new(-2000.0, 2000.0, 500.0, 2000.0));
         FiveAxisConfig {
             name: "t".into(),
@@ -455,8 +459,8 @@ mod tests {
             x: lin,
             y: lin,
             z: lin,
-            a: (k == Kinematics::AcTable).then_some(rot.unwrap()),
-            b: (k == Kinematics::BcTable).then_some(rot.unwrap()),
+            a: (k == Kinematics::AcTable).then_some(rot),
+            b: (k == Kinematics::BcTable).then_some(rot),
             c: Some(RotaryAxis::new(-400.0, 400.0, 90.0, 360.0)),
         }
         .build()
@@ -475,7 +479,8 @@ mod tests {
             Vector3::y_axis()
         };
         let rt: Matrix4<f64> = Rotation3::from_axis_angle(&tilt_axis, q[3]).to_homogeneous();
-        let rc: Matrix4<f64> = Rotation3::from_axis_angle(&Vector3::z_axis(), q[4]).to_homogeneous();
+        let rc: Matrix4<f64> =
+            Rotation3::from_axis_angle(&Vector3::z_axis(), q[4]).to_homogeneous();
         let part = t(m.tilt_axis_point)
             * rt
             * t(neg(m.tilt_axis_point))
@@ -511,8 +516,14 @@ mod tests {
                 let axis = [polar.sin() * az.cos(), polar.sin() * az.sin(), polar.cos()];
                 let q = m.inverse(l, tip, axis, prev.as_ref(), 0.0).unwrap();
                 let (tip2, axis2) = fk_matrices(&m, l, &q);
-                assert!(close(tip, tip2, 1e-9), "{k:?} tip {tip:?} -> {q:?} -> {tip2:?}");
-                assert!(close(axis, axis2, 1e-12), "{k:?} axis {axis:?} -> {axis2:?}");
+                assert!(
+                    close(tip, tip2, 1e-9),
+                    "{k:?} tip {tip:?} -> {q:?} -> {tip2:?}"
+                );
+                assert!(
+                    close(axis, axis2, 1e-12),
+                    "{k:?} axis {axis:?} -> {axis2:?}"
+                );
                 let (tip3, axis3) = m.forward(l, &q);
                 assert!(close(tip3, tip2, 1e-9) && close(axis3, axis2, 1e-12));
                 // The other branch: same axis, the part turned about it, X Y Z moved.
@@ -545,7 +556,10 @@ mod tests {
         let mut cfg = FiveAxisConfig::from_mill5("m", &Mill5Config::default());
         cfg.c = None;
         let e = cfg.build().unwrap_err().to_string();
-        assert!(e.contains("c: missing: ac_head kinematics needs the axes x, y, z, a, c"), "{e}");
+        assert!(
+            e.contains("c: missing: ac_head kinematics needs the axes x, y, z, a, c"),
+            "{e}"
+        );
         let mut cfg = FiveAxisConfig::from_mill5("m", &Mill5Config::default());
         cfg.b = cfg.a;
         let e = cfg.build().unwrap_err().to_string();

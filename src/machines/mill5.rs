@@ -59,12 +59,7 @@ pub fn inverse(
         o[1] + tip[1] + pivot_length * a[1],
         o[2] + tip[2] + pivot_length * a[2],
     ];
-    let (ang_a, ang_c) = tilt_and_turn(
-        a,
-        head_turn(a),
-        prev.map(|p| (p[3], p[4])),
-        c_hint,
-    );
+    let (ang_a, ang_c) = tilt_and_turn(a, head_turn(a), prev.map(|p| (p[3], p[4])), c_hint);
     Ok([xyz[0], xyz[1], xyz[2], ang_a, ang_c])
 }
 

@@ -254,7 +254,9 @@ impl<'a> Writer<'a> {
         ));
         self.comment(report_line);
         if f.is_joint() {
-            self.comment("feed G93 inverse time on blocks that turn a rotary axis, G94 mm/min otherwise");
+            self.comment(
+                "feed G93 inverse time on blocks that turn a rotary axis, G94 mm/min otherwise",
+            );
         }
         match f {
             Format::Apt => {
@@ -329,10 +331,7 @@ impl<'a> Writer<'a> {
             Format::HeidenhainTcpm => {
                 self.block(format!("TOOL CALL {n} Z S{rpm}"));
                 let m = Self::words(&[&nc.spindle_on, &nc.coolant_on]);
-                self.block(format!(
-                    "L {}{a} C{c} R0 FMAX {m}",
-                    names[3]
-                ));
+                self.block(format!("L {}{a} C{c} R0 FMAX {m}", names[3]));
                 self.block("FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS");
             }
             Format::SinumerikTraori => {
@@ -422,8 +421,9 @@ impl<'a> Writer<'a> {
         let mut prev = at(0.0);
         for i in 1..=n {
             let p = at(i as f64 / n as f64);
-            length += ((p[0] - prev[0]).powi(2) + (p[1] - prev[1]).powi(2) + (p[2] - prev[2]).powi(2))
-                .sqrt();
+            length +=
+                ((p[0] - prev[0]).powi(2) + (p[1] - prev[1]).powi(2) + (p[2] - prev[2]).powi(2))
+                    .sqrt();
             prev = p;
         }
         let minutes = if length > 1e-3 {
@@ -527,12 +527,16 @@ impl<'a> Writer<'a> {
         if w.kind == Kind::Rapid {
             return self.block(format!("{g}{words}"));
         }
-        let (mode, f) = if self.format.is_joint() && (changed.contains(&3) || changed.contains(&4)) {
+        let (mode, f) = if self.format.is_joint() && (changed.contains(&3) || changed.contains(&4))
+        {
             let (Some(a), Some(b)) = (from, to) else {
                 unreachable!("a joint program knows every axis before its first feed move")
             };
             self.inverse_time_blocks += 1;
-            (FeedMode::InverseTime, inverse_time_text(self.inverse_time(&a, &b)))
+            (
+                FeedMode::InverseTime,
+                inverse_time_text(self.inverse_time(&a, &b)),
+            )
         } else {
             (FeedMode::PerMinute, feed_text(self.feed))
         };

@@ -182,8 +182,8 @@ mod tests {
 
     #[test]
     fn a_cell_config_gives_its_mill5_head() {
-        let m = PostMachine::parse("node:\n  workers: 2\nmill5:\n  pivot_length_mm: 320.0\n")
-            .unwrap();
+        let m =
+            PostMachine::parse("node:\n  workers: 2\nmill5:\n  pivot_length_mm: 320.0\n").unwrap();
         assert_eq!(m.machine.pivot_length, 320.0);
         assert_eq!(m.nc, NcWords::default());
         let e = PostMachine::parse("mill5:\n  pivot_lenght_mm: 3\n")
@@ -201,6 +201,9 @@ mod tests {
         let e = PostMachine::parse("nc:\n  coolent_on: M8\n")
             .unwrap_err()
             .to_string();
-        assert!(e.contains("nc.coolent_on: unknown field `coolent_on`"), "{e}");
+        assert!(
+            e.contains("nc.coolent_on: unknown field `coolent_on`"),
+            "{e}"
+        );
     }
 }

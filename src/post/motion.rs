@@ -44,7 +44,10 @@ pub enum Kind {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Origin {
     /// A point of the result: its label (`passes[3].points[7]`) and pass number.
-    Point { label: String, pass: usize },
+    Point {
+        label: String,
+        pass: usize,
+    },
     Approach(usize),
     Leave(usize),
     Link(usize),
@@ -92,7 +95,10 @@ pub struct ToolInfo {
 pub enum Step {
     /// Tool change, spindle and coolant on, rotaries to `rotaries` at the top
     /// of Z travel (then TCP on).
-    ToolStart { tool: usize, rotaries: [f64; 2] },
+    ToolStart {
+        tool: usize,
+        rotaries: [f64; 2],
+    },
     /// Start of pass `k` (a comment).
     Pass(usize),
     Move(Waypoint),
@@ -290,7 +296,13 @@ impl Planner<'_> {
     /// Joints moved by `d` along the tool axis (towards the spindle).
     fn along_axis(&self, q: [f64; 5], d: f64) -> [f64; 5] {
         let s = self.m.spindle_direction([q[3], q[4]]);
-        [q[0] + d * s[0], q[1] + d * s[1], q[2] + d * s[2], q[3], q[4]]
+        [
+            q[0] + d * s[0],
+            q[1] + d * s[1],
+            q[2] + d * s[2],
+            q[3],
+            q[4],
+        ]
     }
 
     /// Chord allowance of a TCP controller between two turn steps: the tip,
@@ -358,12 +370,20 @@ impl Planner<'_> {
     /// Leave the end of pass `pass` along the tool axis and rise to the clearance.
     fn leave(&self, end: [f64; 5], pass: usize, out: &mut Vec<Step>) -> [f64; 5] {
         let mut q = self.along_axis(end, self.m.retract);
-        out.push(Step::Move(self.waypoint(Kind::Feed, q, Origin::Leave(pass))));
+        out.push(Step::Move(self.waypoint(
+            Kind::Feed,
+            q,
+            Origin::Leave(pass),
+        )));
         let r = [q[3], q[4]];
         let z = self.z_for_tip(r, self.clearance(r));
         if q[2] < z {
             q[2] = z;
-            out.push(Step::Move(self.waypoint(Kind::Feed, q, Origin::Leave(pass))));
+            out.push(Step::Move(self.waypoint(
+                Kind::Feed,
+                q,
+                Origin::Leave(pass),
+            )));
         }
         q
     }
@@ -384,8 +404,7 @@ fn fit_pass(q: &mut [[f64; 5]], m: &FiveAxis, prev: Option<(f64, f64)>) -> Optio
                 r[4]
             }
         };
-        if q
-            .iter()
+        if q.iter()
             .any(|r| tilt(r) < lt.min - 1e-9 || tilt(r) > lt.max + 1e-9)
         {
             continue;
@@ -532,8 +551,7 @@ pub fn plan(job: &Job, result: &PlanResult, pm: &PostMachine) -> Result<Motion> 
         let mut q = m
             .inverse_path(tool_length, &pass.poses)
             .map_err(|e| Error::invalid(pass.labels[0].clone(), e.to_string()))?;
-        fit_pass(&mut q, m, prev_rot)
-            .ok_or_else(|| limit_error(m, &q, &pass.labels, &what))?;
+        fit_pass(&mut q, m, prev_rot).ok_or_else(|| limit_error(m, &q, &pass.labels, &what))?;
         for (qk, pose) in q.iter_mut().zip(&pass.poses) {
             *qk = m.joints_at(tool_length, pose.0, [qk[3], qk[4]]);
         }
