@@ -110,17 +110,22 @@ pub struct Report {
     pub max_rotary_step_axis: &'static str,
     pub max_rotary_step_at: String,
     pub max_cut_rotary_step_deg: f64,
+    /// Cutting blocks that, run at the job's feed along the tip, would turn a
+    /// rotary axis faster than its velocity limit (the controller slows the
+    /// feed there; typically near tilt 0, where C swings).
+    pub rotary_speed_limited_blocks: usize,
 }
 
 impl Report {
     /// One line for the program header and the command's output.
     pub fn rotary_line(&self) -> String {
         format!(
-            "largest rotary step {:.3} deg ({} at {}); largest while cutting {:.3} deg",
+            "largest rotary step {:.3} deg ({} at {}); largest while cutting {:.3} deg; {} cutting blocks ask a rotary axis for more than its velocity limit at the feed",
             self.max_rotary_step_deg,
             self.max_rotary_step_axis,
             self.max_rotary_step_at,
-            self.max_cut_rotary_step_deg
+            self.max_cut_rotary_step_deg,
+            self.rotary_speed_limited_blocks
         )
     }
 }
@@ -132,7 +137,7 @@ pub struct Program {
     pub report: Report,
 }
 
-fn rotary_steps(motion: &Motion, pm: &PostMachine, format: Format) -> Report {
+fn rotary_steps(motion: &Motion, pm: &PostMachine, format: Format, feed: f64) -> Report {
     let names = pm.machine.joint_names();
     let mut report = Report {
         format,
@@ -145,19 +150,36 @@ fn rotary_steps(motion: &Motion, pm: &PostMachine, format: Format) -> Report {
         max_rotary_step_axis: names[4],
         max_rotary_step_at: "the start".into(),
         max_cut_rotary_step_deg: 0.0,
+        rotary_speed_limited_blocks: 0,
     };
-    let mut prev: Option<[f64; 5]> = None;
+    let limits = &pm.machine.limits;
+    let mut prev: Option<([f64; 5], [f64; 3])> = None;
     for step in &motion.steps {
         match step {
             Step::ToolStart { rotaries, .. } => {
-                prev = prev.map(|mut q| {
+                prev = prev.map(|(mut q, tip)| {
                     q[3] = rotaries[0];
                     q[4] = rotaries[1];
-                    q
+                    (q, tip)
                 });
             }
             Step::Move(w) => {
-                if let Some(p) = prev {
+                if let Some((p, tip)) = prev {
+                    let d = w
+                        .tip
+                        .iter()
+                        .zip(&tip)
+                        .map(|(a, b)| (a - b) * (a - b))
+                        .sum::<f64>()
+                        .sqrt();
+                    let seconds = 60.0 * d / feed;
+                    if w.is_cut()
+                        && [3, 4]
+                            .iter()
+                            .any(|&j| (w.q[j] - p[j]).abs() > limits[j].max_velocity * seconds)
+                    {
+                        report.rotary_speed_limited_blocks += 1;
+                    }
                     for j in [3, 4] {
                         let d = (w.q[j] - p[j]).abs().to_degrees();
                         if d > report.max_rotary_step_deg {
@@ -170,7 +192,7 @@ fn rotary_steps(motion: &Motion, pm: &PostMachine, format: Format) -> Report {
                         }
                     }
                 }
-                prev = Some(w.q);
+                prev = Some((w.q, w.tip));
             }
             _ => {}
         }
@@ -201,7 +223,7 @@ pub fn post(job: &Job, result: &PlanResult, pm: &PostMachine, format: Format) ->
         ));
     }
     let motion = motion::plan(job, result, pm)?;
-    let mut report = rotary_steps(&motion, pm, format);
+    let mut report = rotary_steps(&motion, pm, format, job.feed_rate);
     let written = emit::write(format, &motion, job, result, pm, &report.rotary_line());
     report.blocks = written.motion_blocks;
     report.inverse_time_blocks = written.inverse_time_blocks;
