@@ -17,6 +17,7 @@ pub use machine::{NcWords, PostMachine};
 use crate::error::{Error, Result};
 use crate::formats::{Job, PlanResult};
 use motion::{Motion, Step};
+use std::path::{Path, PathBuf};
 
 /// The program formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -231,4 +232,75 @@ pub fn post(job: &Job, result: &PlanResult, pm: &PostMachine, format: Format) ->
         text: written.text,
         report,
     })
+}
+
+/// Writes the program of `result` to `dir/<job_id>.<extension>` (in the job
+/// id, anything but ASCII letters, digits, '-' and '_' becomes '_') and
+/// returns the path; `dir` is created when missing.
+pub fn write_program_file(
+    dir: &Path,
+    job: &Job,
+    result: &PlanResult,
+    pm: &PostMachine,
+    format: Format,
+) -> Result<PathBuf> {
+    let program = post(job, result, pm, format)?;
+    let stem: String = job
+        .job_id
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display().to_string(), e))?;
+    let path = dir.join(format!("{stem}.{}", format.extension()));
+    std::fs::write(&path, program.text).map_err(|e| Error::io(path.display().to_string(), e))?;
+    Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::{Pass, PathPoint};
+
+    #[test]
+    fn a_program_file_is_named_after_the_job() {
+        let mut job = crate::samples::job("plane").unwrap();
+        job.job_id = "cell a/job 7".into();
+        let mut result = PlanResult::new(&job.job_id, job.strategy.name());
+        result.passes.push(Pass {
+            region: 0,
+            points: (0..3)
+                .map(|k| PathPoint {
+                    cl: [k as f64, 0.0, 0.0],
+                    axis: [0.0, 0.0, 1.0],
+                    ..Default::default()
+                })
+                .collect(),
+            min_strip_width: None,
+        });
+        let dir = std::env::temp_dir().join(format!("post_file_test_{}", std::process::id()));
+        let pm = PostMachine::builtin_mill5();
+        let path = write_program_file(&dir, &job, &result, &pm, Format::FanucTcp).unwrap();
+        assert_eq!(path, dir.join("cell_a_job_7.nc"));
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(
+            text,
+            post(&job, &result, &pm, Format::FanucTcp).unwrap().text
+        );
+        // Three points on the part at z = 0, tool vertical: three cutting blocks.
+        assert!(
+            text.contains("\nG1 Z0.0000 F2000.0\nX1.0000\nX2.0000\n"),
+            "{text}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(Format::parse("okuma")
+            .unwrap_err()
+            .to_string()
+            .contains("unknown format \"okuma\""));
+    }
 }
