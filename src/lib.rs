@@ -8,7 +8,8 @@
 //! 3. `planners` (one module per method)
 //! 4. `simulation` (scallop simulator, material removal)
 //! 5. `machines` (kinematics, timed joint trajectories)
-//! 6. `pipeline` (plan + verify + stats: what every edge calls)
+//! 6. `pipeline` (plan + verify + stats: what every edge calls), `post` (NC
+//!    programs from results)
 //! 7. `messages` (the node's ROS 2 messages, their conversions, topic names
 //!    and the output messages of a planned job: what the node and the bags share)
 //! 8. edges: `ipc` (iceoryx2), `plot` and `recording` (MCAP bags), none of
@@ -33,6 +34,7 @@ pub mod simulation;
 pub mod machines;
 
 pub mod pipeline;
+pub mod post;
 
 pub mod messages;
 

@@ -4,19 +4,22 @@
 //! over DDS, collects the statuses and toolpaths, and prints the results table.
 //!
 //! Into `--out DIR` go the node's config (`node.yaml`), the bag the node
-//! records of the run (`DIR/demo_run/`, recording on unless `--no-record`) and
-//! one picture per sample (`DIR/<sample>.png`). The pictures are drawn from a
+//! records of the run (`DIR/demo_run/`, recording on unless `--no-record`),
+//! one picture per sample (`DIR/<sample>.png`) and, next to it, one NC
+//! program per milling sample for the built-in mill5 (`DIR/<sample>.ngc`,
+//! LinuxCNC joint space, `toolpath post`). The pictures are drawn from a
 //! local re-plan of the sample job: planning is deterministic, so it is the
 //! node's toolpath (the point counts are checked), and the local result also
 //! carries what the Toolpath message does not (separatrices, medial axis,
 //! degenerate-point kinds) plus the simulator's residual map.
 
 use crate::error::{Error, Result};
-use crate::formats::{Job, Shape};
+use crate::formats::{Job, PlanResult, Shape};
 use crate::messages::{self as msgs, convert, topics, JobStatus};
 use crate::pipeline::{self, RunOptions};
 use crate::planners::NoProgress;
 use crate::plot::{self, PlotInput};
+use crate::post::{self, Format, PostMachine};
 use crate::ros::node::{qos, RosNode};
 use crate::samples;
 use futures::StreamExt;
@@ -171,8 +174,9 @@ fn remove_old_bag(bag: &Path) -> Result<()> {
     std::fs::remove_dir_all(bag).map_err(|e| Error::io(bag.display().to_string(), e))
 }
 
-/// Re-plans `job` locally and draws it to `path` (with the residual map for milling).
-fn plot_sample(job: &Job, node_points: Option<u32>, path: &Path) -> Result<()> {
+/// Re-plans `job` locally and draws it to `path` (with the residual map for
+/// milling); returns the local result.
+fn plot_sample(job: &Job, node_points: Option<u32>, path: &Path) -> Result<PlanResult> {
     let options = RunOptions::PLAN_ONLY;
     let result = pipeline::run(job, &NoProgress, options)?;
     let local_points = result.passes.iter().map(|p| p.points.len()).sum::<usize>()
@@ -204,8 +208,18 @@ fn plot_sample(job: &Job, node_points: Option<u32>, path: &Path) -> Result<()> {
             residual: residual.as_ref(),
         },
         path,
-    )
+    )?;
+    Ok(result)
 }
+
+/// The program of a milling sample's result for the built-in mill5.
+fn write_program(job: &Job, result: &PlanResult, path: &Path) -> Result<()> {
+    let program = post::post(job, result, &PostMachine::builtin_mill5(), DEMO_FORMAT)?;
+    std::fs::write(path, program.text).map_err(|e| Error::io(path.display().to_string(), e))
+}
+
+/// Format of the demo's programs: joint space runs on any XYZAC LinuxCNC setup.
+const DEMO_FORMAT: Format = Format::LinuxcncJoint;
 
 /// Plans every sample job through the node and prints one row each; writes
 /// the bag of the run and a picture per sample into `out`.
@@ -288,16 +302,31 @@ pub fn run(out: &Path, record: bool) -> Result<()> {
         println!("bag of the run: {}", bag.display());
     }
     let mut pictures = 0;
+    let mut programs = 0;
     for r in &rows {
         let path = out.join(format!("{}.png", r.sample));
         let job = samples::job(r.sample)?;
         let points = r.toolpath.as_ref().map(|t| t.stats.points);
         match plot_sample(&job, points, &path) {
-            Ok(()) => pictures += 1,
+            Ok(result) => {
+                pictures += 1;
+                if pipeline::is_milling(job.strategy) || job.strategy.needs_pocket() {
+                    let program = out.join(format!("{}.{}", r.sample, DEMO_FORMAT.extension()));
+                    match write_program(&job, &result, &program) {
+                        Ok(()) => programs += 1,
+                        Err(e) => eprintln!("warning: no program of {}: {e}", r.sample),
+                    }
+                }
+            }
             Err(e) => eprintln!("warning: no picture of {}: {e}", r.sample),
         }
     }
     println!("pictures: {pictures} in {}", out.display());
+    println!(
+        "NC programs ({} for mill5): {programs} in {}",
+        DEMO_FORMAT.name(),
+        out.display()
+    );
     Ok(())
 }
 

@@ -12,6 +12,7 @@ mod ipc_publish;
 mod node;
 mod plan;
 mod plot;
+mod post;
 mod progress;
 mod record;
 mod replay;
@@ -162,6 +163,23 @@ pub enum Command {
         #[arg(long, default_value_t = 100)]
         interval_ms: u64,
     },
+    /// Write a milling result as an NC program (APT, or G-code for a 5-axis controller).
+    Post {
+        /// Result file (JSON) of a milling job.
+        result: PathBuf,
+        /// The job file the result was planned from (tool, feed rate, part).
+        #[arg(long)]
+        job: PathBuf,
+        /// Machine definition (YAML, e.g. launch_configs/machines/mill5.yaml) or a cell config (its mill5); default: the built-in mill5.
+        #[arg(long)]
+        machine: Option<PathBuf>,
+        /// apt, linuxcnc-tcp, fanuc-tcp, sinumerik-traori, heidenhain-tcpm, linuxcnc-joint or fanuc-joint.
+        #[arg(long)]
+        format: String,
+        /// Program file ("-" for stdout).
+        #[arg(short, long, default_value = "-")]
+        output: PathBuf,
+    },
     /// Draw a result as PNG or SVG.
     Plot {
         result: PathBuf,
@@ -232,6 +250,13 @@ pub fn run() -> i32 {
             job,
             output,
         } => plot::run(&result, job.as_deref(), &output),
+        Command::Post {
+            result,
+            job,
+            machine,
+            format,
+            output,
+        } => post::run(&result, &job, machine.as_deref(), &format, &output),
     };
     match outcome {
         Ok(()) => 0,

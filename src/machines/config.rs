@@ -60,7 +60,7 @@ impl LinearAxis {
             max_acceleration: self.max_acceleration_mm_s2,
         }
     }
-    fn validate(&self, field: &str) -> Result<()> {
+    pub(super) fn validate(&self, field: &str) -> Result<()> {
         check_range(field, "min_mm", self.min_mm, "max_mm", self.max_mm)?;
         positive(
             &format!("{field}.max_velocity_mm_s"),
@@ -97,7 +97,7 @@ impl RotaryAxis {
             max_acceleration: self.max_acceleration_deg_s2.to_radians(),
         }
     }
-    fn validate(&self, field: &str) -> Result<()> {
+    pub(super) fn validate(&self, field: &str) -> Result<()> {
         check_range(field, "min_deg", self.min_deg, "max_deg", self.max_deg)?;
         positive(
             &format!("{field}.max_velocity_deg_s"),
@@ -110,7 +110,7 @@ impl RotaryAxis {
     }
 }
 
-fn positive(field: &str, x: f64) -> Result<()> {
+pub(super) fn positive(field: &str, x: f64) -> Result<()> {
     if !x.is_finite() || x <= 0.0 {
         return Err(Error::invalid(
             field,
@@ -120,7 +120,7 @@ fn positive(field: &str, x: f64) -> Result<()> {
     Ok(())
 }
 
-fn finite(field: &str, x: f64) -> Result<()> {
+pub(super) fn finite(field: &str, x: f64) -> Result<()> {
     if !x.is_finite() {
         return Err(Error::invalid(field, format!("{x} is not a finite number")));
     }

@@ -59,28 +59,53 @@ pub fn inverse(
         o[1] + tip[1] + pivot_length * a[1],
         o[2] + tip[2] + pivot_length * a[2],
     ];
-    let sin_a = a[0].hypot(a[1]);
-    let a_pos = sin_a.atan2(a[2]);
-    let (prev_a, prev_c) = match prev {
-        Some(p) => (p[3], p[4]),
-        None => (a_pos, c_hint),
-    };
-    let (ang_a, ang_c) = if sin_a < SINGULAR_SIN_A {
-        // Tool vertical (or straight down): any C gives the same axis; hold it.
-        (if a[2] > 0.0 { 0.0 } else { PI.copysign(prev_a) }, prev_c)
-    } else {
-        let c_pos = unwrap_near(a[0].atan2(-a[1]), prev_c);
-        let c_neg = unwrap_near(c_pos + PI, prev_c);
-        // Rotary distance in radians; A and C weighted alike.
-        let d_pos = (a_pos - prev_a).abs() + (c_pos - prev_c).abs();
-        let d_neg = (-a_pos - prev_a).abs() + (c_neg - prev_c).abs();
-        if prev.is_none() || d_pos <= d_neg {
-            (a_pos, c_pos)
-        } else {
-            (-a_pos, c_neg)
-        }
-    };
+    let (ang_a, ang_c) = tilt_and_turn(a, head_turn(a), prev.map(|p| (p[3], p[4])), c_hint);
     Ok([xyz[0], xyz[1], xyz[2], ang_a, ang_c])
+}
+
+/// C of the head's positive-A solution for a unit axis: the azimuth at which
+/// `(sin A sin C, -sin A cos C)` points.
+pub fn head_turn(axis: [f64; 3]) -> f64 {
+    axis[0].atan2(-axis[1])
+}
+
+/// The (tilt, turn) pair of a two-rotary machine for a unit tool axis, given
+/// `turn_pos`, the turn of its positive-tilt solution (the tilt is the axis'
+/// angle from +z for every A/C and B/C machine here). Of (tilt, turn) and
+/// (-tilt, turn + pi) it takes the one nearer to `prev` (tilt, turn), with the
+/// turn unwrapped next to the previous turn (no +-360 jumps). With the axis on
+/// the turn axis (tilt 0) the turn is free: it keeps the previous value (or
+/// `turn_hint`) instead of spinning.
+pub fn tilt_and_turn(
+    axis: [f64; 3],
+    turn_pos: f64,
+    prev: Option<(f64, f64)>,
+    turn_hint: f64,
+) -> (f64, f64) {
+    let sin_a = axis[0].hypot(axis[1]);
+    let a_pos = sin_a.atan2(axis[2]);
+    let (prev_a, prev_c) = prev.unwrap_or((a_pos, turn_hint));
+    if sin_a < SINGULAR_SIN_A {
+        // Tool on the turn axis (or opposite): any turn gives the same axis; hold it.
+        return (
+            if axis[2] > 0.0 {
+                0.0
+            } else {
+                PI.copysign(prev_a)
+            },
+            prev_c,
+        );
+    }
+    let c_pos = unwrap_near(turn_pos, prev_c);
+    let c_neg = unwrap_near(c_pos + PI, prev_c);
+    // Rotary distance in radians; tilt and turn weighted alike.
+    let d_pos = (a_pos - prev_a).abs() + (c_pos - prev_c).abs();
+    let d_neg = (-a_pos - prev_a).abs() + (c_neg - prev_c).abs();
+    if prev.is_none() || d_pos <= d_neg {
+        (a_pos, c_pos)
+    } else {
+        (-a_pos, c_neg)
+    }
 }
 
 /// The C value the first non-singular axis of a path asks for (so that a path
@@ -90,7 +115,7 @@ pub fn c_hint(axes: &[[f64; 3]]) -> f64 {
         .find(|a| {
             a[0].hypot(a[1]) >= SINGULAR_SIN_A * (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
         })
-        .map_or(0.0, |a| a[0].atan2(-a[1]))
+        .map_or(0.0, |a| head_turn(*a))
 }
 
 /// Joint values of a whole path (consecutive tool poses), continuous in A and C.

@@ -11,10 +11,12 @@
 
 pub mod belt6;
 pub mod config;
+pub mod five_axis;
 pub mod mill5;
 pub mod timing;
 
 pub use config::{Belt6Config, JointLimit, Machines, Mill5Config};
+pub use five_axis::{FiveAxis, FiveAxisConfig, Kinematics};
 
 use crate::error::{Error, Result};
 use crate::formats::{Job, Machine, PlanResult};

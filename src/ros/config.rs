@@ -125,6 +125,45 @@ impl Default for IpcSettings {
     }
 }
 
+/// NC programs of the node's milling results (the `post:` section; formats
+/// in docs/formats.md).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PostSettings {
+    /// Write an NC program of every mill5 result, one file per job.
+    pub enabled: bool,
+    /// Program format, as `toolpath post --format`.
+    pub format: String,
+    /// Where the programs go; `null` = the recording directory (next to the
+    /// bags) when recording, else `nc_programs`.
+    pub directory: Option<String>,
+}
+
+impl Default for PostSettings {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            format: "linuxcnc-joint".into(),
+            directory: None,
+        }
+    }
+}
+
+impl PostSettings {
+    pub fn format(&self) -> Result<crate::post::Format> {
+        crate::post::Format::parse(&self.format).map_err(|e| e.within("post"))
+    }
+
+    /// The programs' directory for a node recording (or not) into `recording`.
+    pub fn directory(&self, recording: &RecordingSettings) -> std::path::PathBuf {
+        match &self.directory {
+            Some(d) => d.into(),
+            None if recording.enabled => (&recording.directory).into(),
+            None => "nc_programs".into(),
+        }
+    }
+}
+
 /// A cell: node settings and the geometry and limits of both machines.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -132,6 +171,7 @@ pub struct NodeConfig {
     pub node: NodeSettings,
     pub recording: RecordingSettings,
     pub ipc: IpcSettings,
+    pub post: PostSettings,
     pub mill5: Mill5Config,
     pub belt6: Belt6Config,
 }
@@ -189,6 +229,7 @@ impl NodeConfig {
         }
         self.interfaces()?;
         self.recording.validate()?;
+        self.post.format()?;
         if self.ipc.service.trim().is_empty() {
             return Err(Error::invalid("ipc.service", "must not be empty"));
         }
@@ -291,5 +332,9 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("pivot_lenght_mm"), "{e}");
+        let e = NodeConfig::parse("post:\n  enabled: true\n  format: okuma\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("post.format: unknown format \"okuma\""), "{e}");
     }
 }

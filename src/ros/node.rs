@@ -202,6 +202,12 @@ struct Outputs {
     last_stamp_ns: AtomicU64,
     /// To the iceoryx2 publisher thread (its publisher is not `Send`).
     ipc: Option<std::sync::mpsc::Sender<PlanResult>>,
+    /// NC programs of mill5 results: the cell's mill5, the format, the directory.
+    programs: Option<(
+        crate::post::PostMachine,
+        crate::post::Format,
+        std::path::PathBuf,
+    )>,
 }
 
 /// Starts the thread that owns the iceoryx2 publisher and sends it every
@@ -485,6 +491,12 @@ fn plan_and_publish(
     };
     outputs.publish(publisher, trajectory_topic, trajectory);
     outputs.publish(&outputs.markers, topics::MARKERS, markers);
+    if let (Some((post_machine, format, dir)), Machine::Mill5) = (&outputs.programs, job.machine) {
+        // Best effort, like the recording: the job has succeeded either way.
+        if let Err(e) = crate::post::write_program_file(dir, &job, &result, post_machine, *format) {
+            log::warn!("no NC program of job {}: {e}", job.job_id);
+        }
+    }
     if let Some(tx) = &outputs.ipc {
         let _ = tx.send(result);
     }
@@ -622,6 +634,15 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         recorder: recorder.clone(),
         last_stamp_ns: AtomicU64::new(0),
         ipc: ipc.as_ref().map(|(tx, _)| tx.clone()),
+        programs: if config.post.enabled {
+            Some((
+                crate::post::PostMachine::from_mill5(&config.mill5),
+                config.post.format()?,
+                config.post.directory(&config.recording),
+            ))
+        } else {
+            None
+        },
     });
     let ipc_thread = ipc.map(|(_, handle)| handle);
     let shared = Arc::new(Shared {
