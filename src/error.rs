@@ -34,6 +34,20 @@ impl Error {
             message: err.to_string(),
         }
     }
+    /// Names the file a bad field came from: `job.json: tool.radius`.
+    pub fn in_file(self, path: &std::path::Path) -> Self {
+        match self {
+            Error::Invalid { field, message } => Error::Invalid {
+                field: if field.is_empty() {
+                    path.display().to_string()
+                } else {
+                    format!("{}: {field}", path.display())
+                },
+                message,
+            },
+            other => other,
+        }
+    }
     /// Prefixes the field path, e.g. `tool` + `radius` -> `tool.radius`.
     pub fn within(self, parent: &str) -> Self {
         match self {

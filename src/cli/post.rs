@@ -7,21 +7,6 @@ use crate::formats;
 use crate::post::{self, Format, PostMachine};
 use std::path::Path;
 
-/// Names a bad field with the file it came from.
-fn in_file(path: &Path, e: Error) -> Error {
-    match e {
-        Error::Invalid { field, message } => Error::Invalid {
-            field: if field.is_empty() {
-                path.display().to_string()
-            } else {
-                format!("{}: {field}", path.display())
-            },
-            message,
-        },
-        other => other,
-    }
-}
-
 pub fn run(
     result_path: &Path,
     job_path: &Path,
@@ -37,8 +22,8 @@ pub fn run(
     let job = formats::read_job(job_path)?;
     let result = formats::read_result(result_path)?;
     let program = post::post(&job, &result, &machine, format).map_err(|e| match &e {
-        Error::Invalid { field, .. } if field == "feed_rate" => in_file(job_path, e),
-        _ => in_file(result_path, e),
+        Error::Invalid { field, .. } if field == "feed_rate" => e.in_file(job_path),
+        _ => e.in_file(result_path),
     })?;
     let r = &program.report;
     let summary = format!(

@@ -47,26 +47,12 @@ fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).map_err(|e| Error::io(path.display().to_string(), e))
 }
 
-fn in_file(path: &Path, e: Error) -> Error {
-    match e {
-        Error::Invalid { field, message } => Error::Invalid {
-            field: if field.is_empty() {
-                path.display().to_string()
-            } else {
-                format!("{}: {field}", path.display())
-            },
-            message,
-        },
-        other => other,
-    }
-}
-
 /// Reads a surface or pocket file.
 pub fn read_shape(path: &Path) -> Result<Shape> {
     let text = read_text(path)?;
     parse_json(&text, "the surface file")
         .and_then(shape::shape_from_value)
-        .map_err(|e| in_file(path, e))
+        .map_err(|e| e.in_file(path))
 }
 
 /// Parses a job from JSON text (`base_dir` resolves `{"file": ...}` surfaces).
@@ -79,7 +65,7 @@ pub fn parse_job(text: &str, base_dir: Option<&Path>) -> Result<Job> {
 /// Reads and validates a job file.
 pub fn read_job(path: &Path) -> Result<Job> {
     let text = read_text(path)?;
-    parse_job(&text, path.parent()).map_err(|e| in_file(path, e))
+    parse_job(&text, path.parent()).map_err(|e| e.in_file(path))
 }
 
 /// Reads a result file.
@@ -87,7 +73,7 @@ pub fn read_result(path: &Path) -> Result<PlanResult> {
     let text = read_text(path)?;
     parse_json(&text, "the result file")
         .and_then(from_value)
-        .map_err(|e| in_file(path, e))
+        .map_err(|e| e.in_file(path))
 }
 
 /// Pretty JSON with a trailing newline; deterministic for equal values.

@@ -154,17 +154,7 @@ impl PostMachine {
     pub fn read(path: &Path) -> Result<Self> {
         let text =
             std::fs::read_to_string(path).map_err(|e| Error::io(path.display().to_string(), e))?;
-        Self::parse(&text).map_err(|e| match e {
-            Error::Invalid { field, message } => Error::Invalid {
-                field: if field.is_empty() {
-                    path.display().to_string()
-                } else {
-                    format!("{}: {field}", path.display())
-                },
-                message,
-            },
-            other => other,
-        })
+        Self::parse(&text).map_err(|e| e.in_file(path))
     }
 }
 
