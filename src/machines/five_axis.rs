@@ -124,6 +124,42 @@ impl FiveAxisConfig {
         if self.name.trim().is_empty() {
             return Err(Error::invalid("name", "must not be empty"));
         }
+        let limits = self.axis_limits()?;
+        for (i, v) in self.workpiece_origin_mm.iter().enumerate() {
+            finite(&format!("workpiece_origin_mm[{i}]"), *v)?;
+        }
+        positive("max_feed_rate_mm_min", self.max_feed_rate_mm_min)?;
+        if !self.retract_mm.is_finite() || self.retract_mm <= 0.0 {
+            return Err(Error::invalid(
+                "retract_mm",
+                format!("must be a positive finite number, got {}", self.retract_mm),
+            ));
+        }
+        let (pivot_length, tilt_axis_point, c_axis_point) = self.geometry()?;
+        let head = Mill5Config {
+            pivot_length_mm: pivot_length.max(f64::MIN_POSITIVE),
+            workpiece_origin_mm: self.workpiece_origin_mm,
+            max_feed_rate_mm_min: self.max_feed_rate_mm_min,
+            retract_mm: self.retract_mm,
+            ..Mill5Config::default()
+        };
+        Ok(FiveAxis {
+            name: self.name.clone(),
+            kinematics: k,
+            pivot_length,
+            workpiece_origin: self.workpiece_origin_mm,
+            tilt_axis_point,
+            c_axis_point,
+            retract: self.retract_mm,
+            max_feed_rate_mm_min: self.max_feed_rate_mm_min,
+            limits,
+            head,
+        })
+    }
+    /// The five axes' limits: x, y, z, the tilt (a or b) and c; an axis the
+    /// kinematics lacks is refused by name.
+    fn axis_limits(&self) -> Result<[JointLimit; 5]> {
+        let k = self.kinematics;
         let axes = match k {
             Kinematics::AcHead | Kinematics::AcTable => "x, y, z, a, c",
             Kinematics::BcTable => "x, y, z, b, c",
@@ -165,23 +201,18 @@ impl FiveAxisConfig {
                 _ => "C",
             }))
         };
-        let limits = [
+        Ok([
             linear("x", &self.x)?,
             linear("y", &self.y)?,
             linear("z", &self.z)?,
             rotary(tilt_field, tilt)?,
             rotary("c", &self.c)?,
-        ];
-        for (i, v) in self.workpiece_origin_mm.iter().enumerate() {
-            finite(&format!("workpiece_origin_mm[{i}]"), *v)?;
-        }
-        positive("max_feed_rate_mm_min", self.max_feed_rate_mm_min)?;
-        if !self.retract_mm.is_finite() || self.retract_mm <= 0.0 {
-            return Err(Error::invalid(
-                "retract_mm",
-                format!("must be a positive finite number, got {}", self.retract_mm),
-            ));
-        }
+        ])
+    }
+
+    /// Pivot length (head) or the tilt and C axis points (tables).
+    fn geometry(&self) -> Result<(f64, [f64; 3], [f64; 3])> {
+        let k = self.kinematics;
         let point = |field: &str, p: &Option<[f64; 3]>| -> Result<[f64; 3]> {
             let p = p.ok_or_else(|| {
                 Error::invalid(field, format!("missing: {} kinematics needs it", k.name()))
@@ -201,18 +232,18 @@ impl FiveAxisConfig {
                 Ok(())
             }
         };
-        let (pivot_length, tilt_axis_point, c_axis_point) = if k.is_table() {
+        if k.is_table() {
             if self.pivot_length_mm.is_some() {
                 return Err(Error::invalid(
                     "pivot_length_mm",
                     "only an ac_head machine has a pivot length (a table machine's spindle offset is the tool length)",
                 ));
             }
-            (
+            Ok((
                 0.0,
                 point("tilt_axis_point_mm", &self.tilt_axis_point_mm)?,
                 point("c_axis_point_mm", &self.c_axis_point_mm)?,
-            )
+            ))
         } else {
             not_for_head("tilt_axis_point_mm", self.tilt_axis_point_mm.is_some())?;
             not_for_head("c_axis_point_mm", self.c_axis_point_mm.is_some())?;
@@ -220,27 +251,8 @@ impl FiveAxisConfig {
                 .pivot_length_mm
                 .ok_or_else(|| missing_pivot(k.name()))?;
             positive("pivot_length_mm", l)?;
-            (l, [0.0; 3], [0.0; 3])
-        };
-        let head = Mill5Config {
-            pivot_length_mm: pivot_length.max(f64::MIN_POSITIVE),
-            workpiece_origin_mm: self.workpiece_origin_mm,
-            max_feed_rate_mm_min: self.max_feed_rate_mm_min,
-            retract_mm: self.retract_mm,
-            ..Mill5Config::default()
-        };
-        Ok(FiveAxis {
-            name: self.name.clone(),
-            kinematics: k,
-            pivot_length,
-            workpiece_origin: self.workpiece_origin_mm,
-            tilt_axis_point,
-            c_axis_point,
-            retract: self.retract_mm,
-            max_feed_rate_mm_min: self.max_feed_rate_mm_min,
-            limits,
-            head,
-        })
+            Ok((l, [0.0; 3], [0.0; 3]))
+        }
     }
 }
 
