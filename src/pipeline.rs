@@ -193,6 +193,9 @@ pub fn verify_and_repair(
     Ok((result, report, sim_s))
 }
 
+/// How the warning of a plan above its scallop height (or tolerance) begins.
+pub const ABOVE_LIMIT: &str = "not within the scallop height";
+
 /// The warning for a plan the simulator finds above `h` (or not reaching
 /// part of the surface): the largest islands, their area and where they are.
 fn above_limit_warning(report: &ScallopReport, h: f64, radius: f64) -> String {
@@ -218,7 +221,7 @@ fn above_limit_warning(report: &ScallopReport, h: f64, radius: f64) -> String {
         parts.push(format!("and {} more", found.len() - LISTED));
     }
     format!(
-        "not within the scallop height {h} mm: the simulator finds {:.4} mm at most and {:.2} mm^2 the tool never reached; {}",
+        "{ABOVE_LIMIT} {h} mm: the simulator finds {:.4} mm at most and {:.2} mm^2 the tool never reached; {}",
         report.max_scallop_mm,
         report.uncovered_area_mm2,
         if parts.is_empty() {

@@ -161,7 +161,9 @@ pub fn run(only: Option<&str>) -> Result<()> {
             scallops.join(", "),
             tr.and_then(|r| r.regions.as_ref())
                 .map_or("-".into(), |x| x.len().to_string()),
-            tr.and_then(|r| r.plan_choice.as_deref()).unwrap_or("-"),
+            tr.and_then(|r| r.plan_choice.as_deref())
+                .and_then(|c| c.split(':').next())
+                .unwrap_or("-"),
             tr.and_then(|r| r.stats.extra.get("repair_length_mm"))
                 .map_or("-".into(), |x| format!("{x:.0}")),
             row.seconds,

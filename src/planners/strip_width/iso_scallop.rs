@@ -16,7 +16,7 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     let settings = PassSettings::from_job(job)?;
     let feed = job.feed_direction.unwrap_or(FeedDirection::U);
     let region = whole_domain(surface);
-    let initial = boundary_start(surface, &settings, feed);
+    let initial = boundary_start(surface, &settings, feed, false);
     progress.set(0.1);
     let passes = cover(surface, &settings, &region, &initial)?;
     let mut result = PlanResult::new(&job.job_id, job.strategy.name());

@@ -37,8 +37,9 @@ enum Candidate {
     /// The whole surface as one region, offset from the field line through
     /// its widest-strip point.
     WholeField,
-    /// The whole surface offset from a boundary edge (feed along u or v).
-    EdgeOffset(FeedDirection),
+    /// The whole surface offset from a boundary edge (feed along u or v;
+    /// the edge at the start of the other parameter, or with `true` its end).
+    EdgeOffset(FeedDirection, bool),
     /// Zig-zag passes along one parameter.
     IsoCurves(FeedDirection),
 }
@@ -52,7 +53,9 @@ impl Candidate {
         match self {
             Candidate::Partitioned => "partitioned".into(),
             Candidate::WholeField => "whole_field".into(),
-            Candidate::EdgeOffset(f) => format!("edge_offset_{}", dir(f)),
+            Candidate::EdgeOffset(f, far) => {
+                format!("edge_offset_{}{}", dir(f), if far { "_far" } else { "" })
+            }
             Candidate::IsoCurves(f) => format!("iso_curves_{}", dir(f)),
         }
     }
@@ -111,8 +114,10 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
     }
     kinds.extend([
         Candidate::WholeField,
-        Candidate::EdgeOffset(FeedDirection::U),
-        Candidate::EdgeOffset(FeedDirection::V),
+        Candidate::EdgeOffset(FeedDirection::U, false),
+        Candidate::EdgeOffset(FeedDirection::V, false),
+        Candidate::EdgeOffset(FeedDirection::U, true),
+        Candidate::EdgeOffset(FeedDirection::V, true),
         Candidate::IsoCurves(FeedDirection::U),
         Candidate::IsoCurves(FeedDirection::V),
     ]);
@@ -123,11 +128,11 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
             Candidate::WholeField => {
                 cover_regions(surface, &settings, &whole_list, &analysis, step)
             }
-            Candidate::EdgeOffset(feed) => cover(
+            Candidate::EdgeOffset(feed, far) => cover(
                 surface,
                 &settings,
                 &whole,
-                &boundary_start(surface, &settings, feed),
+                &boundary_start(surface, &settings, feed, far),
             ),
             Candidate::IsoCurves(feed) => plan_passes(surface, &settings, feed, &NoProgress),
         }
@@ -358,7 +363,7 @@ mod tests {
     }
 
     #[test]
-    fn monkey_saddle_result_carries_the_partition() {
+    fn monkey_saddle_partitioned_candidate_carries_the_partition() {
         let job = test_surfaces::job(
             test_surfaces::monkey_saddle([0.0, 0.0], 0.0),
             Strategy::TensorRegions,
@@ -366,12 +371,43 @@ mod tests {
             5.0,
             0.05,
         );
-        let r = plan(&job, &NoProgress).unwrap();
-        let d = r.degenerate_points.unwrap();
+        let all = candidates(&job, &NoProgress).unwrap();
+        let labels: Vec<&str> = all
+            .iter()
+            .map(|r| r.plan_choice.as_deref().unwrap().split(':').next().unwrap())
+            .collect();
+        let mut sorted = labels.clone();
+        sorted.sort();
+        assert_eq!(
+            sorted,
+            [
+                "edge_offset_u",
+                "edge_offset_u_far",
+                "edge_offset_v",
+                "edge_offset_v_far",
+                "iso_curves_u",
+                "iso_curves_v",
+                "partitioned",
+                "whole_field"
+            ]
+        );
+        // Shortest first, and plan() returns the first.
+        for w in all.windows(2) {
+            assert!(w[0].cl_path_length() <= w[1].cl_path_length());
+        }
+        let best = plan(&job, &NoProgress).unwrap();
+        assert_eq!(best.passes, all[0].passes);
+        assert!(all[0]
+            .plan_choice
+            .as_deref()
+            .unwrap()
+            .contains("the shortest of 8"));
+        let r = &all[labels.iter().position(|l| *l == "partitioned").unwrap()];
+        let d = r.degenerate_points.as_ref().unwrap();
         assert_eq!(d.len(), 1);
         assert_eq!(d[0].kind, "trisector");
-        assert_eq!(r.separatrices.unwrap().len(), 3);
-        let regions = r.regions.unwrap();
+        assert_eq!(r.separatrices.as_ref().unwrap().len(), 3);
+        let regions = r.regions.as_ref().unwrap();
         assert_eq!(regions.len(), 3);
         for k in 0..3 {
             assert!(r.passes.iter().any(|p| p.region == k));

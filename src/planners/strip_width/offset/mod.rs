@@ -67,17 +67,20 @@ fn singular(uv: Vector2<f64>) -> Error {
 }
 
 /// The boundary curve an iso-scallop cover of the whole surface starts
-/// from: the edge at the start of the cross-feed parameter (v = v0 for feed
-/// along u, u = u0 for feed along v), sampled to the chord tolerance.
+/// from: an edge along the feed parameter, at the start of the cross-feed
+/// parameter (v = v0 for feed along u, u = u0 for feed along v) or, with
+/// `far`, at its end, sampled to the chord tolerance.
 pub fn boundary_start(
     surface: &NurbsSurface,
     s: &PassSettings,
     feed: FeedDirection,
+    far: bool,
 ) -> Vec<Vector2<f64>> {
     let ((u0, u1), (v0, v1)) = surface.domain();
+    let (vc, uc) = if far { (v1, u1) } else { (v0, u0) };
     let curve_uv = |t: f64| match feed {
-        FeedDirection::U => Vector2::new(u0 + (u1 - u0) * t, v0),
-        FeedDirection::V => Vector2::new(u0, v0 + (v1 - v0) * t),
+        FeedDirection::U => Vector2::new(u0 + (u1 - u0) * t, vc),
+        FeedDirection::V => Vector2::new(uc, v0 + (v1 - v0) * t),
     };
     let curve = |t: f64| {
         let p = curve_uv(t);
