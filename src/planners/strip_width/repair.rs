@@ -20,6 +20,9 @@ use nalgebra::{Matrix2, SymmetricEigen, Vector2, Vector3};
 
 /// Share of the local strip width between neighbouring repair passes.
 const SPACING_SHARE: f64 = 0.8;
+/// Share of the local strip width one repair pass is counted on to cover
+/// across an island.
+const REACH_SHARE: f64 = 0.95;
 /// An island longer than this many times its width (and at least
 /// [`RIDGE_MIN_SAMPLES`] samples) is a ridge: its passes run along it.
 const RIDGE_ELONGATION: f64 = 2.0;
@@ -118,12 +121,29 @@ fn island_passes(
     let Ok(w) = s.cutter.strip_width(s.scallop, curvatures_along(&g, feed)) else {
         return Vec::new();
     };
+    // One pass's strip (less a margin) covers an island up to its width;
+    // wider islands get passes from edge to edge, no further apart than
+    // the spacing share of the strip width. Outside the island the
+    // material is already within h.
     let across = b1 - b0;
-    let count = ((across / (SPACING_SHARE * w)).ceil() as usize).max(1);
-    let spacing = across / count as f64;
+    let reach = REACH_SHARE * w;
+    let count = if across <= reach {
+        1
+    } else {
+        ((across - reach) / (SPACING_SHARE * w)).ceil() as usize + 1
+    };
+    let offset_of = |k: usize| {
+        if count == 1 {
+            0.5 * (b0 + b1)
+        } else {
+            let first = b0 + 0.5 * reach;
+            let last = b1 - 0.5 * reach;
+            first + (last - first) * k as f64 / (count - 1) as f64
+        }
+    };
     let mut passes = Vec::new();
     for k in 0..count {
-        let offset = b0 + spacing * (k as f64 + 0.5);
+        let offset = offset_of(k);
         let forward = k % 2 == 0;
         let heading = if forward { feed } else { -feed };
         if let Some(points) = straight_pass(
