@@ -202,7 +202,7 @@ fn above_limit_warning(report: &ScallopReport, h: f64, radius: f64) -> String {
     const LISTED: usize = 5;
     let mut found = map_islands(report, h, radius);
     let cell = report.resolution_mm * report.resolution_mm;
-    found.sort_by(|a, b| b.uv.len().cmp(&a.uv.len()));
+    found.sort_by_key(|island| std::cmp::Reverse(island.uv.len()));
     let mut parts = Vec::new();
     for island in found.iter().take(LISTED) {
         let n = island.uv.len() as f64;

@@ -7,6 +7,7 @@
 //!   it (over the whole suite it does not hold everywhere: docs/results.md);
 //! - every strategy's plan is within h by the simulator, gouges at most
 //!   0.005 mm and leaves nothing unreached, and says so (`within_scallop`).
+//!
 //! Plus the repair mechanism itself: a plan with a pass taken out gets it
 //! back as repair passes, within h again.
 
