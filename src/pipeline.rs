@@ -25,29 +25,290 @@ impl RunOptions {
     };
 }
 
-/// Plans `job` and fills the statistics every result carries.
+/// Plans `job` and fills the statistics every result carries. Flat-end
+/// milling plans are verified by the simulator and repaired (see
+/// [`verify_and_repair`]); of several candidate plans (tensor_regions) the
+/// shortest after repair is kept, preferring one within the scallop height.
 pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<PlanResult> {
     let start = Instant::now();
-    let mut result = planners::plan(job, progress)?;
+    let candidates = planners::plan_candidates(job, progress)?;
+    let mut planning_s = start.elapsed().as_secs_f64();
+    let verify = !options.skip_verify && is_milling(job.strategy);
+    let mut result = if verify {
+        let (result, repair_s) = verify_candidates(job, candidates)?;
+        planning_s += repair_s;
+        result
+    } else {
+        candidates
+            .into_iter()
+            .next()
+            .ok_or_else(|| crate::error::Error::planning("the planner returned no plan"))?
+    };
     result.job_id = job.job_id.clone();
     result.strategy = job.strategy.name().to_string();
     result.machine = Some(job.machine.name().to_string());
-    let elapsed_ms = start.elapsed().as_secs_f64() * 1e3;
     fill_path_stats(&mut result, job.feed_rate);
     result.stats.compute_ms = if options.no_timing {
         0.0
     } else {
-        (elapsed_ms * 1000.0).round() / 1000.0
+        (planning_s * 1e6).round() / 1000.0
     };
-    if !options.skip_verify && is_milling(job.strategy) {
-        let report = verify_milling(job, &result)?;
-        fill_scallop_stats(&mut result, &report);
-    }
     if !options.skip_verify && is_belt(job.strategy) {
         verify_belt(job, &mut result)?;
     }
     progress.set(1.0);
     Ok(result)
+}
+
+/// At most this many candidate plans are verified (shortest first).
+pub const MAX_VERIFIED_CANDIDATES: usize = 3;
+
+/// Verifies (and, for flat ends, repairs) the candidates shortest first and
+/// keeps the best: within the scallop height before not, then shorter. A
+/// candidate already longer before repair than the best after repair is not
+/// verified (repair only adds passes). Returns the kept result with its
+/// simulator figures and the seconds spent making repair passes.
+fn verify_candidates(job: &Job, candidates: Vec<PlanResult>) -> Result<(PlanResult, f64)> {
+    let total = candidates.len();
+    let mut best: Option<(PlanResult, ScallopReport)> = None;
+    let mut repair_s = 0.0;
+    let mut verified = 0;
+    for (rank, candidate) in candidates.into_iter().enumerate() {
+        let raw = candidate.cl_path_length();
+        if let Some((b, rb)) = &best {
+            let within = b.within_scallop != Some(false) && rb.uncovered_area_mm2 <= 0.0;
+            if (within && raw >= b.cl_path_length()) || verified >= MAX_VERIFIED_CANDIDATES {
+                break;
+            }
+        }
+        verified += 1;
+        let started = Instant::now();
+        let (mut result, report, sim_s) = verify_and_repair(job, candidate)?;
+        repair_s += (started.elapsed().as_secs_f64() - sim_s).max(0.0);
+        if rank > 0 {
+            if let Some(choice) = &mut result.plan_choice {
+                *choice = format!(
+                    "{choice}; kept after verification and repair (shorter, or within h where the shorter ones are not)"
+                );
+            }
+        }
+        let better = match &best {
+            None => true,
+            Some((b, _)) => {
+                let (wa, wb) = (
+                    result.within_scallop != Some(false),
+                    b.within_scallop != Some(false),
+                );
+                (wa && !wb) || (wa == wb && result.cl_path_length() < b.cl_path_length())
+            }
+        };
+        if better {
+            best = Some((result, report));
+        }
+    }
+    let (mut result, report) =
+        best.ok_or_else(|| crate::error::Error::planning("the planner returned no plan"))?;
+    if total > 1 {
+        result
+            .stats
+            .extra
+            .insert("candidates_verified".into(), verified as f64);
+    }
+    fill_scallop_stats(&mut result, &report);
+    Ok((result, repair_s))
+}
+
+/// Rounds of repair passes after the first verification.
+pub const REPAIR_ROUNDS: usize = 3;
+
+/// Flat-end strategies: the plans the repair passes apply to.
+pub fn is_flat_end(strategy: Strategy) -> bool {
+    matches!(
+        strategy,
+        Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric
+    )
+}
+
+/// Simulates `result`; for a flat-end plan, turns the islands above the
+/// job's scallop height h (and the samples the tool never reached) into
+/// repair passes (`planners::strip_width::repair`) and simulates again, at
+/// most [`REPAIR_ROUNDS`] times. Sets `within_scallop` (h, or the MPEC
+/// tolerance band) and, where the limit is not held, a warning naming the
+/// area and where it is. Returns the final report and the seconds the
+/// simulations took.
+pub fn verify_and_repair(
+    job: &Job,
+    mut result: PlanResult,
+) -> Result<(PlanResult, ScallopReport, f64)> {
+    let mut sim_s = 0.0;
+    let mut simulate = |r: &PlanResult| -> Result<ScallopReport> {
+        let t = Instant::now();
+        let report = verify_milling(job, r)?;
+        sim_s += t.elapsed().as_secs_f64();
+        Ok(report)
+    };
+    let mut report = simulate(&result)?;
+    let limit = job.scallop.or(job.tolerance);
+    let raw_length = result.cl_path_length();
+    let raw_passes = result.passes.len();
+    if let (Some(h), true) = (job.scallop, is_flat_end(job.strategy)) {
+        let region = result
+            .passes
+            .iter()
+            .map(|p| p.region + 1)
+            .max()
+            .unwrap_or(0);
+        for _ in 0..REPAIR_ROUNDS {
+            let islands = islands(&report, h, job.tool()?.radius());
+            if islands.is_empty() {
+                break;
+            }
+            let passes = planners::strip_width::repair::repair_passes(job, &islands, region)?;
+            if passes.is_empty() {
+                break;
+            }
+            result.passes.extend(passes);
+            report = simulate(&result)?;
+        }
+        if result.passes.len() > raw_passes {
+            result.stats.extra.insert(
+                "repair_passes".into(),
+                (result.passes.len() - raw_passes) as f64,
+            );
+            result.stats.extra.insert(
+                "repair_length_mm".into(),
+                result.cl_path_length() - raw_length,
+            );
+        }
+    }
+    if let Some(h) = limit {
+        let within = report.max_scallop_mm <= h && report.uncovered_area_mm2 <= 0.0;
+        result.within_scallop = Some(within);
+        if !within {
+            result
+                .warnings
+                .push(above_limit_warning(&report, h, job.tool()?.radius()));
+        }
+    }
+    Ok((result, report, sim_s))
+}
+
+/// How the warning of a plan above its scallop height (or tolerance) begins.
+pub const ABOVE_LIMIT: &str = "not within the scallop height";
+
+/// The warning for a plan the simulator finds above `h` (or not reaching
+/// part of the surface): the largest islands, their area and where they are.
+fn above_limit_warning(report: &ScallopReport, h: f64, radius: f64) -> String {
+    const LISTED: usize = 5;
+    let mut found = map_islands(report, h, radius);
+    let cell = report.resolution_mm * report.resolution_mm;
+    found.sort_by_key(|island| std::cmp::Reverse(island.uv.len()));
+    let mut parts = Vec::new();
+    for island in found.iter().take(LISTED) {
+        let n = island.uv.len() as f64;
+        let centre = island.xyz.iter().fold([0.0; 3], |acc, p| {
+            [acc[0] + p[0] / n, acc[1] + p[1] / n, acc[2] + p[2] / n]
+        });
+        parts.push(format!(
+            "{:.2} mm^2 around ({:.1}, {:.1}, {:.1}) mm",
+            n * cell,
+            centre[0],
+            centre[1],
+            centre[2]
+        ));
+    }
+    if found.len() > LISTED {
+        parts.push(format!("and {} more", found.len() - LISTED));
+    }
+    format!(
+        "{ABOVE_LIMIT} {h} mm: the simulator finds {:.4} mm at most and {:.2} mm^2 the tool never reached; {}",
+        report.max_scallop_mm,
+        report.uncovered_area_mm2,
+        if parts.is_empty() {
+            "between grid samples".to_string()
+        } else {
+            parts.join("; ")
+        }
+    )
+}
+
+/// One island of the residual map: samples above the threshold (or not
+/// reached), grouped.
+pub struct MapIsland {
+    pub uv: Vec<nalgebra::Vector2<f64>>,
+    pub xyz: Vec<[f64; 3]>,
+}
+
+/// Groups the map's samples above h, or not reached, into islands:
+/// samples closer than half the tool radius are one island (a pass over
+/// one covers the other). Where the simulator's refined maximum exceeds h
+/// but no grid sample does, the threshold drops by the refinement's gain,
+/// so the peak's samples are found.
+pub fn islands(
+    report: &ScallopReport,
+    h: f64,
+    radius: f64,
+) -> Vec<planners::strip_width::repair::Island> {
+    map_islands(report, h, radius)
+        .iter()
+        .map(|m| planners::strip_width::repair::Island {
+            uv: m.uv.clone(),
+            spacing_mm: report.resolution_mm,
+        })
+        .collect()
+}
+
+fn map_islands(report: &ScallopReport, h: f64, radius: f64) -> Vec<MapIsland> {
+    let map = &report.map;
+    let grid_max = map
+        .residual
+        .iter()
+        .flatten()
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    let threshold = if report.max_scallop_mm > h && grid_max <= h {
+        (h - (report.max_scallop_mm - grid_max)).max(0.9 * h)
+    } else {
+        h
+    };
+    let (nu, nv) = (map.nu, map.nv);
+    let flagged: Vec<bool> = map
+        .residual
+        .iter()
+        .map(|r| r.is_none_or(|r| r > threshold))
+        .collect();
+    let reach = ((0.5 * radius / report.resolution_mm.max(1e-9)).round() as i64).max(1);
+    let mut seen = vec![false; flagged.len()];
+    let mut out = Vec::new();
+    for start in 0..flagged.len() {
+        if !flagged[start] || seen[start] {
+            continue;
+        }
+        seen[start] = true;
+        let mut stack = vec![start];
+        let mut island = MapIsland {
+            uv: Vec::new(),
+            xyz: Vec::new(),
+        };
+        while let Some(k) = stack.pop() {
+            island
+                .uv
+                .push(nalgebra::Vector2::new(map.uv[k][0], map.uv[k][1]));
+            island.xyz.push(map.xyz[k]);
+            let (i, j) = ((k / nv) as i64, (k % nv) as i64);
+            for a in (i - reach).max(0)..=(i + reach).min(nu as i64 - 1) {
+                for b in (j - reach).max(0)..=(j + reach).min(nv as i64 - 1) {
+                    let q = a as usize * nv + b as usize;
+                    if flagged[q] && !seen[q] {
+                        seen[q] = true;
+                        stack.push(q);
+                    }
+                }
+            }
+        }
+        out.push(island);
+    }
+    out
 }
 
 /// Belt strategies, checked by the material-removal simulation.

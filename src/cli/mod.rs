@@ -6,6 +6,7 @@ mod compare;
 mod compare_milling;
 mod compare_mpec;
 mod compare_pocket;
+mod compare_suite;
 mod demo;
 mod inspect;
 mod ipc_publish;
@@ -60,10 +61,22 @@ pub enum Command {
         #[arg(long, num_args = 2, value_names = ["U", "V"], allow_negative_numbers = true, required = true)]
         uv: Vec<f64>,
     },
-    /// Write a built-in sample surface or pocket (or its job) as JSON.
+    /// Write a built-in sample surface or pocket (or its job) as JSON; `random --seed N` a seeded random bicubic surface.
     Sample {
-        /// Sample name (see --list).
+        /// Sample name (see --list), or `random`.
         name: Option<String>,
+        /// random: the seed (same seed and options, same bytes).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// random: extent along x and y, mm.
+        #[arg(long, num_args = 2, value_names = ["X", "Y"], default_values_t = [200.0, 150.0])]
+        size: Vec<f64>,
+        /// random: half-range of the random control heights, mm.
+        #[arg(long, default_value_t = 3.0)]
+        amplitude: f64,
+        /// random: depth of the trough along x, in amplitudes (0: none).
+        #[arg(long, default_value_t = 0.0)]
+        anisotropy: f64,
         /// List the samples.
         #[arg(long)]
         list: bool,
@@ -91,8 +104,19 @@ pub enum Command {
         #[arg(long)]
         map: Option<PathBuf>,
     },
-    /// Plan one surface and tool with the comparable strategies and print them side by side.
-    Compare { job: PathBuf },
+    /// Plan one surface and tool with the comparable strategies and print them side by side;
+    /// --suite: the flat-end strategies on the fixed suite of random and built-in surfaces.
+    Compare {
+        /// Job file (not with --suite).
+        #[arg(required_unless_present = "suite", conflicts_with = "suite")]
+        job: Option<PathBuf>,
+        /// Plan and verify the suite (docs/results.md) instead of one job.
+        #[arg(long)]
+        suite: bool,
+        /// With --suite: only the surfaces whose name contains this.
+        #[arg(long, requires = "suite")]
+        only: Option<String>,
+    },
     /// Run the belt-grinding material-removal simulation on a result.
     Simulate {
         job: PathBuf,
@@ -204,13 +228,31 @@ pub fn run() -> i32 {
         Command::Inspect { surface, uv } => inspect::run(&surface, uv[0], uv[1]),
         Command::Sample {
             name,
+            seed,
+            size,
+            amplitude,
+            anisotropy,
             list,
             job,
             output,
-        } => sample::run(name.as_deref(), list, job, &output),
+        } => sample::run(
+            name.as_deref(),
+            sample::RandomArgs {
+                seed,
+                size: [size[0], size[1]],
+                amplitude,
+                anisotropy,
+            },
+            list,
+            job,
+            &output,
+        ),
         Command::Demo { out, no_record } => demo::run(&out, !no_record),
         Command::Verify { job, result, map } => verify::run(&job, &result, map.as_deref()),
-        Command::Compare { job } => compare::run(&job),
+        Command::Compare { job, suite, only } => match job {
+            Some(job) if !suite => compare::run(&job),
+            _ => compare_suite::run(only.as_deref()),
+        },
         Command::Simulate { job, result, map } => simulate::run(&job, &result, map.as_deref()),
         Command::Node { config } => node::run(config.as_deref()),
         Command::BenchNode {

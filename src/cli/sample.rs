@@ -1,17 +1,57 @@
 use crate::error::{Error, Result};
-use crate::formats;
-use crate::samples;
+use crate::formats::{self, Shape};
+use crate::samples::{self, random::RandomSurface};
 use std::path::Path;
 
-pub fn run(name: Option<&str>, list: bool, job: bool, output: &Path) -> Result<()> {
+/// The options of `toolpath sample random`.
+pub struct RandomArgs {
+    pub seed: Option<u64>,
+    pub size: [f64; 2],
+    pub amplitude: f64,
+    pub anisotropy: f64,
+}
+
+pub fn run(
+    name: Option<&str>,
+    random: RandomArgs,
+    list: bool,
+    job: bool,
+    output: &Path,
+) -> Result<()> {
     if list {
         for s in samples::list() {
             println!("{:<16} {}", s.name, s.description);
         }
+        println!(
+            "{:<16} seeded random bicubic surface: --seed N [--size X Y] [--amplitude A] [--anisotropy K] (tensor_regions, flat end R2.5)",
+            "random"
+        );
         return Ok(());
     }
     let name =
         name.ok_or_else(|| Error::invalid("NAME", "give a sample name, or --list to see them"))?;
+    if name == "random" {
+        let seed = random
+            .seed
+            .ok_or_else(|| Error::invalid("--seed", "sample random needs --seed N"))?;
+        let params = RandomSurface {
+            seed,
+            size: random.size,
+            amplitude: random.amplitude,
+            anisotropy: random.anisotropy,
+        };
+        return if job {
+            formats::write_json(output, &samples::random_job(&params)?.to_file())
+        } else {
+            formats::write_json(output, &Shape::Surface(params.surface()?).to_json())
+        };
+    }
+    if random.seed.is_some() {
+        return Err(Error::invalid(
+            "--seed",
+            format!("only the random sample takes a seed, not \"{name}\""),
+        ));
+    }
     if job {
         formats::write_json(output, &samples::job(name)?.to_file())
     } else {

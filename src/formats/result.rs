@@ -134,6 +134,13 @@ pub struct PlanResult {
     pub section_normal: Option<[f64; 3]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub section_normal_eigen_ratio: Option<f64>,
+    /// Flat-end strategies: which candidate plan was kept and why (tensor_regions).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plan_choice: Option<String>,
+    /// Milling: whether the simulator found the verified plan within the
+    /// job's scallop height everywhere (`None` when not simulated).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub within_scallop: Option<bool>,
     /// Human-readable notes (fallbacks taken, regions skipped, ...).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,

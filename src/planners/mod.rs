@@ -35,6 +35,17 @@ impl Progress for NoProgress {
     fn set(&self, _fraction: f32) {}
 }
 
+/// The candidate plans of a job, shortest first: several for
+/// `tensor_regions` (it keeps the shortest that verifies), one otherwise.
+pub fn plan_candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>> {
+    match job.strategy {
+        crate::formats::Strategy::TensorRegions => {
+            strip_width::tensor_regions::candidates(job, progress)
+        }
+        _ => Ok(vec![plan(job, progress)?]),
+    }
+}
+
 /// Plans a job with its strategy. Fills passes and the strategy's own fields;
 /// the common statistics are filled by [`crate::pipeline`].
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {

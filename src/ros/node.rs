@@ -463,11 +463,21 @@ fn plan_and_publish(
         &trajectory,
         &outputs.header(),
     );
-    let summary = format!(
+    let mut summary = format!(
         "{}, planned in {:.1} ms",
         out.summary(),
         result.stats.compute_ms
     );
+    // A plan the simulator finds above the scallop height still succeeds,
+    // but its final status says so.
+    if result.within_scallop == Some(false) {
+        let why = result
+            .warnings
+            .iter()
+            .find(|w| w.starts_with(crate::pipeline::ABOVE_LIMIT))
+            .map_or("", String::as_str);
+        summary.push_str(&format!("; WARNING: {why}"));
+    }
     let trajectory_topic = out.trajectory_topic();
     let JobOutputs {
         toolpath,

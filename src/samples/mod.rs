@@ -4,6 +4,7 @@
 //! tests/samples.rs for the checked properties).
 
 pub mod pockets;
+pub mod random;
 pub mod surfaces;
 
 use crate::error::{Error, Result};
@@ -124,22 +125,34 @@ fn base_job(name: &str, strategy: Strategy, tool: Tool) -> JobFile {
     }
 }
 
+/// The flat-end finishing job of the milling samples: tensor_regions, flat
+/// end R 2.5, lead 5 deg, scallop 0.05 mm.
+fn flat_end_job(name: &str) -> JobFile {
+    JobFile {
+        scallop: Some(0.05),
+        lead_angle_deg: Some(5.0),
+        ..base_job(
+            name,
+            Strategy::TensorRegions,
+            Tool::FlatEnd {
+                radius: 2.5,
+                length: None,
+            },
+        )
+    }
+}
+
+/// The flat-end finishing job (as for wing_mould) of a seeded random surface.
+pub fn random_job(params: &random::RandomSurface) -> Result<Job> {
+    let surface = params.surface()?;
+    Job::new(flat_end_job(&params.name()), Shape::Surface(surface))
+}
+
 /// The sample's ready job (shape embedded).
 pub fn job(name: &str) -> Result<Job> {
     let shape = shape(name)?;
     let file = match name {
-        "plane" | "concave_cylinder" | "monkey_saddle" | "wing_mould" => JobFile {
-            scallop: Some(0.05),
-            lead_angle_deg: Some(5.0),
-            ..base_job(
-                name,
-                Strategy::TensorRegions,
-                Tool::FlatEnd {
-                    radius: 2.5,
-                    length: None,
-                },
-            )
-        },
+        "plane" | "concave_cylinder" | "monkey_saddle" | "wing_mould" => flat_end_job(name),
         "die_saddle" => JobFile {
             tolerance: Some(0.01),
             feed_direction: Some(FeedDirection::U),

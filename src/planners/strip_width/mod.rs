@@ -15,20 +15,27 @@
 //!   initial pass to full coverage.
 //! - [`passes`] and [`pass_ends`]: contacts and poses along a pass, sampling,
 //!   and the run-ins and run-outs past edges.
+//! - [`parametric`]: zig-zag passes along iso-parameter curves.
+//! - [`repair`]: rest-finishing passes over the islands the simulator finds
+//!   above the scallop height (called by the pipeline after verification).
 //!
 //! The strategies: [`iso_parametric`] (passes along one parameter, spaced by
 //! the narrowest strip), [`iso_scallop`] (the whole surface as one region,
 //! offset from one boundary curve) and [`tensor_regions`] (regions from the
 //! tensor field, each offset from a pass along its feed direction). No
-//! strategy imports another; what they share lives in the modules above.
+//! strategy imports another; what they share lives in the modules above
+//! (`tensor_regions` keeps the shortest of its candidate plans, among them
+//! the baselines' plans built from [`parametric`] and [`offset`]).
 
 pub mod field;
 pub mod iso_parametric;
 pub mod iso_scallop;
 pub mod lower_bound;
 pub mod offset;
+pub mod parametric;
 pub mod pass_ends;
 pub mod passes;
 pub mod regions;
+pub mod repair;
 pub mod tensor_regions;
 pub mod width;

@@ -5,7 +5,8 @@
 //! each region an initial pass through its widest-strip point along the
 //! optimal feed, then iso-scallop passes offset to both sides.
 
-use super::offset::cover;
+use super::offset::{boundary_start, cover};
+use super::parametric::plan_passes;
 use super::passes::PassSettings;
 use super::regions::degenerate_points::{self, Analysis};
 use super::regions::partition::{partition, Region, Tracer};
@@ -13,9 +14,9 @@ use super::regions::whole_domain;
 use super::width::{gouge_error, max_strip_width, WidthError};
 use crate::error::Result;
 use crate::formats::result::{DegeneratePoint, Region as RegionOut};
-use crate::formats::{Job, PlanResult};
+use crate::formats::{FeedDirection, Job, Pass, PlanResult};
 use crate::geometry::{LocalGeometry, NurbsSurface};
-use crate::planners::Progress;
+use crate::planners::{NoProgress, Progress};
 use nalgebra::{Point3, Vector2, Vector3};
 
 /// Grid cells per direction for the degenerate-point search.
@@ -25,81 +26,223 @@ const TILING_TOLERANCE: f64 = 0.005;
 /// Samples per direction when looking for a region's widest-strip point.
 const WIDEST_GRID: usize = 48;
 
+/// Index of the shortest plan in the list [`candidates`] returns.
+const SHORTEST: usize = 0;
+
+/// The candidate plans, in the order they are built (ties keep the first).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Candidate {
+    /// The regions of the partition, each offset from its own field line.
+    Partitioned,
+    /// The whole surface as one region, offset from the field line through
+    /// its widest-strip point.
+    WholeField,
+    /// The whole surface offset from a boundary edge (feed along u or v;
+    /// the edge at the start of the other parameter, or with `true` its end).
+    EdgeOffset(FeedDirection, bool),
+    /// Zig-zag passes along one parameter.
+    IsoCurves(FeedDirection),
+}
+
+impl Candidate {
+    fn label(self) -> String {
+        let dir = |f: FeedDirection| match f {
+            FeedDirection::U => "u",
+            FeedDirection::V => "v",
+        };
+        match self {
+            Candidate::Partitioned => "partitioned".into(),
+            Candidate::WholeField => "whole_field".into(),
+            Candidate::EdgeOffset(f, far) => {
+                format!("edge_offset_{}{}", dir(f), if far { "_far" } else { "" })
+            }
+            Candidate::IsoCurves(f) => format!("iso_curves_{}", dir(f)),
+        }
+    }
+}
+
+/// The shortest candidate plan (see [`candidates`]).
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+    let mut all = candidates(job, progress)?;
+    Ok(all.swap_remove(SHORTEST))
+}
+
+/// Every candidate plan that could be built, shortest first (by cl path
+/// length; equal lengths keep the build order). Whether partitioning pays
+/// is decided by what it saves: a region boundary costs run-ins, run-outs
+/// and the overlap of two covers, so the partitioned plan competes with the
+/// whole surface offset from one field line, from either edge, and with
+/// passes along either parameter (the plans the baselines would make, built
+/// from the shared modules). Each result names its candidate and the others'
+/// lengths in `plan_choice`.
+pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>> {
     let surface = job.surface()?;
     let settings = PassSettings::from_job(job)?;
     let k_b = settings.cutter.k_b();
     let analysis = degenerate_points::find(surface, DEGENERATE_GRID)?;
     progress.set(0.1);
-    let mut result = PlanResult::new(&job.job_id, job.strategy.name());
+    let mut warnings = Vec::new();
     let step = settings.point_step.min(settings.cutter.radius);
+    let whole = whole_domain(surface);
     let (regions, separatrices_uv) = if analysis.everywhere {
-        result.warnings.push(
+        warnings.push(
             "the strip-width field is isotropic everywhere (every point is degenerate): one region, feed along u"
                 .into(),
         );
-        (vec![whole_domain(surface)], Vec::new())
+        (vec![whole.clone()], Vec::new())
     } else {
         let p = partition(surface, k_b, &analysis.points, step);
         // The regions must tile the surface: where the separatrix graph did
         // not close into faces covering it (separatrices ending near each
         // other or on a wedge), planning the faces found would leave the rest
         // uncut. Then the whole surface is one region.
-        let whole = whole_domain(surface);
         let covered: f64 = p.regions.iter().map(|r| r.area_mm2).sum();
         if (covered - whole.area_mm2).abs() > TILING_TOLERANCE * whole.area_mm2 {
-            result.warnings.push(format!(
+            warnings.push(format!(
                 "the separatrices split the surface into regions covering {covered:.0} of {:.0} mm^2: planned as one region",
                 whole.area_mm2
             ));
-            (vec![whole], p.separatrices_uv)
+            (vec![whole.clone()], p.separatrices_uv)
         } else {
             (p.regions, p.separatrices_uv)
         }
     };
     progress.set(0.2);
-    let mut passes = Vec::new();
-    for (k, region) in regions.iter().enumerate() {
-        let initial = initial_pass(surface, &settings, region, &analysis, step)?;
-        passes.extend(cover(surface, &settings, region, &initial)?);
-        progress.set((0.2 + 0.75 * (k + 1) as f64 / regions.len() as f64) as f32);
+    let mut kinds = Vec::new();
+    if regions.len() > 1 {
+        kinds.push(Candidate::Partitioned);
     }
-    result.passes = passes;
-    result.degenerate_points = Some(
-        analysis
-            .points
-            .iter()
-            .map(|p| DegeneratePoint {
-                uv: p.uv.into(),
-                xyz: p.xyz.into(),
-                kind: p.kind.name().to_string(),
-            })
-            .collect(),
-    );
-    result.separatrices = Some(
-        separatrices_uv
-            .iter()
-            .map(|line| {
-                line.iter()
-                    .map(|uv| surface.point(uv.x, uv.y).into())
-                    .collect()
-            })
-            .collect(),
-    );
-    result.regions = Some(
-        regions
-            .iter()
-            .map(|r| RegionOut {
-                id: r.id,
-                area_mm2: r.area_mm2,
-                boundary_uv: r.boundary_uv.iter().map(|p| [p.x, p.y]).collect(),
-            })
-            .collect(),
-    );
-    result.stats.path_length_lower_bound_mm = Some(
-        super::lower_bound::job_path_length_lower_bound(job, surface, &settings.cutter)?,
-    );
-    Ok(result)
+    kinds.extend([
+        Candidate::WholeField,
+        Candidate::EdgeOffset(FeedDirection::U, false),
+        Candidate::EdgeOffset(FeedDirection::V, false),
+        Candidate::EdgeOffset(FeedDirection::U, true),
+        Candidate::EdgeOffset(FeedDirection::V, true),
+        Candidate::IsoCurves(FeedDirection::U),
+        Candidate::IsoCurves(FeedDirection::V),
+    ]);
+    let whole_list = [whole.clone()];
+    let built = crate::parallel::map_chunks(&kinds, 1, |kind| -> Result<Vec<Pass>> {
+        match kind[0] {
+            Candidate::Partitioned => cover_regions(surface, &settings, &regions, &analysis, step),
+            Candidate::WholeField => {
+                cover_regions(surface, &settings, &whole_list, &analysis, step)
+            }
+            Candidate::EdgeOffset(feed, far) => cover(
+                surface,
+                &settings,
+                &whole,
+                &boundary_start(surface, &settings, feed, far),
+            ),
+            Candidate::IsoCurves(feed) => plan_passes(surface, &settings, feed, &NoProgress),
+        }
+    });
+    progress.set(0.95);
+    let bound = super::lower_bound::job_path_length_lower_bound(job, surface, &settings.cutter)?;
+    let mut plans: Vec<(Candidate, PlanResult, f64)> = Vec::new();
+    let mut first_error = None;
+    for (kind, passes) in kinds.iter().zip(built) {
+        let passes = match passes {
+            Ok(p) if !p.is_empty() => p,
+            Ok(_) => continue,
+            Err(e) => {
+                warnings.push(format!("candidate {} not built: {e}", kind.label()));
+                first_error.get_or_insert(e);
+                continue;
+            }
+        };
+        let used: &[Region] = if *kind == Candidate::Partitioned {
+            &regions
+        } else {
+            &whole_list
+        };
+        let mut result = PlanResult::new(&job.job_id, job.strategy.name());
+        result.passes = passes;
+        result.stats.path_length_lower_bound_mm = Some(bound);
+        result.degenerate_points = Some(
+            analysis
+                .points
+                .iter()
+                .map(|p| DegeneratePoint {
+                    uv: p.uv.into(),
+                    xyz: p.xyz.into(),
+                    kind: p.kind.name().to_string(),
+                })
+                .collect(),
+        );
+        result.separatrices = Some(
+            separatrices_uv
+                .iter()
+                .map(|line| {
+                    line.iter()
+                        .map(|uv| surface.point(uv.x, uv.y).into())
+                        .collect()
+                })
+                .collect(),
+        );
+        result.regions = Some(
+            used.iter()
+                .map(|r| RegionOut {
+                    id: r.id,
+                    area_mm2: r.area_mm2,
+                    boundary_uv: r.boundary_uv.iter().map(|p| [p.x, p.y]).collect(),
+                })
+                .collect(),
+        );
+        let length = result.cl_path_length();
+        plans.push((*kind, result, length));
+    }
+    if plans.is_empty() {
+        return Err(first_error.unwrap_or_else(|| {
+            crate::error::Error::planning("tensor_regions: no candidate plan has any pass")
+        }));
+    }
+    // Stable: equal lengths keep the build order.
+    plans.sort_by(|a, b| a.2.total_cmp(&b.2));
+    let summary: Vec<String> = plans
+        .iter()
+        .map(|(k, _, l)| format!("{} {l:.0} mm", k.label()))
+        .collect();
+    let n = plans.len();
+    Ok(plans
+        .into_iter()
+        .enumerate()
+        .map(|(rank, (kind, mut result, _))| {
+            result.plan_choice = Some(if rank == 0 {
+                format!(
+                    "{}: the shortest of {n} candidate plans ({})",
+                    kind.label(),
+                    summary.join(", ")
+                )
+            } else {
+                format!(
+                    "{}: candidate {} of {n} by length ({})",
+                    kind.label(),
+                    rank + 1,
+                    summary.join(", ")
+                )
+            });
+            result.warnings = warnings.clone();
+            result
+        })
+        .collect())
+}
+
+/// Each region covered by passes offset from the field line through its
+/// widest-strip point, regions in order.
+fn cover_regions(
+    surface: &NurbsSurface,
+    settings: &PassSettings,
+    regions: &[Region],
+    analysis: &Analysis,
+    step: f64,
+) -> Result<Vec<Pass>> {
+    let mut passes = Vec::new();
+    for region in regions {
+        let initial = initial_pass(surface, settings, region, analysis, step)?;
+        passes.extend(cover(surface, settings, region, &initial)?);
+    }
+    Ok(passes)
 }
 
 /// The region's widest-strip point (sampled) and the feed field line through
@@ -220,7 +363,7 @@ mod tests {
     }
 
     #[test]
-    fn monkey_saddle_result_carries_the_partition() {
+    fn monkey_saddle_partitioned_candidate_carries_the_partition() {
         let job = test_surfaces::job(
             test_surfaces::monkey_saddle([0.0, 0.0], 0.0),
             Strategy::TensorRegions,
@@ -228,12 +371,43 @@ mod tests {
             5.0,
             0.05,
         );
-        let r = plan(&job, &NoProgress).unwrap();
-        let d = r.degenerate_points.unwrap();
+        let all = candidates(&job, &NoProgress).unwrap();
+        let labels: Vec<&str> = all
+            .iter()
+            .map(|r| r.plan_choice.as_deref().unwrap().split(':').next().unwrap())
+            .collect();
+        let mut sorted = labels.clone();
+        sorted.sort();
+        assert_eq!(
+            sorted,
+            [
+                "edge_offset_u",
+                "edge_offset_u_far",
+                "edge_offset_v",
+                "edge_offset_v_far",
+                "iso_curves_u",
+                "iso_curves_v",
+                "partitioned",
+                "whole_field"
+            ]
+        );
+        // Shortest first, and plan() returns the first.
+        for w in all.windows(2) {
+            assert!(w[0].cl_path_length() <= w[1].cl_path_length());
+        }
+        let best = plan(&job, &NoProgress).unwrap();
+        assert_eq!(best.passes, all[0].passes);
+        assert!(all[0]
+            .plan_choice
+            .as_deref()
+            .unwrap()
+            .contains("the shortest of 8"));
+        let r = &all[labels.iter().position(|l| *l == "partitioned").unwrap()];
+        let d = r.degenerate_points.as_ref().unwrap();
         assert_eq!(d.len(), 1);
         assert_eq!(d[0].kind, "trisector");
-        assert_eq!(r.separatrices.unwrap().len(), 3);
-        let regions = r.regions.unwrap();
+        assert_eq!(r.separatrices.as_ref().unwrap().len(), 3);
+        let regions = r.regions.as_ref().unwrap();
         assert_eq!(regions.len(), 3);
         for k in 0..3 {
             assert!(r.passes.iter().any(|p| p.region == k));

@@ -9,10 +9,10 @@
 //! current pass still leaves region material uncut.
 
 use super::pass_ends::{edges_at, extend_pass};
-use super::passes::{Contact, PassSettings};
+use super::passes::{sample_curve, Contact, PassSettings};
 use super::regions::Region;
 use crate::error::{Error, Result};
-use crate::formats::Pass;
+use crate::formats::{FeedDirection, Pass};
 use crate::geometry::NurbsSurface;
 use nalgebra::{Vector2, Vector3};
 
@@ -64,6 +64,32 @@ fn singular(uv: Vector2<f64>) -> Error {
         "the surface is singular at uv ({:.4}, {:.4}): no normal there",
         uv.x, uv.y
     ))
+}
+
+/// The boundary curve an iso-scallop cover of the whole surface starts
+/// from: an edge along the feed parameter, at the start of the cross-feed
+/// parameter (v = v0 for feed along u, u = u0 for feed along v) or, with
+/// `far`, at its end, sampled to the chord tolerance.
+pub fn boundary_start(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    feed: FeedDirection,
+    far: bool,
+) -> Vec<Vector2<f64>> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let (vc, uc) = if far { (v1, u1) } else { (v0, u0) };
+    let curve_uv = |t: f64| match feed {
+        FeedDirection::U => Vector2::new(u0 + (u1 - u0) * t, vc),
+        FeedDirection::V => Vector2::new(uc, v0 + (v1 - v0) * t),
+    };
+    let curve = |t: f64| {
+        let p = curve_uv(t);
+        surface.point(p.x, p.y)
+    };
+    sample_curve(&curve, s.chord_tolerance, s.point_step, 9)
+        .into_iter()
+        .map(curve_uv)
+        .collect()
 }
 
 /// Covers `region` with passes offset from `initial` (a uv polyline in the

@@ -1,0 +1,194 @@
+//! `toolpath compare --suite`: the three flat-end strategies on the fixed
+//! suite of seeded random surfaces (`samples::random::suite`) and the
+//! built-in milling samples, each plan verified by the simulator. One
+//! Markdown row per surface, then the median and worst of the ratios.
+
+use crate::error::Result;
+use crate::formats::{Job, PlanResult};
+use crate::pipeline::{self, RunOptions};
+use crate::planners::NoProgress;
+use crate::samples;
+use std::time::Instant;
+
+/// The built-in samples planned with the flat end.
+pub const BUILT_IN: [&str; 4] = ["plane", "concave_cylinder", "monkey_saddle", "wing_mould"];
+
+/// Where the shorter baseline leaves room (>= this x the lower bound),
+/// tensor_regions is held to [`ROOM_TARGET`] x the shorter baseline.
+pub const ROOM: f64 = 1.15;
+pub const ROOM_TARGET: f64 = 0.90;
+
+/// The suite's jobs, named: random surfaces first, then the samples.
+pub fn jobs() -> Result<Vec<(String, Job)>> {
+    let mut out = Vec::new();
+    for params in samples::random::suite() {
+        out.push((params.name(), samples::random_job(&params)?));
+    }
+    for name in BUILT_IN {
+        out.push((name.to_string(), samples::job(name)?));
+    }
+    Ok(out)
+}
+
+/// One surface: the three results (or the error text) and the wall time.
+pub struct Row {
+    pub results: Vec<std::result::Result<PlanResult, String>>,
+    pub seconds: f64,
+}
+
+pub fn plan_surface(job: &Job) -> Row {
+    let start = Instant::now();
+    let results = super::compare_milling::STRATEGIES
+        .iter()
+        .map(|&strategy| {
+            let mut j = job.clone();
+            j.strategy = strategy;
+            pipeline::run(&j, &NoProgress, RunOptions::default()).map_err(|e| e.to_string())
+        })
+        .collect();
+    Row {
+        results,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+pub fn run(only: Option<&str>) -> Result<()> {
+    println!(
+        "| surface | umbilics | lower bound mm | iso_parametric mm | iso_scallop mm | tensor_regions mm | tensor / shorter | shorter / bound | tensor / bound | max scallop mm (ip, is, tr) | max gouge mm | uncovered mm2 | regions | plan | repair mm | s |"
+    );
+    println!("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | --- | ---: | ---: |");
+    let mut to_shorter = Vec::new();
+    let mut to_bound = Vec::new();
+    let mut room = (0usize, 0usize);
+    let mut worst_scallop: f64 = 0.0;
+    let mut worst_gouge: f64 = 0.0;
+    let mut over_h = Vec::new();
+    for (name, job) in jobs()? {
+        if only.is_some_and(|o| !name.contains(o)) {
+            continue;
+        }
+        let row = plan_surface(&job);
+        let len = |k: usize| row.results[k].as_ref().ok().map(|r| r.stats.path_length_mm);
+        let fmt = |x: Option<f64>, p: usize| x.map_or("error".to_string(), |x| format!("{x:.p$}"));
+        let tr = row.results[2].as_ref().ok();
+        let bound = row
+            .results
+            .iter()
+            .flatten()
+            .find_map(|r| r.stats.path_length_lower_bound_mm);
+        let shorter = match (len(0), len(1)) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+        let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
+            (Some(a), Some(b)) => Some(a / b),
+            _ => None,
+        };
+        let r_short = ratio(len(2), shorter);
+        let r_bound = ratio(len(2), bound);
+        let s_bound = ratio(shorter, bound);
+        if let Some(x) = r_short {
+            to_shorter.push(x);
+            if s_bound.is_some_and(|s| s >= ROOM) {
+                room.0 += 1;
+                if x <= ROOM_TARGET {
+                    room.1 += 1;
+                }
+            }
+        }
+        if let Some(x) = r_bound {
+            to_bound.push(x);
+        }
+        let h = job.scallop.unwrap_or(f64::NAN);
+        let mut scallops = Vec::new();
+        let mut gouge: f64 = 0.0;
+        let mut uncovered: f64 = 0.0;
+        for (k, r) in row.results.iter().enumerate() {
+            match r {
+                Ok(r) => {
+                    let s = r.stats.max_scallop_mm.unwrap_or(f64::NAN);
+                    worst_scallop = worst_scallop.max(s);
+                    if s > h {
+                        over_h.push(format!(
+                            "{name} {}",
+                            super::compare_milling::STRATEGIES[k].name()
+                        ));
+                    }
+                    scallops.push(format!("{s:.4}"));
+                    gouge = gouge.max(r.stats.max_gouge_mm.unwrap_or(0.0));
+                    uncovered = uncovered.max(
+                        r.stats
+                            .extra
+                            .get("uncovered_area_mm2")
+                            .copied()
+                            .unwrap_or(0.0),
+                    );
+                }
+                Err(e) => {
+                    scallops.push("error".into());
+                    eprintln!(
+                        "{name} {}: {e}",
+                        super::compare_milling::STRATEGIES[k].name()
+                    );
+                }
+            }
+        }
+        worst_gouge = worst_gouge.max(gouge);
+        println!(
+            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {gouge:.4} | {uncovered:.2} | {} | {} | {} | {:.1} |",
+            tr.and_then(|r| r.degenerate_points.as_ref())
+                .map_or("-".into(), |d| d.len().to_string()),
+            fmt(bound, 0),
+            fmt(len(0), 0),
+            fmt(len(1), 0),
+            fmt(len(2), 0),
+            fmt(r_short, 3),
+            fmt(s_bound, 3),
+            fmt(r_bound, 3),
+            scallops.join(", "),
+            tr.and_then(|r| r.regions.as_ref())
+                .map_or("-".into(), |x| x.len().to_string()),
+            tr.and_then(|r| r.plan_choice.as_deref())
+                .and_then(|c| c.split(':').next())
+                .unwrap_or("-"),
+            tr.and_then(|r| r.stats.extra.get("repair_length_mm"))
+                .map_or("-".into(), |x| format!("{x:.0}")),
+            row.seconds,
+        );
+    }
+    let worst = |v: &[f64]| v.iter().copied().fold(f64::NAN, f64::max);
+    println!();
+    println!(
+        "tensor / shorter baseline: median {:.3}, worst {:.3} over {} surfaces",
+        median(&mut to_shorter.clone()),
+        worst(&to_shorter),
+        to_shorter.len()
+    );
+    println!(
+        "tensor / lower bound: median {:.3}, worst {:.3}",
+        median(&mut to_bound.clone()),
+        worst(&to_bound)
+    );
+    println!(
+        "surfaces with shorter baseline >= {ROOM} x bound: {}, of them tensor <= {ROOM_TARGET} x shorter: {}",
+        room.0, room.1
+    );
+    println!("max scallop over all plans {worst_scallop:.4} mm, max gouge {worst_gouge:.4} mm");
+    if !over_h.is_empty() {
+        println!("above h: {}", over_h.join("; "));
+    }
+    Ok(())
+}

@@ -1,0 +1,145 @@
+//! The flat-end strategies on surfaces of the suite (`toolpath compare
+//! --suite`, docs/results.md) through the pipeline, which verifies every
+//! plan with the scallop simulator and repairs what it finds above h:
+//! - tensor_regions is never longer than the shorter of iso_parametric and
+//!   iso_scallop; where that baseline is at least 1.15 x the lower bound the
+//!   target is 0.90 x the baseline, asserted on the surface here that meets
+//!   it (over the whole suite it does not hold everywhere: docs/results.md);
+//! - every strategy's plan is within h by the simulator, gouges at most
+//!   0.005 mm and leaves nothing unreached, and says so (`within_scallop`).
+//!
+//! Plus the repair mechanism itself: a plan with a pass taken out gets it
+//! back as repair passes, within h again.
+
+use toolpath_planner::formats::{Job, PlanResult, Strategy};
+use toolpath_planner::pipeline::{self, RunOptions};
+use toolpath_planner::planners::{self, NoProgress};
+use toolpath_planner::samples::{self, random};
+
+const H: f64 = 0.05;
+const GOUGE_LIMIT: f64 = 0.005;
+
+fn run(job: &Job, strategy: Strategy) -> PlanResult {
+    let mut j = job.clone();
+    j.strategy = strategy;
+    pipeline::run(&j, &NoProgress, RunOptions::default()).unwrap()
+}
+
+/// `room_target`: also assert tensor_regions <= 0.90 x the shorter
+/// baseline where that baseline is >= 1.15 x the lower bound.
+fn check_surface(name: &str, job: &Job, room_target: bool) {
+    let results: Vec<PlanResult> = [
+        Strategy::IsoParametric,
+        Strategy::IsoScallop,
+        Strategy::TensorRegions,
+    ]
+    .iter()
+    .map(|&s| run(job, s))
+    .collect();
+    for r in &results {
+        let s = &r.stats;
+        let scallop = s.max_scallop_mm.unwrap();
+        let uncovered = s.extra["uncovered_area_mm2"];
+        eprintln!(
+            "{name} {}: {:.1} mm, scallop {scallop:.4}, gouge {:.4}, uncovered {uncovered:.2}, repair {:.0} mm, {:?}",
+            r.strategy,
+            s.path_length_mm,
+            s.max_gouge_mm.unwrap(),
+            s.extra.get("repair_length_mm").copied().unwrap_or(0.0),
+            r.plan_choice
+        );
+        assert!(scallop <= H, "{name} {}: scallop {scallop}", r.strategy);
+        assert!(
+            s.max_gouge_mm.unwrap() <= GOUGE_LIMIT,
+            "{name} {}",
+            r.strategy
+        );
+        assert_eq!(uncovered, 0.0, "{name} {}", r.strategy);
+        assert_eq!(r.within_scallop, Some(true), "{name} {}", r.strategy);
+    }
+    let len = |k: usize| results[k].stats.path_length_mm;
+    let shorter = len(0).min(len(1));
+    let bound = results[2].stats.path_length_lower_bound_mm.unwrap();
+    assert!(
+        len(2) <= shorter * (1.0 + 1e-9),
+        "{name}: tensor_regions {} > shorter baseline {shorter}",
+        len(2)
+    );
+    if room_target {
+        assert!(
+            shorter >= 1.15 * bound,
+            "{name}: no room ({shorter} vs {bound})"
+        );
+        assert!(
+            len(2) <= 0.90 * shorter,
+            "{name}: tensor_regions {} > 0.90 x shorter baseline {shorter} (bound {bound})",
+            len(2)
+        );
+    }
+}
+
+fn suite_job(seed: u64) -> (String, Job) {
+    let params = random::suite()
+        .into_iter()
+        .find(|p| p.seed == seed)
+        .unwrap();
+    (params.name(), samples::random_job(&params).unwrap())
+}
+
+#[test]
+fn isotropic_random_surface() {
+    // Seed 1: no trough, three umbilics; shorter baseline 1.165 x the bound,
+    // tensor_regions 0.98 x it (the 0.90 target is not met here).
+    let (name, job) = suite_job(1);
+    check_surface(&name, &job, false);
+}
+
+#[test]
+fn anisotropic_random_surface_with_room() {
+    // Seed 2: six umbilics, shorter baseline 1.39 x the bound.
+    let (name, job) = suite_job(2);
+    check_surface(&name, &job, true);
+}
+
+#[test]
+fn monkey_saddle_sample() {
+    check_surface(
+        "monkey_saddle",
+        &samples::job("monkey_saddle").unwrap(),
+        false,
+    );
+}
+
+#[test]
+fn a_missing_pass_comes_back_as_repair_passes() {
+    let mut job = samples::job("plane").unwrap();
+    job.strategy = Strategy::IsoParametric;
+    let mut plan = planners::plan(&job, &NoProgress).unwrap();
+    let removed = plan.passes.remove(plan.passes.len() / 2);
+    let removed_len: f64 = removed
+        .points
+        .windows(2)
+        .map(|w| {
+            (0..3)
+                .map(|k| (w[1].cl[k] - w[0].cl[k]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .sum();
+    let before = pipeline::verify_milling(&job, &plan).unwrap();
+    assert!(before.max_scallop_mm > 3.0 * H, "{}", before.max_scallop_mm);
+    let (repaired, report, _) = pipeline::verify_and_repair(&job, plan.clone()).unwrap();
+    assert!(report.max_scallop_mm <= H, "{}", report.max_scallop_mm);
+    assert_eq!(report.uncovered_area_mm2, 0.0);
+    assert_eq!(repaired.within_scallop, Some(true));
+    // An independent run of the simulator on the repaired plan agrees.
+    let again = pipeline::verify_milling(&job, &repaired).unwrap();
+    assert!(again.max_scallop_mm <= H && again.max_gouge_mm <= GOUGE_LIMIT);
+    // One pass along the gap (with its run-in and run-out) does it: the
+    // repair is about as long as the pass taken out, not a carpet of passes.
+    let added = repaired.stats.extra["repair_length_mm"];
+    assert!(
+        added >= 0.9 * removed_len && added <= 1.3 * removed_len,
+        "repair {added} mm for a {removed_len} mm pass"
+    );
+}
