@@ -12,6 +12,10 @@ pub enum Error {
     Planning { message: String },
     /// A file could not be read or written.
     Io { path: String, message: String },
+    /// A plan the simulator finds outside the job's tolerances: a gouge
+    /// beyond the gouge tolerance (exit code 3) or a residual above the
+    /// scallop height h (exit code 4).
+    OutOfSpec { message: String, gouge: bool },
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
@@ -64,11 +68,14 @@ impl Error {
             other => other,
         }
     }
-    /// Process exit code for the CLI: 2 for bad input, 1 otherwise.
+    /// Process exit code for the CLI: 2 for bad input, 3 for a gouge beyond
+    /// the tolerance, 4 for a residual above h, 1 otherwise.
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::Invalid { .. } | Error::Io { .. } => 2,
             Error::Planning { .. } => 1,
+            Error::OutOfSpec { gouge: true, .. } => 3,
+            Error::OutOfSpec { gouge: false, .. } => 4,
         }
     }
 }
@@ -82,6 +89,7 @@ impl fmt::Display for Error {
             Error::Invalid { field, message } => write!(f, "invalid input: {field}: {message}"),
             Error::Planning { message } => write!(f, "cannot plan: {message}"),
             Error::Io { path, message } => write!(f, "{path}: {message}"),
+            Error::OutOfSpec { message, .. } => write!(f, "out of spec: {message}"),
         }
     }
 }

@@ -1,7 +1,7 @@
 //! The application layer: plan a job, verify it with the simulator, fill the
 //! common statistics. The CLI and the ROS node both call this.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::formats::result::polyline_length;
 use crate::formats::{Job, PlanResult, Strategy};
 use crate::planners::{self, Progress};
@@ -45,6 +45,7 @@ pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<Pl
             .ok_or_else(|| crate::error::Error::planning("the planner returned no plan"))?
     };
     result.job_id = job.job_id.clone();
+    result.shape_fingerprint = Some(job.shape.fingerprint());
     result.strategy = job.strategy.name().to_string();
     result.machine = Some(job.machine.name().to_string());
     fill_path_stats(&mut result, job.feed_rate);
@@ -390,4 +391,108 @@ pub fn fill_scallop_stats(result: &mut PlanResult, report: &ScallopReport) {
     extra.insert("uncovered_area_mm2".into(), report.uncovered_area_mm2);
     extra.insert("machined_area_mm2".into(), report.machined_area_mm2);
     extra.insert("simulation_resolution_mm".into(), report.resolution_mm);
+}
+
+/// Where a simulated milling result breaks the job's tolerances, read from
+/// the figures [`fill_scallop_stats`] put into its stats. Nothing is out of
+/// spec in a result that was not simulated. Belt results are held to h only
+/// (by `toolpath simulate`): their `max_gouge_mm` is the rigid-belt planning
+/// figure, and the elastic removal model's depth below the part is not
+/// comparable with a cutter's gouge tolerance.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Conformance {
+    /// The simulated gouge beyond the job's gouge tolerance.
+    pub gouge: Option<String>,
+    /// The simulated residual above the job's scallop height h.
+    pub scallop: Option<String>,
+}
+
+impl Conformance {
+    /// Checks the simulator's `max_gouge_mm` against [`Job::gouge_tolerance`]
+    /// and `max_scallop_mm` against h.
+    pub fn of(job: &Job, result: &PlanResult) -> Self {
+        if !is_milling(job.strategy) {
+            return Self::default();
+        }
+        Self::of_figures(job, result.stats.max_gouge_mm, result.stats.max_scallop_mm)
+    }
+
+    /// The same check on given simulated figures (mm).
+    pub fn of_figures(job: &Job, max_gouge_mm: Option<f64>, max_scallop_mm: Option<f64>) -> Self {
+        let tolerance = job.gouge_tolerance();
+        let gouge = max_gouge_mm.filter(|g| *g > tolerance).map(|g| {
+            format!("the simulator finds a gouge of {g:.4} mm, beyond the job's gouge tolerance of {tolerance} mm")
+        });
+        let scallop = match (max_scallop_mm, job.scallop) {
+            (Some(s), Some(h)) if s > h => Some(format!(
+                "the simulator finds a residual of {s:.4} mm, above the job's scallop height h = {h} mm"
+            )),
+            _ => None,
+        };
+        Conformance { gouge, scallop }
+    }
+
+    /// The error for the worse breach (a gouge before a residual), if any.
+    pub fn error(&self) -> Option<Error> {
+        if let Some(m) = &self.gouge {
+            return Some(Error::OutOfSpec {
+                message: m.clone(),
+                gouge: true,
+            });
+        }
+        self.scallop.as_ref().map(|m| Error::OutOfSpec {
+            message: m.clone(),
+            gouge: false,
+        })
+    }
+}
+
+/// A plan whose simulated gouge is beyond the job's gouge tolerance is an
+/// error (the node's job FAILED): no toolpath that cuts into the part is
+/// handed out.
+pub fn refuse_gouge(job: &Job, result: &PlanResult) -> Result<()> {
+    match Conformance::of(job, result).gouge {
+        Some(message) => Err(Error::OutOfSpec {
+            message,
+            gouge: true,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Refuses to check `result` against `job` when it was planned for another
+/// job: another job_id or strategy, or (when the result records it) another
+/// shape.
+pub fn check_belongs(job: &Job, result: &PlanResult) -> Result<()> {
+    if result.job_id != job.job_id {
+        return Err(Error::invalid(
+            "result.job_id",
+            format!(
+                "\"{}\" is not the job's \"{}\": the result belongs to another job",
+                result.job_id, job.job_id
+            ),
+        ));
+    }
+    if result.strategy != job.strategy.name() {
+        return Err(Error::invalid(
+            "result.strategy",
+            format!(
+                "{} is not the job's {}: the result belongs to another job",
+                result.strategy,
+                job.strategy.name()
+            ),
+        ));
+    }
+    if let Some(f) = &result.shape_fingerprint {
+        let own = job.shape.fingerprint();
+        if *f != own {
+            return Err(Error::invalid(
+                "result.shape_fingerprint",
+                format!(
+                    "{f} is not the job's shape ({own}): the result was planned on another shape"
+                ),
+            ));
+        }
+    }
+    Ok(())
 }

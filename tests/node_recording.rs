@@ -15,8 +15,8 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 use toolpath_planner::machines::Machines;
 use toolpath_planner::messages::{self as msgs, topics};
-use toolpath_planner::recording::read_bag;
 use toolpath_planner::recording::runs::{self, replay};
+use toolpath_planner::recording::{read_bag, BagMetadata};
 
 const BIN: &str = env!("CARGO_BIN_EXE_toolpath");
 
@@ -168,11 +168,66 @@ fn a_killed_node_leaves_its_finished_jobs_readable() {
     }
     drop(node); // SIGKILL
     let dir = tmp.path().join("killed");
-    assert!(!dir.join("metadata.yaml").exists());
+    // metadata.yaml was written at the start and names the storage file.
+    let meta = BagMetadata::read(&dir.join("metadata.yaml")).unwrap();
+    assert_eq!(meta.relative_file_paths, vec!["killed_0.mcap".to_string()]);
     let report = replay(&dir, &Machines::default()).unwrap();
     assert!(report.truncated.is_some());
     assert_eq!(report.jobs.len(), 1);
     assert_eq!(report.differences(), 0, "{:?}", report.jobs);
+    // `toolpath bag reindex` makes it a finished bag for the standard readers.
+    let recovered = read_bag(&dir).unwrap().messages.len();
+    let out = Command::new(BIN)
+        .args(["bag", "reindex", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bag = read_bag(&dir).unwrap();
+    assert!(bag.truncated.is_none());
+    assert_eq!(bag.messages.len(), recovered);
+    assert_eq!(bag.metadata.unwrap().message_count, recovered as u64);
+    let counts = python_counts(&dir);
+    assert_eq!(
+        counts,
+        format!("{recovered} {recovered} 1"),
+        "mcap, rosbags, final statuses"
+    );
+    let report = replay(&dir, &Machines::default()).unwrap();
+    assert_eq!(report.differences(), 0, "{:?}", report.jobs);
+}
+
+/// Messages read by Python `mcap` + `mcap-ros2-support` (decoded) and by
+/// `rosbags`, and the final statuses among the decoded ones: "N M F".
+fn python_counts(dir: &Path) -> String {
+    let script = r#"
+import sys, pathlib
+from mcap_ros2.reader import read_ros2_messages
+from rosbags.rosbag2 import Reader
+d = pathlib.Path(sys.argv[1])
+mcap = next(d.glob("*.mcap"))
+n, final = 0, 0
+for m in read_ros2_messages(str(mcap)):
+    n += 1
+    if m.channel.topic.endswith("/job_status") and m.ros_msg.state >= 2:
+        final += 1
+with Reader(d) as r:
+    k = sum(1 for _ in r.messages())
+print(n, k, final)
+"#;
+    let out = Command::new("python3")
+        .args(["-c", script, dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).trim().to_string()
 }
 
 #[test]

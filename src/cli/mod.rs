@@ -156,6 +156,11 @@ pub enum Command {
         #[arg(long)]
         require_success: bool,
     },
+    /// Bag maintenance.
+    Bag {
+        #[command(subcommand)]
+        action: BagAction,
+    },
     /// Re-plan the jobs of a bag; with --check compare with the recorded outputs.
     Replay {
         /// Bag directory or its .mcap file.
@@ -215,6 +220,17 @@ pub enum Command {
     },
 }
 
+#[derive(Subcommand, Debug)]
+pub enum BagAction {
+    /// Rewrite a bag whose writer was killed with its summary and
+    /// metadata.yaml (like `ros2 bag reindex`), so that the standard readers
+    /// open it.
+    Reindex {
+        /// Bag directory.
+        bag: PathBuf,
+    },
+}
+
 /// Runs the CLI and returns the process exit code.
 pub fn run() -> i32 {
     let cli = Cli::parse();
@@ -266,6 +282,9 @@ pub fn run() -> i32 {
             output,
             require_success,
         } => record::run(&job, &output, require_success),
+        Command::Bag {
+            action: BagAction::Reindex { bag },
+        } => reindex(&bag),
         Command::Replay {
             bag,
             check,
@@ -307,4 +326,18 @@ pub fn run() -> i32 {
             e.exit_code()
         }
     }
+}
+
+fn reindex(bag: &std::path::Path) -> Result<(), Error> {
+    let (summary, truncated) = crate::recording::reindex::reindex(bag)?;
+    if let Some(why) = truncated {
+        eprintln!("{why}");
+    }
+    println!(
+        "reindexed {}: {} messages in {} chunks",
+        summary.directory.display(),
+        summary.messages,
+        summary.chunks
+    );
+    Ok(())
 }

@@ -1,5 +1,7 @@
 //! `toolpath verify JOB RESULT [--map FILE]`: runs the scallop simulator on a
 //! milling result and prints its figures as JSON; `--map` writes the residual map.
+//! Exits 3 when the simulated gouge is beyond the job's gouge tolerance, 4
+//! when the residual is above h; refuses (exit 2) a result of another job.
 
 use crate::error::{Error, Result};
 use crate::formats;
@@ -38,6 +40,7 @@ pub fn run(job_path: &Path, result_path: &Path, map: Option<&Path>) -> Result<()
         ));
     }
     let result = formats::read_result(result_path)?;
+    pipeline::check_belongs(&job, &result)?;
     let start = Instant::now();
     let report = pipeline::verify_milling(&job, &result)?;
     let verify_ms = start.elapsed().as_secs_f64() * 1e3;
@@ -57,5 +60,14 @@ pub fn run(job_path: &Path, result_path: &Path, map: Option<&Path>) -> Result<()
         within_scallop: job.scallop.map(|h| report.max_scallop_mm <= h),
         verify_ms: (verify_ms * 1000.0).round() / 1000.0,
     };
-    formats::write_json(Path::new("-"), &summary)
+    formats::write_json(Path::new("-"), &summary)?;
+    let conformance = pipeline::Conformance::of_figures(
+        &job,
+        Some(report.max_gouge_mm),
+        Some(report.max_scallop_mm),
+    );
+    match conformance.error() {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
 }

@@ -219,6 +219,16 @@ pub const DEFAULT_FEED_RATE: f64 = 1000.0;
 /// 0.0009 to 0.0024 mm on wing_mould.
 pub const DEFAULT_GOUGE_TOLERANCE: f64 = 0.005;
 
+/// Largest lead angle and side tilt, degrees: the tool axis within 45
+/// degrees of the surface normal. Beyond it a flat end or torus cuts with
+/// its side rather than its end, which the strip-width and MPEC models do
+/// not describe (a lead of 89 degrees gouges about 0.5 mm on a plain bowl).
+pub const MAX_TILT_DEG: f64 = 45.0;
+
+/// Diameters a `tool_catalogue` may list, mm: from micro end mills to the
+/// largest shank end mills.
+pub const CATALOGUE_DIAMETERS_MM: std::ops::RangeInclusive<f64> = 0.1..=100.0;
+
 /// Standard metric end-mill diameters, mm.
 pub const DEFAULT_TOOL_CATALOGUE: [f64; 22] = [
     1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 25.0, 30.0,
@@ -267,12 +277,19 @@ impl JobFile {
         finite_positive("simulation_resolution", self.simulation_resolution)?;
         finite("lead_angle_deg", self.lead_angle_deg)?;
         finite("side_tilt_deg", self.side_tilt_deg)?;
-        if let Some(l) = self.lead_angle_deg {
-            if !(-89.0..=89.0).contains(&l) {
-                return Err(Error::invalid(
-                    "lead_angle_deg",
-                    format!("{l} is outside -89..89 degrees"),
-                ));
+        for (name, angle) in [
+            ("lead_angle_deg", self.lead_angle_deg),
+            ("side_tilt_deg", self.side_tilt_deg),
+        ] {
+            if let Some(a) = angle {
+                if a.abs() > MAX_TILT_DEG {
+                    return Err(Error::invalid(
+                        name,
+                        format!(
+                            "{a} is outside the valid range -{MAX_TILT_DEG}..{MAX_TILT_DEG} degrees"
+                        ),
+                    ));
+                }
             }
         }
         if let Some(n) = self.section_normal {
@@ -294,6 +311,16 @@ impl JobFile {
                 }
                 for (i, &d) in c.iter().enumerate() {
                     finite_positive(&format!("tool_catalogue[{i}]"), Some(d))?;
+                    if !CATALOGUE_DIAMETERS_MM.contains(&d) {
+                        return Err(Error::invalid(
+                            format!("tool_catalogue[{i}]"),
+                            format!(
+                                "{d} mm is outside the valid range {}..{} mm of end-mill diameters",
+                                CATALOGUE_DIAMETERS_MM.start(),
+                                CATALOGUE_DIAMETERS_MM.end()
+                            ),
+                        ));
+                    }
                 }
                 let mut c = c.clone();
                 c.sort_by(f64::total_cmp);
@@ -380,8 +407,37 @@ fn check_shape_kind(strategy: Strategy, shape: &Shape) -> Result<()> {
             "surface",
             "strategy pocket_mat needs a pocket, got a NURBS surface",
         )),
+        (Shape::Surface(s), false) => check_smooth(s),
         _ => Ok(()),
     }
+}
+
+/// Refuses a surface with a crease: an interior knot of multiplicity at
+/// least the degree makes the surface only C0 there (or not even that), where
+/// the normal jumps and the planners' curvature model, which assumes a
+/// smooth surface, would gouge. Each smooth piece can be planned on its own.
+fn check_smooth(s: &crate::geometry::NurbsSurface) -> Result<()> {
+    for (name, knots, degree) in [
+        ("knots_u", s.knots_u(), s.degree_u()),
+        ("knots_v", s.knots_v(), s.degree_v()),
+    ] {
+        let (first, last) = (knots[0], knots[knots.len() - 1]);
+        let mut k = 0;
+        while k < knots.len() {
+            let run = knots[k..].iter().take_while(|&&x| x == knots[k]).count();
+            if knots[k] > first && knots[k] < last && run >= degree {
+                return Err(Error::invalid(
+                    format!("surface.{name}[{k}]"),
+                    format!(
+                        "knot {} has multiplicity {run}, not below the degree {degree}: the surface has a crease (only C0) there; split it at the crease and plan each smooth piece as its own job",
+                        knots[k]
+                    ),
+                ));
+            }
+            k += run;
+        }
+    }
+    Ok(())
 }
 
 impl Job {

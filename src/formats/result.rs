@@ -112,6 +112,10 @@ pub struct Stats {
 pub struct PlanResult {
     pub job_id: String,
     pub strategy: String,
+    /// [`crate::formats::Shape::fingerprint`] of the shape planned on:
+    /// `verify` and `simulate` refuse a result checked against another shape.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shape_fingerprint: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub machine: Option<String>,
     pub passes: Vec<Pass>,

@@ -52,6 +52,18 @@ impl Shape {
             Shape::Surface(_) => None,
         }
     }
+    /// A fingerprint of the geometry: FNV-1a (64 bit) of the file form's
+    /// JSON, as `fnv1a64:` and 16 hex digits. Equal shapes give equal
+    /// fingerprints; a name is not part of it.
+    pub fn fingerprint(&self) -> String {
+        let bytes = serde_json::to_vec(&self.to_json()).expect("serialisable");
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in bytes {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        format!("fnv1a64:{h:016x}")
+    }
     /// The file form, for writing samples and embedding in jobs.
     pub fn to_json(&self) -> serde_json::Value {
         match self {

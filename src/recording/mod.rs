@@ -18,6 +18,7 @@
 
 mod metadata;
 mod reader;
+pub mod reindex;
 pub mod runs;
 mod writer;
 

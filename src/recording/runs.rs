@@ -105,6 +105,7 @@ pub fn plan_outputs(
 ) -> Result<JobOutputs> {
     let job = convert::job_from_msg(job_msg, shape)?;
     let result = pipeline::run(&job, &NoProgress, RunOptions::default())?;
+    pipeline::refuse_gouge(&job, &result)?;
     let trajectory = crate::machines::trajectory(&job, &result, machines)?;
     Ok(job_outputs(
         &job,

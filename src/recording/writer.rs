@@ -87,6 +87,16 @@ impl BagWriter {
     /// Creates bag directory `directory` (it must not exist, or be empty) with
     /// `<name>_0.mcap` inside, `<name>` being the directory's name.
     pub fn create(directory: &Path, options: WriterOptions) -> Result<Self> {
+        Self::create_file(directory, None, options)
+    }
+
+    /// [`BagWriter::create`] with the storage file named `file_name`
+    /// (default `<name>_0.mcap`).
+    pub fn create_file(
+        directory: &Path,
+        file_name: Option<&str>,
+        options: WriterOptions,
+    ) -> Result<Self> {
         let shown = directory.display().to_string();
         if directory.exists() {
             let empty = std::fs::read_dir(directory)
@@ -110,7 +120,7 @@ impl BagWriter {
                 Error::invalid("output", format!("{shown} has no usable directory name"))
             })?
             .to_string();
-        let file_name = format!("{name}_0.mcap");
+        let file_name = file_name.map_or_else(|| format!("{name}_0.mcap"), str::to_string);
         let path = directory.join(&file_name);
         let file = File::create(&path).map_err(|e| Error::io(path.display().to_string(), e))?;
         let writer = mcap::WriteOptions::new()
@@ -227,6 +237,13 @@ impl BagWriter {
         self.writer()?.flush().map_err(|e| mcap_error(&path, e))
     }
 
+    /// Writes metadata.yaml for what has been written so far, atomically (a
+    /// temporary file renamed over it): a reader never sees half a file, and
+    /// a bag whose writer is killed still has one that lists its storage file.
+    pub fn write_metadata_yaml(&self) -> Result<()> {
+        write_yaml_atomically(&self.directory, &self.metadata())
+    }
+
     /// The rosbag2 metadata of what has been written so far.
     pub fn metadata(&self) -> BagMetadata {
         let start = self.first_time.unwrap_or(0);
@@ -295,9 +312,7 @@ impl BagWriter {
         .map_err(|e| mcap_error(&path, e))?;
         let summary = w.finish().map_err(|e| mcap_error(&path, e))?;
         drop(w);
-        let yaml_path = self.directory.join("metadata.yaml");
-        std::fs::write(&yaml_path, meta.to_yaml())
-            .map_err(|e| Error::io(yaml_path.display().to_string(), e))?;
+        write_yaml_atomically(&self.directory, &meta)?;
         let file_bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
         Ok(BagSummary {
             directory: self.directory.clone(),
@@ -312,4 +327,12 @@ impl BagWriter {
                 .sum(),
         })
     }
+}
+
+/// Writes `directory/metadata.yaml` through a temporary file and a rename.
+fn write_yaml_atomically(directory: &Path, meta: &BagMetadata) -> Result<()> {
+    let yaml_path = directory.join("metadata.yaml");
+    let tmp = directory.join(".metadata.yaml.tmp");
+    std::fs::write(&tmp, meta.to_yaml()).map_err(|e| Error::io(tmp.display().to_string(), e))?;
+    std::fs::rename(&tmp, &yaml_path).map_err(|e| Error::io(yaml_path.display().to_string(), e))
 }

@@ -114,6 +114,44 @@ fn ros_err(what: &str, e: impl std::fmt::Debug) -> Error {
     Error::planning(format!("ROS 2: {what}: {e:?}"))
 }
 
+/// The IP addresses of this host's network interfaces.
+fn host_addresses() -> Result<Vec<std::net::IpAddr>> {
+    let addrs = nix::ifaddrs::getifaddrs()
+        .map_err(|e| Error::planning(format!("cannot list the network interfaces: {e}")))?;
+    Ok(addrs
+        .filter_map(|a| {
+            let a = a.address?;
+            if let Some(v4) = a.as_sockaddr_in() {
+                Some(std::net::IpAddr::V4(v4.ip()))
+            } else {
+                a.as_sockaddr_in6().map(|v6| std::net::IpAddr::V6(v6.ip()))
+            }
+        })
+        .collect())
+}
+
+/// Every configured interface address must belong to this host: DDS would
+/// otherwise advertise an address nobody can reach it on (or none at all)
+/// and the node would look ready while deaf.
+pub fn check_on_this_host(ips: &[std::net::IpAddr]) -> Result<()> {
+    let host = host_addresses()?;
+    for (k, ip) in ips.iter().enumerate() {
+        if !host.contains(ip) {
+            let mut have: Vec<String> = host.iter().map(|a| a.to_string()).collect();
+            have.sort();
+            have.dedup();
+            return Err(Error::invalid(
+                format!("node.interfaces[{k}]"),
+                format!(
+                    "{ip} is not an address of this host (its addresses: {})",
+                    have.join(", ")
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// A ROS 2 context + node on the configured domain and interfaces, with the
 /// spinner running (without it matching never completes).
 pub struct RosNode {
@@ -131,6 +169,7 @@ impl RosNode {
     ) -> Result<Self> {
         let mut builder = rustdds::DomainParticipantBuilder::new(domain_id);
         if let Some(ips) = interfaces {
+            check_on_this_host(&ips)?;
             builder = builder.with_only_networks(ips);
         }
         let dp = builder
@@ -319,6 +358,7 @@ impl Outputs {
 }
 
 /// What the node knows about a shape id.
+#[derive(Clone)]
 enum ShapeEntry {
     Ready(Arc<Shape>),
     Rejected(String),
@@ -328,13 +368,82 @@ struct Pending {
     msg: msgs::Job,
     received: Instant,
     deadline: Instant,
+    /// The shape this job plans on: the one known when the job was accepted,
+    /// else the first to arrive after; a later re-publish of the same id does
+    /// not change it.
+    shape: Option<ShapeEntry>,
 }
+
+/// Shapes the node keeps by id. Beyond this the least recently received
+/// shape is dropped; a queued job keeps the shape it was bound to, so only a
+/// job sent later for an evicted id waits for it to be published again.
+pub const MAX_SHAPES: usize = 100;
 
 #[derive(Default)]
 struct State {
-    shapes: BTreeMap<String, ShapeEntry>,
+    /// Shapes by id, with the order they were received in (for eviction).
+    shapes: BTreeMap<String, (u64, ShapeEntry)>,
+    received_shapes: u64,
     queue: VecDeque<Pending>,
+    /// The messages of the jobs queued or being planned, by job_id.
+    active: BTreeMap<String, msgs::Job>,
     shutdown: bool,
+}
+
+/// What to do with a job message whose job_id may already be in use.
+#[derive(Debug, PartialEq)]
+enum Admission {
+    New,
+    /// The same job sent again while queued or running: its statuses answer it.
+    Resent,
+    /// Another job under a job_id that is queued or running: refused.
+    Conflict(String),
+}
+
+impl State {
+    fn admit(&self, msg: &msgs::Job) -> Admission {
+        let Some(active) = self.active.get(&msg.job_id) else {
+            return Admission::New;
+        };
+        // The header (stamp) differs between sends of the same job.
+        let same = msgs::Job {
+            header: active.header.clone(),
+            ..msg.clone()
+        } == *active;
+        if same {
+            Admission::Resent
+        } else {
+            Admission::Conflict(format!(
+                "job_id \"{}\" is already queued or running with other parameters: one job_id, one plan (use a new job_id)",
+                msg.job_id
+            ))
+        }
+    }
+
+    /// Stores a received shape, binds it to the queued jobs waiting for it,
+    /// and evicts the least recently received shapes beyond [`MAX_SHAPES`].
+    fn insert_shape(&mut self, id: String, entry: ShapeEntry) {
+        for p in self.queue.iter_mut() {
+            if p.shape.is_none() && p.msg.surface_id == id {
+                p.shape = Some(entry.clone());
+            }
+        }
+        self.received_shapes += 1;
+        self.shapes.insert(id, (self.received_shapes, entry));
+        while self.shapes.len() > MAX_SHAPES {
+            let oldest = self
+                .shapes
+                .iter()
+                .min_by_key(|(_, (order, _))| *order)
+                .map(|(id, _)| id.clone());
+            match oldest {
+                Some(id) => {
+                    self.shapes.remove(&id);
+                }
+                None => break,
+            }
+        }
+    }
 }
 
 struct Shared {
@@ -370,7 +479,7 @@ fn next_work(shared: &Shared) -> Option<Work> {
         let mut pick = None;
         let mut earliest: Option<Instant> = None;
         for (k, p) in st.queue.iter().enumerate() {
-            match st.shapes.get(&p.msg.surface_id) {
+            match &p.shape {
                 Some(_) => {
                     pick = Some(k);
                     break;
@@ -386,9 +495,9 @@ fn next_work(shared: &Shared) -> Option<Work> {
         }
         if let Some(k) = pick {
             let p = st.queue.remove(k)?;
-            return Some(match st.shapes.get(&p.msg.surface_id) {
-                Some(ShapeEntry::Ready(s)) => Work::Plan(p, Arc::clone(s)),
-                Some(ShapeEntry::Rejected(why)) => Work::Reject(p, why.clone()),
+            return Some(match p.shape.clone() {
+                Some(ShapeEntry::Ready(s)) => Work::Plan(p, s),
+                Some(ShapeEntry::Rejected(why)) => Work::Reject(p, why),
                 None => Work::TimedOut(p),
             });
         }
@@ -454,6 +563,7 @@ fn plan_and_publish(
     };
     let planning_started = Instant::now();
     let result = pipeline::run(&job, &progress, options)?;
+    pipeline::refuse_gouge(&job, &result)?;
     let planning = planning_started.elapsed();
     let trajectory = crate::machines::trajectory(&job, &result, machines)?;
     let out = msgs::job_outputs(
@@ -521,40 +631,37 @@ fn worker(
     timeout_s: f64,
 ) {
     while let Some(work) = next_work(&shared) {
-        match work {
-            Work::Reject(p, why) => outputs.status(&p.msg.job_id, msgs::JobStatus::REJECTED, 0.0, why),
-            Work::TimedOut(p) => outputs.status(
-                &p.msg.job_id,
-                msgs::JobStatus::FAILED,
-                0.0,
-                format!(
+        let (job_id, state, progress, message) = match work {
+            Work::Reject(p, why) => (p.msg.job_id, msgs::JobStatus::REJECTED, 0.0, why),
+            Work::TimedOut(p) => {
+                let why = format!(
                     "surface \"{}\" has not arrived within {timeout_s} s: publish it on topic surface (or pocket)",
                     p.msg.surface_id
-                ),
-            ),
+                );
+                (p.msg.job_id, msgs::JobStatus::FAILED, 0.0, why)
+            }
             Work::Plan(p, shape) => {
                 let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                     plan_and_publish(&p, &shape, &outputs, &machines, options)
                 }));
-                match run {
-                    Ok(Ok(summary)) => outputs.status(&p.msg.job_id, msgs::JobStatus::SUCCEEDED, 1.0, summary),
-                    Ok(Err(e)) => outputs.status(&p.msg.job_id, final_state(&e), 0.0, e.to_string()),
+                let (state, progress, message) = match run {
+                    Ok(Ok(summary)) => (msgs::JobStatus::SUCCEEDED, 1.0, summary),
+                    Ok(Err(e)) => (final_state(&e), 0.0, e.to_string()),
                     Err(panic) => {
                         let what = panic
                             .downcast_ref::<String>()
                             .cloned()
                             .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
                             .unwrap_or_default();
-                        outputs.status(
-                            &p.msg.job_id,
-                            msgs::JobStatus::FAILED,
-                            0.0,
-                            format!("internal error while planning (please report): {what}"),
-                        )
+                        let why = format!("internal error while planning (please report): {what}");
+                        (msgs::JobStatus::FAILED, 0.0, why)
                     }
-                }
+                };
+                (p.msg.job_id, state, progress, message)
             }
-        }
+        };
+        outputs.status(&job_id, state, progress, message);
+        shared.lock().active.remove(&job_id);
     }
 }
 
@@ -579,13 +686,34 @@ fn receive_job(
         outputs.status(&msg.job_id, final_state(&e), 0.0, e.to_string());
         return;
     }
+    let mut st = shared.lock();
+    match st.admit(&msg) {
+        Admission::New => {}
+        Admission::Resent => {
+            log::info!("job {}: sent again while queued or running", msg.job_id);
+            return;
+        }
+        Admission::Conflict(why) => {
+            drop(st);
+            outputs.status(&msg.job_id, msgs::JobStatus::REJECTED, 0.0, why);
+            return;
+        }
+    }
+    st.active.insert(msg.job_id.clone(), msg.clone());
+    drop(st);
+    // ACCEPTED before the job is queued, so a worker's statuses follow it;
+    // published without the lock (a reliable publish may wait).
     outputs.status(&msg.job_id, msgs::JobStatus::ACCEPTED, 0.0, String::new());
+    let mut st = shared.lock();
+    let shape = st.shapes.get(&msg.surface_id).map(|(_, e)| e.clone());
     let now = Instant::now();
-    shared.lock().queue.push_back(Pending {
+    st.queue.push_back(Pending {
         msg,
         received: now,
         deadline: now + timeout,
+        shape,
     });
+    drop(st);
     shared.wake.notify_all();
 }
 
@@ -600,7 +728,7 @@ fn receive_shape(shared: &Shared, id: String, shape: Result<Shape>) {
             ShapeEntry::Rejected(e.to_string())
         }
     };
-    shared.lock().shapes.insert(id, entry);
+    shared.lock().insert_shape(id, entry);
     shared.wake.notify_all();
 }
 
@@ -817,4 +945,103 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     // Workers finish their current job; the process exits after them.
     shut_down(&shared, workers, outputs, ipc_thread);
     received
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::net::{IpAddr, Ipv4Addr};
+
+    #[test]
+    fn an_interface_not_on_this_host_is_refused_by_name() {
+        check_on_this_host(&[IpAddr::V4(Ipv4Addr::LOCALHOST)]).unwrap();
+        // 192.0.2.0/24 is reserved for documentation (RFC 5737): never a host's address.
+        let e = check_on_this_host(&[
+            IpAddr::V4(Ipv4Addr::LOCALHOST),
+            IpAddr::V4(Ipv4Addr::new(192, 0, 2, 7)),
+        ])
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("node.interfaces[1]")
+                && e.contains("192.0.2.7 is not an address of this host")
+                && e.contains("127.0.0.1"),
+            "{e}"
+        );
+    }
+
+    fn job(id: &str, surface: &str, scallop: f64, sec: i32) -> msgs::Job {
+        msgs::Job {
+            header: msgs::Header {
+                stamp: msgs::Time { sec, nanosec: 0 },
+                frame_id: "workpiece".into(),
+            },
+            job_id: id.into(),
+            surface_id: surface.into(),
+            strategy: "iso_parametric".into(),
+            scallop,
+            ..Default::default()
+        }
+    }
+
+    fn pending(msg: msgs::Job) -> Pending {
+        let now = Instant::now();
+        Pending {
+            msg,
+            received: now,
+            deadline: now,
+            shape: None,
+        }
+    }
+
+    #[test]
+    fn one_job_id_one_plan_while_queued_or_running() {
+        let mut st = State::default();
+        let a = job("a", "s", 0.05, 1);
+        assert_eq!(st.admit(&a), Admission::New);
+        st.active.insert("a".into(), a.clone());
+        // The same job sent again (another stamp) is not planned twice.
+        assert_eq!(st.admit(&job("a", "s", 0.05, 2)), Admission::Resent);
+        // Other parameters under the same job_id are refused with a reason.
+        match st.admit(&job("a", "s", 0.1, 2)) {
+            Admission::Conflict(why) => {
+                assert!(why.contains("\"a\" is already queued or running"), "{why}")
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(st.admit(&job("b", "s", 0.1, 2)), Admission::New);
+        st.active.remove("a");
+        assert_eq!(st.admit(&job("a", "s", 0.1, 3)), Admission::New);
+    }
+
+    fn ready(id: &str) -> ShapeEntry {
+        ShapeEntry::Rejected(id.to_string())
+    }
+
+    fn why(e: &Option<ShapeEntry>) -> Option<String> {
+        match e {
+            Some(ShapeEntry::Rejected(w)) => Some(w.clone()),
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn a_queued_job_keeps_its_shape_and_the_cache_is_bounded() {
+        let mut st = State::default();
+        st.queue.push_back(pending(job("waits", "s", 0.05, 1)));
+        st.insert_shape("s".into(), ready("first s"));
+        st.insert_shape("s".into(), ready("second s"));
+        // Bound to the first "s" received; the re-publish does not change it.
+        assert_eq!(why(&st.queue[0].shape), Some("first s".into()));
+        for k in 0..2 * MAX_SHAPES {
+            st.insert_shape(format!("x{k}"), ready("x"));
+        }
+        assert_eq!(st.shapes.len(), MAX_SHAPES);
+        // The oldest went first: the last MAX_SHAPES received are kept.
+        assert!(!st.shapes.contains_key("s"));
+        assert!(!st.shapes.contains_key(&format!("x{}", MAX_SHAPES - 1)));
+        assert!(st.shapes.contains_key(&format!("x{MAX_SHAPES}")));
+        assert!(st.shapes.contains_key(&format!("x{}", 2 * MAX_SHAPES - 1)));
+        assert_eq!(why(&st.queue[0].shape), Some("first s".into()));
+    }
 }

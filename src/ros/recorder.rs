@@ -6,8 +6,10 @@
 //! compression, to a job's latency. After a job's final status the current
 //! chunk is closed and written (once the queue is empty, so a burst of jobs
 //! shares chunks): a node killed with SIGKILL leaves a .mcap whose finished
-//! jobs are readable. On a normal stop (SIGINT/SIGTERM) the summary and
-//! metadata.yaml are written.
+//! jobs are readable; metadata.yaml is written at the start and refreshed
+//! (atomically) with each such chunk, and `toolpath bag reindex` adds the
+//! summary that the standard readers need. On a normal stop (SIGINT/SIGTERM)
+//! the summary and the final metadata.yaml are written.
 
 use super::config::RecordingSettings;
 use crate::error::{Error, Result};
@@ -91,8 +93,10 @@ impl Recorder {
         for spec in runs::topic_specs_in(namespace) {
             writer.add_topic(&spec)?;
         }
-        // Shapes and the header record are on disk before the first job.
+        // Shapes and the header record are on disk before the first job, and
+        // metadata.yaml names the storage file from the start.
         writer.flush()?;
+        writer.write_metadata_yaml()?;
         let (tx, rx) = mpsc::channel();
         let thread = std::thread::Builder::new()
             .name("recorder".into())
@@ -158,7 +162,7 @@ fn write_loop(mut writer: BagWriter, rx: Receiver<Entry>) -> Result<BagSummary> 
             match rx.try_recv() {
                 Ok(e) => Some(e),
                 Err(TryRecvError::Empty) => {
-                    if let Err(e) = writer.flush() {
+                    if let Err(e) = writer.flush().and_then(|()| writer.write_metadata_yaml()) {
                         log::error!("recording: {e}");
                     }
                     flush_due = false;
