@@ -496,3 +496,84 @@ pub fn check_belongs(job: &Job, result: &PlanResult) -> Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simulation::scallop::ResidualMap;
+
+    /// A 10 x 10 map with 1 mm cells at (i, j, 0), residual 0.01 mm except
+    /// where `set` says.
+    fn report(set: &[((usize, usize), Option<f64>)], max_scallop: f64) -> ScallopReport {
+        let (nu, nv) = (10, 10);
+        let mut map = ResidualMap {
+            nu,
+            nv,
+            uv: Vec::new(),
+            xyz: Vec::new(),
+            residual: Vec::new(),
+        };
+        for i in 0..nu {
+            for j in 0..nv {
+                map.uv
+                    .push([(i as f64 + 0.5) / 10.0, (j as f64 + 0.5) / 10.0]);
+                map.xyz.push([i as f64, j as f64, 0.0]);
+                let r = set
+                    .iter()
+                    .find(|(k, _)| *k == (i, j))
+                    .map_or(Some(0.01), |(_, r)| *r);
+                map.residual.push(r);
+            }
+        }
+        ScallopReport {
+            max_scallop_mm: max_scallop,
+            max_gouge_mm: 0.0,
+            uncovered_area_mm2: 1.0,
+            machined_area_mm2: 99.0,
+            resolution_mm: 1.0,
+            map,
+        }
+    }
+
+    #[test]
+    fn islands_group_near_samples_and_the_warning_says_where() {
+        let high = Some(0.08);
+        let r = report(
+            &[
+                ((2, 2), high),
+                ((2, 3), high),
+                ((3, 2), high),
+                ((3, 3), high),
+                ((8, 8), None),
+            ],
+            0.08,
+        );
+        // Reach: half the 2.5 mm radius = 1 cell; the block and the unreached
+        // sample are 5 cells apart.
+        let found = islands(&r, 0.05, 2.5);
+        let mut sizes: Vec<usize> = found.iter().map(|i| i.uv.len()).collect();
+        sizes.sort();
+        assert_eq!(sizes, [1, 4]);
+        let w = above_limit_warning(&r, 0.05, 2.5);
+        assert!(w.starts_with(ABOVE_LIMIT), "{w}");
+        assert!(
+            w.contains("4.00 mm^2 around (2.5, 2.5, 0.0) mm; 1.00 mm^2 around (8.0, 8.0, 0.0) mm"),
+            "{w}"
+        );
+        assert!(w.contains("0.0800 mm at most and 1.00 mm^2"), "{w}");
+    }
+
+    #[test]
+    fn a_peak_above_h_between_samples_lowers_the_threshold() {
+        // Grid maximum 0.049 at (5, 5), refined maximum 0.052: the threshold
+        // drops by the 0.003 gain to 0.047, which only (5, 5) exceeds.
+        let r = report(&[((5, 5), Some(0.049)), ((5, 6), Some(0.046))], 0.052);
+        let found = islands(&r, 0.05, 2.5);
+        assert_eq!(found.len(), 1);
+        assert_eq!(found[0].uv.len(), 1);
+        assert!((found[0].uv[0].x - 0.55).abs() < 1e-12);
+        // Within h on the grid and refined: no island.
+        let r = report(&[((5, 5), Some(0.049))], 0.0495);
+        assert!(islands(&r, 0.05, 2.5).is_empty());
+    }
+}

@@ -450,3 +450,68 @@ fn cli_inspect_reports_exact_curvatures() {
     );
     assert!((num(&d, "gaussian_curvature") + 1.0 / (1198.0 * 19000.0)).abs() < 1e-15);
 }
+
+/// SplitMix64's first output for `seed`, mapped to [-1, 1] as the random
+/// sample documents it (docs/formats.md), written out independently.
+fn first_draw(seed: u64) -> f64 {
+    let mut z = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+}
+
+#[test]
+fn cli_random_sample_is_seeded_and_checked() {
+    let bin = env!("CARGO_BIN_EXE_toolpath");
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, extra: &[&str]| {
+        let path = dir.path().join(name);
+        let out = Command::new(bin)
+            .args(["sample", "random", "--seed", "7", "--size", "120", "90"])
+            .args(["--amplitude", "2.5", "--anisotropy", "2"])
+            .args(extra)
+            .arg("-o")
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{out:?}");
+        std::fs::read(&path).unwrap()
+    };
+    let a = write("a.json", &[]);
+    let b = write("b.json", &[]);
+    assert_eq!(a, b, "same seed, same bytes");
+    let Shape::Surface(s) = formats::read_shape(&dir.path().join("a.json")).unwrap() else {
+        panic!("not a surface");
+    };
+    // Control point (0, 0): x = y = 0, height amplitude x first draw plus
+    // the trough's depth at v = 0 (anisotropy x amplitude x 4 x 1/4).
+    let p = s.control_point(0, 0);
+    assert_eq!([p[0], p[1]], [0.0, 0.0]);
+    assert!(
+        (p[2] - (2.5 * first_draw(7) + 2.0 * 2.5)).abs() < 1e-12,
+        "{p:?}"
+    );
+    // 120 / 40 = 3 spans along u, 90 / 40 -> 2 along v: bicubic 6 x 5 net.
+    assert_eq!((s.count_u(), s.count_v()), (6, 5));
+    let job = write("job.json", &["--job"]);
+    let job: serde_json::Value = serde_json::from_slice(&job).unwrap();
+    assert_eq!(job["strategy"], "tensor_regions");
+    assert_eq!(job["job_id"], "random_s7_120x90_a2.5_k2_job");
+    for (args, needle) in [
+        (&["sample", "random"][..], "--seed"),
+        (
+            &["sample", "random", "--seed", "1", "--amplitude=-1"][..],
+            "--amplitude",
+        ),
+        (
+            &["sample", "plane", "--seed", "1"][..],
+            "only the random sample",
+        ),
+    ] {
+        let out = Command::new(bin).args(args).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}

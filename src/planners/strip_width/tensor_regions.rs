@@ -37,6 +37,9 @@ enum Candidate {
     /// The whole surface as one region, offset from the field line through
     /// its widest-strip point.
     WholeField,
+    /// The whole surface offset from a straight-heading walk through its
+    /// middle along the area-weighted mean feed direction.
+    MeanFeed,
     /// The whole surface offset from a boundary edge (feed along u or v;
     /// the edge at the start of the other parameter, or with `true` its end).
     EdgeOffset(FeedDirection, bool),
@@ -53,6 +56,7 @@ impl Candidate {
         match self {
             Candidate::Partitioned => "partitioned".into(),
             Candidate::WholeField => "whole_field".into(),
+            Candidate::MeanFeed => "mean_feed".into(),
             Candidate::EdgeOffset(f, far) => {
                 format!("edge_offset_{}{}", dir(f), if far { "_far" } else { "" })
             }
@@ -114,6 +118,7 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
     }
     kinds.extend([
         Candidate::WholeField,
+        Candidate::MeanFeed,
         Candidate::EdgeOffset(FeedDirection::U, false),
         Candidate::EdgeOffset(FeedDirection::V, false),
         Candidate::EdgeOffset(FeedDirection::U, true),
@@ -125,6 +130,10 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
     let built = crate::parallel::map_chunks(&kinds, 1, |kind| -> Result<Vec<Pass>> {
         match kind[0] {
             Candidate::Partitioned => cover_regions(surface, &settings, &regions, &analysis, step),
+            Candidate::MeanFeed => match mean_feed_line(surface, &settings) {
+                Some(line) => cover(surface, &settings, &whole, &line),
+                None => Ok(Vec::new()),
+            },
             Candidate::WholeField => {
                 cover_regions(surface, &settings, &whole_list, &analysis, step)
             }
@@ -243,6 +252,72 @@ fn cover_regions(
         passes.extend(cover(surface, settings, region, &initial)?);
     }
     Ok(passes)
+}
+
+/// Samples per direction of the mean feed direction.
+const MEAN_FEED_GRID: usize = 24;
+
+/// A walk on the surface through the middle of the domain, both ways to
+/// the boundary, heading along the mean optimal feed: the feed field's
+/// directions averaged as axes (doubled angles in the frame of S_u and
+/// n x S_u), each weighted by its area and by how much it gains over the
+/// cross direction (mu_feed - mu_cross). `None` on an isotropic field.
+fn mean_feed_line(surface: &NurbsSurface, s: &PassSettings) -> Option<Vec<Vector2<f64>>> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let k_b = s.cutter.k_b();
+    let (mut c2, mut s2) = (0.0, 0.0);
+    for i in 0..MEAN_FEED_GRID {
+        for j in 0..MEAN_FEED_GRID {
+            let u = u0 + (u1 - u0) * (i as f64 + 0.5) / MEAN_FEED_GRID as f64;
+            let v = v0 + (v1 - v0) * (j as f64 + 0.5) / MEAN_FEED_GRID as f64;
+            let Some(g) = LocalGeometry::at(surface, u, v) else {
+                continue;
+            };
+            let Some(f) = super::field::feed_at(&g, k_b) else {
+                continue;
+            };
+            let Some(e1) = g.derivs.su.try_normalize(1e-300) else {
+                continue;
+            };
+            let e2 = g.n.cross(&e1);
+            let angle = f.feed.dot(&e2).atan2(f.feed.dot(&e1));
+            let w = g.derivs.su.cross(&g.derivs.sv).norm() * (f.mu_feed - f.mu_cross);
+            c2 += w * (2.0 * angle).cos();
+            s2 += w * (2.0 * angle).sin();
+        }
+    }
+    if c2.hypot(s2) <= 0.0 {
+        return None;
+    }
+    let angle = 0.5 * s2.atan2(c2);
+    let mid = Vector2::new(0.5 * (u0 + u1), 0.5 * (v0 + v1));
+    let g = LocalGeometry::at(surface, mid.x, mid.y)?;
+    let e1 = g.derivs.su.try_normalize(1e-300)?;
+    let heading = e1 * angle.cos() + g.n.cross(&e1) * angle.sin();
+    let step = s.point_step;
+    let (lo, hi) = surface.bounding_box();
+    let max_steps = ((4.0 * (hi - lo).norm() / step).ceil() as usize).max(2);
+    let walk = |dir: Vector3<f64>| {
+        let mut out = Vec::new();
+        let (mut uv, mut d) = (mid, dir);
+        for _ in 0..max_steps {
+            let Some((next, nd, hit)) = super::passes::walk_on_surface(surface, uv, d, step)
+            else {
+                break;
+            };
+            out.push(next);
+            if hit {
+                break;
+            }
+            uv = next;
+            d = nd;
+        }
+        out
+    };
+    let mut line: Vec<Vector2<f64>> = walk(-heading).into_iter().rev().collect();
+    line.push(mid);
+    line.extend(walk(heading));
+    (line.len() >= 2).then_some(line)
 }
 
 /// The region's widest-strip point (sampled) and the feed field line through
@@ -387,6 +462,7 @@ mod tests {
                 "edge_offset_v_far",
                 "iso_curves_u",
                 "iso_curves_v",
+                "mean_feed",
                 "partitioned",
                 "whole_field"
             ]
@@ -401,7 +477,7 @@ mod tests {
             .plan_choice
             .as_deref()
             .unwrap()
-            .contains("the shortest of 8"));
+            .contains("the shortest of 9"));
         let r = &all[labels.iter().position(|l| *l == "partitioned").unwrap()];
         let d = r.degenerate_points.as_ref().unwrap();
         assert_eq!(d.len(), 1);
