@@ -358,3 +358,86 @@ fn the_node_publishes_every_toolpath_over_iceoryx2() {
     }
     assert!(other.is_empty(), "iceoryx2 files left behind: {other:?}");
 }
+
+/// A tmpfs of `size` mounted at `dir`; unmounted on drop.
+struct SmallDisk(PathBuf);
+
+impl SmallDisk {
+    fn mount(dir: &Path, size: &str) -> SmallDisk {
+        std::fs::create_dir_all(dir).unwrap();
+        let out = Command::new("mount")
+            .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
+            .arg(dir)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "mount (needs root): {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        SmallDisk(dir.to_path_buf())
+    }
+}
+
+impl Drop for SmallDisk {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg(&self.0).output();
+    }
+}
+
+#[test]
+fn a_full_disk_fails_the_recording_and_the_node_exit_code() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Room for the bag's header, schemas and metadata.yaml, not for a job.
+    let disk = SmallDisk::mount(&tmp.path().join("small"), "32k");
+    let config = tmp.path().join("full.yaml");
+    std::fs::write(
+        &config,
+        format!(
+            "recording:\n  enabled: true\n  directory: \"{}\"\n  bag_name: full\n",
+            disk.0.display()
+        ),
+    )
+    .unwrap();
+    let d = domain(3);
+    let log = std::fs::File::create(tmp.path().join("node.log")).unwrap();
+    let mut child = Command::new(BIN)
+        .args(["node", "--config", config.to_str().unwrap()])
+        .env("ROS_DOMAIN_ID", d.to_string())
+        .stdout(std::process::Stdio::piped())
+        .stderr(log)
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufRead::read_line(
+        &mut std::io::BufReader::new(child.stdout.take().unwrap()),
+        &mut line,
+    )
+    .unwrap();
+    let process = NodeProcess { child };
+    assert!(line.starts_with("ready"), "{line:?}");
+    // The job itself is planned and published as usual.
+    let node = Node { process, domain: d };
+    assert_same(&node.replay_publish(&golden("iso_parametric_plane")));
+    let mut process = node.process;
+    let pid = nix::unistd::Pid::from_raw(process.child.id() as i32);
+    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).unwrap();
+    let t0 = Instant::now();
+    let status = loop {
+        if let Ok(Some(status)) = process.child.try_wait() {
+            break status;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(30),
+            "no exit after SIGTERM"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let stderr = std::fs::read_to_string(tmp.path().join("node.log")).unwrap();
+    assert_eq!(status.code(), Some(2), "{stderr}");
+    let last = stderr.lines().last().unwrap_or_default();
+    assert!(
+        last.contains("recording failed") && last.contains("write error") && last.contains("full"),
+        "{last}"
+    );
+}

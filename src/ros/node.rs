@@ -880,13 +880,14 @@ async fn receive_until_signal(
 }
 
 /// Stops the workers after their current job, then the iceoryx2 thread, then
-/// closes the recording.
+/// closes the recording; an error when the recording lost messages or could
+/// not be finished (the process exits non-zero).
 fn shut_down(
     shared: &Shared,
     workers: Vec<std::thread::JoinHandle<()>>,
     outputs: Arc<Outputs>,
     ipc_thread: Option<std::thread::JoinHandle<()>>,
-) {
+) -> Result<()> {
     shared.lock().shutdown = true;
     shared.wake.notify_all();
     for h in workers {
@@ -899,20 +900,36 @@ fn shut_down(
     if let Some(h) = ipc_thread {
         let _ = h.join();
     }
-    if let Some(r) = &recorder {
-        match r.finish() {
-            Some(Ok(b)) => log::info!(
+    let Some(r) = &recorder else {
+        return Ok(());
+    };
+    let finished = match r.finish() {
+        Some(Ok(b)) => {
+            log::info!(
                 "recorded {}: {} messages, {} chunks, {} bytes ({} uncompressed)",
                 b.directory.display(),
                 b.messages,
                 b.chunks,
                 b.file_bytes,
                 b.uncompressed_bytes
-            ),
-            Some(Err(e)) => log::error!("recording {}: {e}", r.directory().display()),
-            None => {}
+            );
+            None
         }
+        Some(Err(e)) => Some(e.to_string()),
+        None => None,
+    };
+    let (errors, first) = r.failures();
+    if errors == 0 && finished.is_none() {
+        return Ok(());
     }
+    let mut why = format!("recording failed: {errors} write error(s)");
+    if let Some(first) = first {
+        why += &format!(", the first: {first}");
+    }
+    if let Some(finished) = finished {
+        why += &format!("; the bag could not be finished: {finished}");
+    }
+    Err(Error::io(r.directory().display().to_string(), why))
 }
 
 /// Runs the node until SIGINT/SIGTERM. Prints one line "ready ..." on stdout
@@ -943,8 +960,8 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     let received =
         receive_until_signal(inputs, &shared, &outputs, &config.machines(), timeout).await;
     // Workers finish their current job; the process exits after them.
-    shut_down(&shared, workers, outputs, ipc_thread);
-    received
+    let recorded = shut_down(&shared, workers, outputs, ipc_thread);
+    received.and(recorded)
 }
 
 #[cfg(test)]

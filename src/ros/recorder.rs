@@ -17,7 +17,7 @@ use crate::messages::{topics, RosMessage};
 use crate::recording::{now_ns, runs, to_cdr, BagSummary, BagWriter, WriterOptions};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{self, Receiver, Sender, TryRecvError};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 
 type Encode = Box<dyn FnOnce() -> Result<Vec<u8>> + Send>;
@@ -36,6 +36,8 @@ enum Entry {
 pub struct Recorder {
     namespace: String,
     directory: PathBuf,
+    /// Write errors so far and the first of them.
+    failures: Arc<Mutex<(u64, Option<String>)>>,
     tx: Mutex<Option<Sender<Entry>>>,
     thread: Mutex<Option<JoinHandle<Result<BagSummary>>>>,
 }
@@ -98,11 +100,16 @@ impl Recorder {
         writer.flush()?;
         writer.write_metadata_yaml()?;
         let (tx, rx) = mpsc::channel();
+        let failures = Arc::new(Mutex::new((0, None)));
         let thread = std::thread::Builder::new()
             .name("recorder".into())
-            .spawn(move || write_loop(writer, rx))
+            .spawn({
+                let failures = Arc::clone(&failures);
+                move || write_loop(writer, rx, &failures)
+            })
             .map_err(|e| Error::planning(format!("cannot start the recorder thread: {e}")))?;
         Ok(Recorder {
+            failures,
             namespace: namespace.trim_end_matches('/').to_string(),
             directory,
             tx: Mutex::new(Some(tx)),
@@ -137,6 +144,11 @@ impl Recorder {
         self.send(Entry::JobDone);
     }
 
+    /// The number of write errors so far and the first of them.
+    pub fn failures(&self) -> (u64, Option<String>) {
+        lock(&self.failures).clone()
+    }
+
     /// Writes what is queued, the summary and metadata.yaml. Idempotent.
     pub fn finish(&self) -> Option<Result<BagSummary>> {
         drop(lock(&self.tx).take());
@@ -155,7 +167,19 @@ impl Drop for Recorder {
     }
 }
 
-fn write_loop(mut writer: BagWriter, rx: Receiver<Entry>) -> Result<BagSummary> {
+/// Counts a write error and logs it.
+fn failed(failures: &Mutex<(u64, Option<String>)>, what: String) {
+    log::error!("{what}");
+    let mut f = lock(failures);
+    f.0 += 1;
+    f.1.get_or_insert(what);
+}
+
+fn write_loop(
+    mut writer: BagWriter,
+    rx: Receiver<Entry>,
+    failures: &Mutex<(u64, Option<String>)>,
+) -> Result<BagSummary> {
     let mut flush_due = false;
     loop {
         let entry = if flush_due {
@@ -163,7 +187,7 @@ fn write_loop(mut writer: BagWriter, rx: Receiver<Entry>) -> Result<BagSummary> 
                 Ok(e) => Some(e),
                 Err(TryRecvError::Empty) => {
                     if let Err(e) = writer.flush().and_then(|()| writer.write_metadata_yaml()) {
-                        log::error!("recording: {e}");
+                        failed(failures, format!("recording: {e}"));
                     }
                     flush_due = false;
                     continue;
@@ -183,7 +207,7 @@ fn write_loop(mut writer: BagWriter, rx: Receiver<Entry>) -> Result<BagSummary> 
             }) => {
                 let written = encode().and_then(|data| writer.write_raw(&topic, time_ns, &data));
                 if let Err(e) = written {
-                    log::error!("recording {topic}: {e}");
+                    failed(failures, format!("recording {topic}: {e}"));
                 }
             }
         }
