@@ -654,7 +654,7 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         no_timing: false,
     };
     let mut handles = Vec::new();
-    for k in 0..settings.workers {
+    for k in 0..settings.worker_count() {
         let (s, o, m) = (Arc::clone(&shared), Arc::clone(&outputs), config.machines());
         let timeout_s = settings.surface_timeout_s;
         let h = std::thread::Builder::new()
