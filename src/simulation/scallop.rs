@@ -242,6 +242,8 @@ pub struct Simulator<'a> {
     cutter: CutterShape,
     segments: Vec<Segment>,
     buckets: Buckets,
+    /// Box of each segment's swept tool (what the buckets index).
+    boxes: Vec<(Vector3<f64>, Vector3<f64>)>,
     /// Residuals above this are "not reached" (the tool radius).
     cap: f64,
     /// Gouges are searched to this depth below the surface (the tool diameter);
@@ -382,12 +384,13 @@ impl<'a> Simulator<'a> {
                 (lo - pad, hi + pad)
             })
             .collect();
-        let buckets = Buckets::new(&boxes, 2.0 * big_r);
+        let buckets = Buckets::new(&boxes, big_r);
         Ok(Self {
             surface,
             cutter,
             segments,
             buckets,
+            boxes,
             cap: big_r,
             depth: 2.0 * big_r,
             scan_step: big_r / 8.0,
@@ -825,12 +828,24 @@ impl<'a> Simulator<'a> {
             sc.query = 1;
         }
         let (stamp, ids, query) = (&mut sc.stamp, &mut sc.ids, sc.query);
+        let boxes = &self.boxes;
         self.buckets.visit(&lo, &hi, |cell| {
             for &id in cell {
                 if let Some(m) = stamp.get_mut(id as usize) {
                     if *m != query {
                         *m = query;
-                        ids.push(id);
+                        // A cell is larger than both boxes: keep only the
+                        // segments whose own box meets the line's.
+                        if boxes.get(id as usize).is_some_and(|(a, b)| {
+                            a.x <= hi.x
+                                && a.y <= hi.y
+                                && a.z <= hi.z
+                                && b.x >= lo.x
+                                && b.y >= lo.y
+                                && b.z >= lo.z
+                        }) {
+                            ids.push(id);
+                        }
                     }
                 }
             }
