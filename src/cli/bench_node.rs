@@ -236,9 +236,9 @@ pub fn run(jobs: usize, points: usize, burst: usize, bursts: usize) -> Result<()
     Ok(())
 }
 
-/// The launch config the benchmark runs the node with: planning only, one
-/// worker (the figures are the node's, not the planners' parallelism).
-pub const NODE_CONFIG: &str = "node:\n  verify: false\n  workers: 1\n";
+/// The launch config the benchmark runs the node with: planning only, the
+/// default workers (one per available core).
+pub const NODE_CONFIG: &str = "node:\n  verify: false\n";
 
 fn runtime() -> Result<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_multi_thread()

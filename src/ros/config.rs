@@ -23,10 +23,27 @@ pub struct NodeSettings {
     pub frame_id: String,
     /// How long a job waits for its surface (or pocket) to arrive, s.
     pub surface_timeout_s: f64,
-    /// Planning worker threads.
+    /// Planning worker threads; 0 (the default) = one per available core
+    /// ([`NodeSettings::worker_count`]). Each job is planned on one worker, and
+    /// its result does not depend on how many there are.
     pub workers: usize,
     /// Run the simulator check after planning (fills max_scallop_mm).
     pub verify: bool,
+}
+
+/// Most planning workers a config may ask for.
+pub const MAX_WORKERS: usize = 256;
+
+impl NodeSettings {
+    /// Planning threads the node starts: `workers`, or the machine's available
+    /// cores when it is 0.
+    pub fn worker_count(&self) -> usize {
+        if self.workers == 0 {
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        } else {
+            self.workers
+        }
+    }
 }
 
 impl Default for NodeSettings {
@@ -38,7 +55,7 @@ impl Default for NodeSettings {
             interfaces: vec!["127.0.0.1".into()],
             frame_id: "workpiece".into(),
             surface_timeout_s: 10.0,
-            workers: 1,
+            workers: 0,
             verify: true,
         }
     }
@@ -206,8 +223,14 @@ impl NodeConfig {
                 "must be a finite number >= 0",
             ));
         }
-        if n.workers == 0 {
-            return Err(Error::invalid("node.workers", "must be at least 1"));
+        if n.workers > MAX_WORKERS {
+            return Err(Error::invalid(
+                "node.workers",
+                format!(
+                    "{} is above the limit {MAX_WORKERS} (0 = one per available core)",
+                    n.workers
+                ),
+            ));
         }
         if let Some(d) = n.domain_id {
             if d > 232 {
@@ -326,5 +349,17 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("post.format: unknown format \"okuma\""), "{e}");
+        let e = NodeConfig::parse("node:\n  workers: 100000\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("node.workers") && e.contains("100000"), "{e}");
+    }
+
+    #[test]
+    fn default_workers_are_one_per_available_core() {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        assert_eq!(NodeConfig::default().node.worker_count(), cores);
+        let two = NodeConfig::parse("node:\n  workers: 2\n").unwrap();
+        assert_eq!(two.node.worker_count(), 2);
     }
 }

@@ -796,7 +796,7 @@ fn start_workers(
         no_timing: false,
     };
     let mut handles = Vec::new();
-    for k in 0..settings.workers {
+    for k in 0..settings.worker_count() {
         let (s, o, m) = (Arc::clone(shared), Arc::clone(outputs), config.machines());
         let timeout_s = settings.surface_timeout_s;
         let h = std::thread::Builder::new()

@@ -192,151 +192,234 @@ pub fn simulate_on_grid(
         ));
     }
     let ((u0, u1), (v0, v1)) = surface.domain();
-    let (du, dv) = ((u1 - u0) / (nu - 1) as f64, (v1 - v0) / (nv - 1) as f64);
-    let mut points = Vec::with_capacity(nu * nv);
-    let mut normals = Vec::with_capacity(nu * nv);
-    for i in 0..nu {
-        let u = if i + 1 == nu { u1 } else { u0 + du * i as f64 };
-        for j in 0..nv {
-            let v = if j + 1 == nv { v1 } else { v0 + dv * j as f64 };
-            let d = surface.derivs(u, v);
-            points.push(d.p);
-            normals.push(
-                d.su.cross(&d.sv)
-                    .try_normalize(1e-300)
-                    .unwrap_or_else(Vector3::zeros),
-            );
+    let grid = HeightField::sample(surface, nu, nv);
+    let n_nodes = nu * nv;
+    let mut fields = Fields {
+        clearance: vec![f64::INFINITY; n_nodes],
+        depth: vec![f64::NEG_INFINITY; n_nodes],
+        near_gouge: vec![0.0f32; n_nodes],
+    };
+    let wheel = Wheel {
+        // Belts laid edge to edge must both reach the node on their common edge.
+        half: 0.5 * width * (1.0 + 1e-9),
+        radius: wheel_radius,
+        resolution,
+    };
+    for (pi, pass) in result.passes.iter().enumerate() {
+        let pos = wheel_positions(surface, pass, pi, &wheel, params)?;
+        grind_pass(&grid, &pos, &wheel, &mut fields);
+    }
+    let stats = removal_stats(&mut fields, params, resolution)?;
+    Ok(Simulation {
+        nu,
+        nv,
+        u_range: [u0, u1],
+        v_range: [v0, v1],
+        depth: fields.depth,
+        clearance: fields.clearance,
+        stats,
+    })
+}
+
+/// The part: surface points and unit normals on the node grid (row-major, i along u).
+struct HeightField {
+    nu: usize,
+    nv: usize,
+    u0: f64,
+    v0: f64,
+    du: f64,
+    dv: f64,
+    points: Vec<nalgebra::Point3<f64>>,
+    normals: Vec<Vector3<f64>>,
+}
+
+impl HeightField {
+    fn sample(surface: &NurbsSurface, nu: usize, nv: usize) -> Self {
+        let ((u0, u1), (v0, v1)) = surface.domain();
+        let (du, dv) = ((u1 - u0) / (nu - 1) as f64, (v1 - v0) / (nv - 1) as f64);
+        let mut points = Vec::with_capacity(nu * nv);
+        let mut normals = Vec::with_capacity(nu * nv);
+        for i in 0..nu {
+            let u = if i + 1 == nu { u1 } else { u0 + du * i as f64 };
+            for j in 0..nv {
+                let v = if j + 1 == nv { v1 } else { v0 + dv * j as f64 };
+                let d = surface.derivs(u, v);
+                points.push(d.p);
+                normals.push(
+                    d.su.cross(&d.sv)
+                        .try_normalize(1e-300)
+                        .unwrap_or_else(Vector3::zeros),
+                );
+            }
+        }
+        Self {
+            nu,
+            nv,
+            u0,
+            v0,
+            du,
+            dv,
+            points,
+            normals,
         }
     }
-    let n_nodes = nu * nv;
-    let mut clearance = vec![f64::INFINITY; n_nodes];
-    let mut depth = vec![f64::NEG_INFINITY; n_nodes];
-    // Reported gouge of the wheel position closest to each node.
-    let mut near_gouge = vec![0.0f32; n_nodes];
-    // Belts laid edge to edge must both reach the node on their common edge.
-    let half = 0.5 * width * (1.0 + 1e-9);
-    let r_wheel = wheel_radius;
+}
 
-    for (pi, pass) in result.passes.iter().enumerate() {
-        // Per point: wheel centre, axis, Hamann depth and a uv box of its reach.
-        type Position = (Vector3<f64>, Vector3<f64>, f64, [f64; 4], f32, Vector3<f64>);
-        let mut pos: Vec<Position> = Vec::with_capacity(pass.points.len());
-        for (k, q) in pass.points.iter().enumerate() {
-            let field = |name: &str| format!("passes[{pi}].points[{k}].{name}");
-            let (u, v) = (q.uv[0], q.uv[1]);
-            if !(u.is_finite() && v.is_finite()) {
-                return Err(Error::invalid(field("uv"), "is not finite"));
-            }
-            let geom = LocalGeometry::at(surface, u, v).ok_or_else(|| {
-                Error::invalid(field("uv"), "the surface normal is undefined there")
-            })?;
-            let axis = vec3(q.wheel_axis.unwrap_or(q.axis))
-                .try_normalize(1e-12)
-                .ok_or_else(|| Error::invalid(field("wheel_axis"), "must be a non-zero vector"))?;
-            let centre = vec3(q.wheel_center.unwrap_or(q.cl));
-            let feed = axis.cross(&geom.n);
-            let kappa = geom.normal_curvature(feed);
-            let (r, _) = hamann_depth(params, r_wheel, kappa);
-            // Reach along the feed: where the wheel rises REACH_MARGIN above its depth.
-            let reach_f = (2.0 * r_wheel * (r + REACH_MARGIN)).sqrt();
-            let a_uv = geom.tangent_to_uv(axis) * (half + resolution);
-            let f_uv = geom.tangent_to_uv(feed) * (reach_f + resolution);
-            let (eu, ev) = (a_uv.x.abs() + f_uv.x.abs(), a_uv.y.abs() + f_uv.y.abs());
-            pos.push((
-                centre,
-                axis,
-                r,
-                [u - eu, u + eu, v - ev, v + ev],
-                q.gouge.unwrap_or(0.0) as f32,
-                geom.point().coords,
-            ));
+/// Per-node results of the grinding so far.
+struct Fields {
+    clearance: Vec<f64>,
+    depth: Vec<f64>,
+    /// Reported gouge of the wheel position closest to each node.
+    near_gouge: Vec<f32>,
+}
+
+/// The wheel's size and the node slack beyond a pass end.
+struct Wheel {
+    half: f64,
+    radius: f64,
+    resolution: f64,
+}
+
+/// One wheel position: centre, axis, Hamann depth, uv box of its reach,
+/// reported gouge, contact point.
+type Position = (Vector3<f64>, Vector3<f64>, f64, [f64; 4], f32, Vector3<f64>);
+
+/// The wheel positions of pass `pi`.
+fn wheel_positions(
+    surface: &NurbsSurface,
+    pass: &crate::formats::Pass,
+    pi: usize,
+    wheel: &Wheel,
+    params: &GrindingParams,
+) -> Result<Vec<Position>> {
+    let r_wheel = wheel.radius;
+    let mut pos: Vec<Position> = Vec::with_capacity(pass.points.len());
+    for (k, q) in pass.points.iter().enumerate() {
+        let field = |name: &str| format!("passes[{pi}].points[{k}].{name}");
+        let (u, v) = (q.uv[0], q.uv[1]);
+        if !(u.is_finite() && v.is_finite()) {
+            return Err(Error::invalid(field("uv"), "is not finite"));
         }
-        let segments: Vec<(usize, usize)> = if pos.len() == 1 {
-            vec![(0, 0)]
+        let geom = LocalGeometry::at(surface, u, v)
+            .ok_or_else(|| Error::invalid(field("uv"), "the surface normal is undefined there"))?;
+        let axis = vec3(q.wheel_axis.unwrap_or(q.axis))
+            .try_normalize(1e-12)
+            .ok_or_else(|| Error::invalid(field("wheel_axis"), "must be a non-zero vector"))?;
+        let centre = vec3(q.wheel_center.unwrap_or(q.cl));
+        let feed = axis.cross(&geom.n);
+        let kappa = geom.normal_curvature(feed);
+        let (r, _) = hamann_depth(params, r_wheel, kappa);
+        // Reach along the feed: where the wheel rises REACH_MARGIN above its depth.
+        let reach_f = (2.0 * r_wheel * (r + REACH_MARGIN)).sqrt();
+        let a_uv = geom.tangent_to_uv(axis) * (wheel.half + wheel.resolution);
+        let f_uv = geom.tangent_to_uv(feed) * (reach_f + wheel.resolution);
+        let (eu, ev) = (a_uv.x.abs() + f_uv.x.abs(), a_uv.y.abs() + f_uv.y.abs());
+        pos.push((
+            centre,
+            axis,
+            r,
+            [u - eu, u + eu, v - ev, v + ev],
+            q.gouge.unwrap_or(0.0) as f32,
+            geom.point().coords,
+        ));
+    }
+    Ok(pos)
+}
+
+/// Sweeps the wheel between consecutive positions of one pass over the nodes
+/// it reaches, keeping each node's lowest clearance and deepest removal.
+fn grind_pass(grid: &HeightField, pos: &[Position], wheel: &Wheel, fields: &mut Fields) {
+    let segments: Vec<(usize, usize)> = if pos.len() == 1 {
+        vec![(0, 0)]
+    } else {
+        (0..pos.len().saturating_sub(1))
+            .map(|k| (k, k + 1))
+            .collect()
+    };
+    let last_segment = segments.len().saturating_sub(1);
+    let (nu, nv) = (grid.nu, grid.nv);
+    for (si, (ka, kb)) in segments.into_iter().enumerate() {
+        let (wa, axa, ra, boxa, ga, cca) = pos[ka];
+        let (wb, axb, rb, boxb, gb, ccb) = pos[kb];
+        let cc_seg = ccb - cca;
+        let cc_len2 = cc_seg.norm_squared();
+        let axis = (axa + axb).try_normalize(1e-12).unwrap_or(axa);
+        let seg = wb - wa;
+        let seg_perp = seg - axis * seg.dot(&axis);
+        let seg_len2 = seg_perp.norm_squared();
+        let (ulo, uhi) = (boxa[0].min(boxb[0]), boxa[1].max(boxb[1]));
+        let (vlo, vhi) = (boxa[2].min(boxb[2]), boxa[3].max(boxb[3]));
+        let i0 = (((ulo - grid.u0) / grid.du).floor().max(0.0)) as usize;
+        let i1 = (((uhi - grid.u0) / grid.du).ceil().min((nu - 1) as f64)) as usize;
+        let j0 = (((vlo - grid.v0) / grid.dv).floor().max(0.0)) as usize;
+        let j1 = (((vhi - grid.v0) / grid.dv).ceil().min((nv - 1) as f64)) as usize;
+        // Beyond the ends of the pass the wheel never passed over the node.
+        let beyond = wheel.resolution / cc_len2.sqrt().max(1e-12);
+        // Inside the pass a node projecting beyond a segment belongs to the
+        // neighbouring one (half a segment of slack for the outside of corners).
+        let lo_s = if si == 0 { -beyond } else { -0.5 };
+        let hi_s = if si == last_segment {
+            1.0 + beyond
         } else {
-            (0..pos.len().saturating_sub(1))
-                .map(|k| (k, k + 1))
-                .collect()
+            1.5
         };
-        let last_segment = segments.len().saturating_sub(1);
-        for (si, (ka, kb)) in segments.into_iter().enumerate() {
-            let (wa, axa, ra, boxa, ga, cca) = pos[ka];
-            let (wb, axb, rb, boxb, gb, ccb) = pos[kb];
-            let cc_seg = ccb - cca;
-            let cc_len2 = cc_seg.norm_squared();
-            let axis = (axa + axb).try_normalize(1e-12).unwrap_or(axa);
-            let seg = wb - wa;
-            let seg_perp = seg - axis * seg.dot(&axis);
-            let seg_len2 = seg_perp.norm_squared();
-            let (ulo, uhi) = (boxa[0].min(boxb[0]), boxa[1].max(boxb[1]));
-            let (vlo, vhi) = (boxa[2].min(boxb[2]), boxa[3].max(boxb[3]));
-            let i0 = (((ulo - u0) / du).floor().max(0.0)) as usize;
-            let i1 = (((uhi - u0) / du).ceil().min((nu - 1) as f64)) as usize;
-            let j0 = (((vlo - v0) / dv).floor().max(0.0)) as usize;
-            let j1 = (((vhi - v0) / dv).ceil().min((nv - 1) as f64)) as usize;
-            for i in i0..=i1 {
-                for j in j0..=j1 {
-                    let idx = i * nv + j;
-                    let e = points[idx].coords - wa;
-                    let e_perp = e - axis * e.dot(&axis);
-                    let s_free = if seg_len2 > 0.0 {
-                        e_perp.dot(&seg_perp) / seg_len2
-                    } else {
-                        0.0
-                    };
-                    // Which segment a node belongs to is decided along the
-                    // contact path (the wheel centres bunch up where the wheel
-                    // nearly fits a concave section). Beyond the ends of the
-                    // pass the wheel never passed over the node.
-                    let s_cc = if cc_len2 > 0.0 {
-                        (points[idx].coords - cca).dot(&cc_seg) / cc_len2
-                    } else {
-                        0.0
-                    };
-                    let beyond = resolution / cc_len2.sqrt().max(1e-12);
-                    // Inside the pass a node projecting beyond a segment
-                    // belongs to the neighbouring one (half a segment of slack
-                    // for the outside of corners).
-                    let (lo_s, hi_s) = (
-                        if si == 0 { -beyond } else { -0.5 },
-                        if si == last_segment {
-                            1.0 + beyond
-                        } else {
-                            1.5
-                        },
-                    );
-                    if s_cc < lo_s || s_cc > hi_s {
-                        continue;
-                    }
-                    let s = s_free.clamp(0.0, 1.0);
-                    // The machine turns the wheel axis linearly between the
-                    // points: measure against the pose at s itself.
-                    let axis_s = (axa + (axb - axa) * s).try_normalize(1e-12).unwrap_or(axis);
-                    let e_s = e - seg * s;
-                    let axial = e_s.dot(&axis_s);
-                    if axial.abs() > half {
-                        continue;
-                    }
-                    let radial = e_s - axis_s * axial;
-                    // Only the part of the wheel facing the surface grinds.
-                    if radial.dot(&normals[idx]) > 0.0 {
-                        continue;
-                    }
-                    let c = radial.norm() - r_wheel;
-                    if c < clearance[idx] {
-                        clearance[idx] = c;
-                        near_gouge[idx] = if s < 0.5 { ga } else { gb };
-                    }
-                    let cut = ra + s * (rb - ra) - c;
-                    if cut > depth[idx] {
-                        depth[idx] = cut;
-                    }
+        for i in i0..=i1 {
+            for j in j0..=j1 {
+                let idx = i * nv + j;
+                let e = grid.points[idx].coords - wa;
+                let e_perp = e - axis * e.dot(&axis);
+                let s_free = if seg_len2 > 0.0 {
+                    e_perp.dot(&seg_perp) / seg_len2
+                } else {
+                    0.0
+                };
+                // Which segment a node belongs to is decided along the contact
+                // path (the wheel centres bunch up where the wheel nearly fits
+                // a concave section).
+                let s_cc = if cc_len2 > 0.0 {
+                    (grid.points[idx].coords - cca).dot(&cc_seg) / cc_len2
+                } else {
+                    0.0
+                };
+                if s_cc < lo_s || s_cc > hi_s {
+                    continue;
+                }
+                let s = s_free.clamp(0.0, 1.0);
+                // The machine turns the wheel axis linearly between the points:
+                // measure against the pose at s itself.
+                let axis_s = (axa + (axb - axa) * s).try_normalize(1e-12).unwrap_or(axis);
+                let e_s = e - seg * s;
+                let axial = e_s.dot(&axis_s);
+                if axial.abs() > wheel.half {
+                    continue;
+                }
+                let radial = e_s - axis_s * axial;
+                // Only the part of the wheel facing the surface grinds.
+                if radial.dot(&grid.normals[idx]) > 0.0 {
+                    continue;
+                }
+                let c = radial.norm() - wheel.radius;
+                if c < fields.clearance[idx] {
+                    fields.clearance[idx] = c;
+                    fields.near_gouge[idx] = if s < 0.5 { ga } else { gb };
+                }
+                let cut = ra + s * (rb - ra) - c;
+                if cut > fields.depth[idx] {
+                    fields.depth[idx] = cut;
                 }
             }
         }
     }
+}
 
-    // Statistics over the ground nodes.
+/// Statistics over the ground nodes; sets the depth of the others to NaN and
+/// clamps the ground ones at 0.
+fn removal_stats(
+    fields: &mut Fields,
+    params: &GrindingParams,
+    resolution: f64,
+) -> Result<RemovalStats> {
+    let n_nodes = fields.depth.len();
     let mut stats = RemovalStats {
         nodes: n_nodes,
         resolution_mm: resolution,
@@ -347,18 +430,18 @@ pub fn simulate_on_grid(
     let (mut sum, mut lo, mut hi) = (0.0, f64::INFINITY, f64::NEG_INFINITY);
     let mut ground = 0usize;
     for idx in 0..n_nodes {
-        if !clearance[idx].is_finite() {
-            depth[idx] = f64::NAN;
+        if !fields.clearance[idx].is_finite() {
+            fields.depth[idx] = f64::NAN;
             continue;
         }
-        let d = depth[idx].max(0.0);
-        depth[idx] = d;
+        let d = fields.depth[idx].max(0.0);
+        fields.depth[idx] = d;
         ground += 1;
         sum += d;
         lo = lo.min(d);
         hi = hi.max(d);
-        let c = clearance[idx];
-        if c > 0.0 && f64::from(near_gouge[idx]) <= crate::tools::BELT_GOUGE_EPS {
+        let c = fields.clearance[idx];
+        if c > 0.0 && f64::from(fields.near_gouge[idx]) <= crate::tools::BELT_GOUGE_EPS {
             stats.max_scallop_mm = stats.max_scallop_mm.max(c);
         }
         if c < 0.0 {
@@ -372,7 +455,8 @@ pub fn simulate_on_grid(
         ));
     }
     let mean = sum / ground as f64;
-    let var = depth
+    let var = fields
+        .depth
         .iter()
         .filter(|d| d.is_finite())
         .map(|d| (d - mean) * (d - mean))
@@ -386,15 +470,7 @@ pub fn simulate_on_grid(
     stats.max_mm = hi;
     stats.std_mm = std;
     stats.uniformity = if mean > 0.0 { 1.0 - std / mean } else { 0.0 };
-    Ok(Simulation {
-        nu,
-        nv,
-        u_range: [u0, u1],
-        v_range: [v0, v1],
-        depth,
-        clearance,
-        stats,
-    })
+    Ok(stats)
 }
 
 /// Simulates a belt result for its job: the job's belt, grinding parameters

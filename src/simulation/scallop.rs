@@ -208,6 +208,11 @@ impl Buckets {
 
     /// Appends the ids of segments in cells meeting the box [a, b] (unsorted, with repeats).
     fn query(&self, a: &Vector3<f64>, b: &Vector3<f64>, out: &mut Vec<u32>) {
+        self.visit(a, b, |ids| out.extend_from_slice(ids));
+    }
+
+    /// Calls `f` with the segment ids of every cell meeting the box [a, b].
+    fn visit(&self, a: &Vector3<f64>, b: &Vector3<f64>, mut f: impl FnMut(&[u32])) {
         let mut r = [(0usize, 0usize); 3];
         for k in 0..3 {
             let f0 = (a[k] - self.origin[k]) / self.cell;
@@ -224,9 +229,7 @@ impl Buckets {
             for j in r[1].0..=r[1].1 {
                 for k in r[2].0..=r[2].1 {
                     let c = (i * self.dims[1] + j) * self.dims[2] + k;
-                    out.extend_from_slice(
-                        &self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize],
-                    );
+                    f(&self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize]);
                 }
             }
         }
@@ -239,6 +242,8 @@ pub struct Simulator<'a> {
     cutter: CutterShape,
     segments: Vec<Segment>,
     buckets: Buckets,
+    /// Box of each segment's swept tool (what the buckets index).
+    boxes: Vec<(Vector3<f64>, Vector3<f64>)>,
     /// Residuals above this are "not reached" (the tool radius).
     cap: f64,
     /// Gouges are searched to this depth below the surface (the tool diameter);
@@ -248,8 +253,44 @@ pub struct Simulator<'a> {
     scan_step: f64,
 }
 
+/// Slope of the drop between two scanned positions (NaN if either is missing or infinite).
+fn slope(a: (f64, f64), b: (f64, f64)) -> f64 {
+    if a.1.is_finite() && b.1.is_finite() {
+        (b.1 - a.1) / (b.0 - a.0)
+    } else {
+        f64::NAN
+    }
+}
+
+/// Per-thread working memory of the fast residual.
+struct Scratch {
+    ids: Vec<u32>,
+    /// Per segment, the number of the last query that listed it.
+    stamp: Vec<u32>,
+    query: u32,
+    /// The segment that gave the previous sample's residual.
+    last_best: Option<u32>,
+}
+
+impl Scratch {
+    fn new(segments: usize) -> Self {
+        Self {
+            ids: Vec::new(),
+            stamp: vec![0; segments],
+            query: 0,
+            last_best: None,
+        }
+    }
+}
+
 /// A surface sample: point, unit tool-side normal, area weight (`None` where the normal is undefined).
 type Frame = Option<(Vector3<f64>, Vector3<f64>, f64)>;
+
+/// The fast residual relies on the drop being convex in the motion parameter,
+/// which holds exactly for a translating tool; a turning axis bends it by a few
+/// 1e-4 mm at most on real plans. A motion is only left unrefined when the
+/// convexity bounds put it this far above the lowest drop found so far.
+const CONVEXITY_SLACK_MM: f64 = 5e-3;
 
 /// Motion parameter resolution of the sweep refinement, mm.
 const SWEEP_TOL_MM: f64 = 1e-5;
@@ -343,12 +384,13 @@ impl<'a> Simulator<'a> {
                 (lo - pad, hi + pad)
             })
             .collect();
-        let buckets = Buckets::new(&boxes, 2.0 * big_r);
+        let buckets = Buckets::new(&boxes, big_r);
         Ok(Self {
             surface,
             cutter,
             segments,
             buckets,
+            boxes,
             cap: big_r,
             depth: 2.0 * big_r,
             scan_step: big_r / 8.0,
@@ -362,8 +404,206 @@ impl<'a> Simulator<'a> {
             .unwrap_or(f64::INFINITY)
     }
 
-    /// Lowest drop of the tool swept along `seg` at the line p + t n.
-    fn sweep_min(&self, seg: &Segment, p: &Vector3<f64>, n: &Vector3<f64>) -> f64 {
+    /// Lowest drop of the tool swept along `seg` at the line p + t n, or some
+    /// value >= `cutoff` when the drop cannot go below `cutoff`.
+    ///
+    /// The same scan and refinement as [`Self::sweep_min_reference`], cut short
+    /// by the convexity of the drop in the motion parameter (docs/methods.md,
+    /// "Scallop simulator"): once the scanned drop rises it keeps rising, so
+    /// the scan stops there (and where the line leaves the tool's reach); a
+    /// secant through two scanned drops bounds the drop beyond them from below,
+    /// so a segment that cannot beat `cutoff` is left before its refinement.
+    fn sweep_min(&self, seg: &Segment, p: &Vector3<f64>, n: &Vector3<f64>, cutoff: f64) -> f64 {
+        let k = ((seg.travel / self.scan_step).ceil() as usize).clamp(1, 4096);
+        let ds = 1.0 / k as f64;
+        let s_close = self.closest_position(seg, p, n);
+        const NONE: (f64, f64) = (f64::NAN, f64::INFINITY);
+        let mut best = NONE;
+        let mut left = NONE;
+        let mut right = NONE;
+        // The last two scanned positions, most recent last.
+        let mut prev2 = NONE;
+        let mut prev = NONE;
+        let mut right_pending = false;
+        let mut extra = Some(s_close);
+        let mut i = 0;
+        while i <= k {
+            let grid = i as f64 * ds;
+            let s = match extra {
+                Some(e) if e < grid => {
+                    extra = None;
+                    e
+                }
+                Some(e) if e == grid => {
+                    extra = None;
+                    i += 1;
+                    grid
+                }
+                _ => {
+                    i += 1;
+                    grid
+                }
+            };
+            let h = self.drop_at(seg, s, p, n);
+            if h < best.1 {
+                best = (s, h);
+                left = prev;
+                right = NONE;
+                right_pending = true;
+            } else if right_pending {
+                right = (s, h);
+                right_pending = false;
+            }
+            if prev.1.is_finite() && (!h.is_finite() || h > prev.1) {
+                // Past the minimum, or out of the tool's reach for good.
+                break;
+            }
+            if prev2.1.is_finite() && prev.1.is_finite() && h <= prev.1 {
+                // Drops falling: nothing before `prev` is below prev.1, nothing after
+                // it below the secant through prev2 and prev.
+                let slope = (prev.1 - prev2.1) / (prev.0 - prev2.0);
+                if prev.1 + slope.min(0.0) * (1.0 - prev.0) >= cutoff + CONVEXITY_SLACK_MM {
+                    return f64::INFINITY;
+                }
+            }
+            prev2 = prev;
+            prev = (s, h);
+        }
+        if !best.1.is_finite() {
+            return best.1;
+        }
+        // The drop is convex: left of the best position it lies above the secant
+        // through the best and its right neighbour, right of it above the one
+        // through its left neighbour (an unscanned side has nothing to bound).
+        let m_left = slope(left, best);
+        let m_right = slope(best, right);
+        let low_left = if left.0.is_nan() {
+            best.1
+        } else if m_right.is_nan() {
+            f64::NEG_INFINITY
+        } else {
+            best.1 - m_right.max(0.0) * (best.0 - left.0)
+        };
+        let low_right = if right.0.is_nan() {
+            best.1
+        } else if m_left.is_nan() {
+            f64::NEG_INFINITY
+        } else {
+            best.1 + m_left.min(0.0) * (right.0 - best.0)
+        };
+        if low_left.min(low_right) >= cutoff + CONVEXITY_SLACK_MM {
+            return f64::INFINITY;
+        }
+        if seg.travel <= 0.0 {
+            return best.1;
+        }
+        // Probe one tolerance step to each side: a drop that rises on both
+        // sides (or leaves the tool's reach) has its minimum at the best position.
+        let tol = SWEEP_TOL_MM / seg.travel;
+        let falls = |side: (f64, f64)| {
+            if side.0.is_nan() || (side.0 - best.0).abs() <= tol {
+                return false;
+            }
+            let s = best.0 + tol.copysign(side.0 - best.0);
+            self.drop_at(seg, s, p, n) < best.1
+        };
+        let (to_left, to_right) = (falls(left), falls(right));
+        match (to_left, to_right) {
+            (false, false) if best.1 >= cutoff + CONVEXITY_SLACK_MM => return best.1,
+            (true, false) if left.1 == f64::INFINITY && right.1.is_finite() => {
+                return self.edge_minimum(seg, p, n, best, left.0, right, tol, cutoff);
+            }
+            (false, true) if right.1 == f64::INFINITY && left.1.is_finite() => {
+                return self.edge_minimum(seg, p, n, best, right.0, left, tol, cutoff);
+            }
+            (true, false) => return self.refine_bracket(seg, p, n, best, left, NONE),
+            (false, true) => return self.refine_bracket(seg, p, n, best, NONE, right),
+            _ => {}
+        }
+        self.refine_bracket(seg, p, n, best, left, right)
+    }
+
+    /// Minimum of the drop between the edge of the tool's reach (between
+    /// `s_out`, where the line misses, and `inner.0`) and the finite scanned
+    /// drop `far` beyond `inner`, or infinity once it cannot beat `cutoff`.
+    /// The edge is bisected as in [`Self::edge`], each step checking the
+    /// convexity bound of the drop past the last hit; a drop that rises from
+    /// the edge has its minimum there, else golden section finishes it.
+    #[allow(clippy::too_many_arguments)]
+    fn edge_minimum(
+        &self,
+        seg: &Segment,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        inner: (f64, f64),
+        mut s_out: f64,
+        far: (f64, f64),
+        tol: f64,
+        cutoff: f64,
+    ) -> f64 {
+        let (mut s_in, mut f_in) = inner;
+        // Between `inner` and `far` the drop lies above the secant through
+        // `inner` and `far` (towards the edge) and above the one through the
+        // last hit and `inner` (away from it).
+        let rise_far = (far.1 - inner.1) / (far.0 - inner.0).abs();
+        let low_inner = inner.1 - rise_far.max(0.0) * (inner.0 - s_out).abs();
+        for _ in 0..80 {
+            // Past the last hit, the drop lies above the secant through it and `far`.
+            let rise = (far.1 - f_in) / (far.0 - s_in).abs();
+            let low_edge = f_in - rise.max(0.0) * (s_in - s_out).abs();
+            let low_far = if s_in == inner.0 {
+                f64::NEG_INFINITY
+            } else {
+                let fall = (inner.1 - f_in) / (inner.0 - s_in).abs();
+                inner.1 + fall.min(0.0) * (far.0 - inner.0).abs()
+            };
+            if low_edge.min(low_inner).min(low_far) >= cutoff + CONVEXITY_SLACK_MM {
+                return f64::INFINITY;
+            }
+            if (s_out - s_in).abs() <= tol * 0.1 {
+                break;
+            }
+            let mid = 0.5 * (s_in + s_out);
+            let f = self.drop_at(seg, mid, p, n);
+            if f.is_finite() {
+                s_in = mid;
+                f_in = f;
+            } else {
+                s_out = mid;
+            }
+        }
+        let step = if far.0 > s_in { tol } else { -tol };
+        if (far.0 - s_in).abs() > tol && self.drop_at(seg, s_in + step, p, n) >= f_in {
+            return f_in.min(inner.1).min(far.1);
+        }
+        let (lo, hi) = if far.0 > s_in {
+            ((s_in, f_in), far)
+        } else {
+            (far, (s_in, f_in))
+        };
+        self.golden(seg, p, n, lo, hi, tol).min(inner.1)
+    }
+
+    /// Motion parameter where the line passes closest to the tool axis at the
+    /// corner height: near the edge of a tool's reach the line meets the moving
+    /// tool only over a short stretch around it, so the scan includes it.
+    fn closest_position(&self, seg: &Segment, p: &Vector3<f64>, n: &Vector3<f64>) -> f64 {
+        let corner = self.cutter.corner_radius;
+        let w0 = seg.tip0 + seg.axis0 * corner - p;
+        let w1 = seg.tip1 + seg.axis1 * corner - p;
+        let (w0, dw) = (w0 - n * w0.dot(n), (w1 - w0) - n * (w1 - w0).dot(n));
+        let dd = dw.norm_squared();
+        if dd > 1e-30 {
+            (-w0.dot(&dw) / dd).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// Lowest drop of the tool swept along `seg` at the line p + t n: the
+    /// whole scan, then the refinement around its best position (the exact
+    /// reference the fast [`Self::sweep_min`] is tested against).
+    fn sweep_min_reference(&self, seg: &Segment, p: &Vector3<f64>, n: &Vector3<f64>) -> f64 {
         let k = ((seg.travel / self.scan_step).ceil() as usize).clamp(1, 4096);
         let ds = 1.0 / k as f64;
         // Near the edge of a tool's reach the line meets the moving tool only
@@ -416,6 +656,22 @@ impl<'a> Simulator<'a> {
             }
             prev = (s, h);
         }
+        self.refine_bracket(seg, p, n, best, left, right)
+    }
+
+    /// Refines the minimum of the drop around the best scanned position
+    /// `best` = (s, drop), given its scanned neighbours (`s` NaN: none, drop
+    /// infinite: the line misses the tool there): the edge of the tool's reach
+    /// by bisection, then golden-section search to [`SWEEP_TOL_MM`].
+    fn refine_bracket(
+        &self,
+        seg: &Segment,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        best: (f64, f64),
+        left: (f64, f64),
+        right: (f64, f64),
+    ) -> f64 {
         if !best.1.is_finite() || seg.travel <= 0.0 {
             return best.1;
         }
@@ -439,7 +695,20 @@ impl<'a> Simulator<'a> {
             };
         }
         best = best.min(f_lo).min(f_hi);
-        // Golden-section search on the (unimodal) drop over [lo, hi].
+        best.min(self.golden(seg, p, n, (lo, f_lo), (hi, f_hi), tol))
+    }
+
+    /// Golden-section search for the minimum of the (unimodal) drop over
+    /// [lo, hi] to `tol`; the lowest drop seen, ends included.
+    fn golden(
+        &self,
+        seg: &Segment,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        (mut lo, f_lo): (f64, f64),
+        (mut hi, f_hi): (f64, f64),
+        tol: f64,
+    ) -> f64 {
         const G: f64 = 0.618_033_988_749_894_9;
         let mut x1 = hi - G * (hi - lo);
         let mut x2 = lo + G * (hi - lo);
@@ -463,7 +732,7 @@ impl<'a> Simulator<'a> {
                 f2 = self.drop_at(seg, x2, p, n);
             }
         }
-        best.min(f1).min(f2)
+        f_lo.min(f_hi).min(f1).min(f2)
     }
 
     /// Bisects between `s_in` (drop finite) and `s_out` (line misses the tool)
@@ -502,35 +771,142 @@ impl<'a> Simulator<'a> {
         n: &Vector3<f64>,
         scratch: &mut Vec<u32>,
     ) -> Option<f64> {
-        let a = p - n * self.depth;
-        let b = p + n * self.cap;
-        let pad = Vector3::repeat(1e-9);
-        scratch.clear();
-        self.buckets
-            .query(&(a.inf(&b) - pad), &(a.sup(&b) + pad), scratch);
-        scratch.sort_unstable();
-        scratch.dedup();
-        let reach = self.cutter.radius;
+        self.candidates_sorted(p, n, scratch);
+        self.residual_of(p, n, scratch).0
+    }
+
+    /// The exact reference of [`Self::residual`]: every candidate segment scanned
+    /// and refined in full. Slow; kept for the accuracy tests and benches.
+    #[doc(hidden)]
+    pub fn residual_reference(
+        &self,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        scratch: &mut Vec<u32>,
+    ) -> Option<f64> {
+        self.candidates_sorted(p, n, scratch);
         let mut best = f64::INFINITY;
         for &id in scratch.iter() {
             let Some(seg) = self.segments.get(id as usize) else {
                 continue;
             };
-            if segment_distance(&a, &b, &seg.mid_tip, &seg.mid_top) > reach + seg.margin {
+            if !self.may_reach(seg, p, n, best) {
                 continue;
             }
-            // No point of the swept tool lies lower along n than this bound.
-            let bound = self
-                .cutter
-                .support_low(&seg.tip0, &seg.axis0, p, n)
-                .min(self.cutter.support_low(&seg.tip1, &seg.axis1, p, n))
-                - 0.5 * seg.travel;
-            if bound >= best {
-                continue;
-            }
-            best = best.min(self.sweep_min(seg, p, n));
+            best = best.min(self.sweep_min_reference(seg, p, n));
         }
         (best <= self.cap).then_some(best)
+    }
+
+    /// The box of the line p + t n over the searched range [-depth, cap].
+    fn line_box(&self, p: &Vector3<f64>, n: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+        let a = p - n * self.depth;
+        let b = p + n * self.cap;
+        let pad = Vector3::repeat(1e-9);
+        (a.inf(&b) - pad, a.sup(&b) + pad)
+    }
+
+    /// Ids of the segments whose cells meet the line's box, sorted, once each.
+    fn candidates_sorted(&self, p: &Vector3<f64>, n: &Vector3<f64>, out: &mut Vec<u32>) {
+        let (lo, hi) = self.line_box(p, n);
+        out.clear();
+        self.buckets.query(&lo, &hi, out);
+        out.sort_unstable();
+        out.dedup();
+    }
+
+    /// Ids of the segments whose cells meet the line's box, once each (marked
+    /// in a per-segment stamp array instead of sorted), the segment that was
+    /// lowest at the previous sample first: neighbouring samples are mostly cut
+    /// by the same motion, so its drop makes the cutoff for the others tight.
+    fn candidates_stamped(&self, p: &Vector3<f64>, n: &Vector3<f64>, sc: &mut Scratch) {
+        let (lo, hi) = self.line_box(p, n);
+        sc.ids.clear();
+        sc.query = sc.query.wrapping_add(1);
+        if sc.query == 0 {
+            sc.stamp.fill(0);
+            sc.query = 1;
+        }
+        let (stamp, ids, query) = (&mut sc.stamp, &mut sc.ids, sc.query);
+        let boxes = &self.boxes;
+        self.buckets.visit(&lo, &hi, |cell| {
+            for &id in cell {
+                if let Some(m) = stamp.get_mut(id as usize) {
+                    if *m != query {
+                        *m = query;
+                        // A cell is larger than both boxes: keep only the
+                        // segments whose own box meets the line's.
+                        if boxes.get(id as usize).is_some_and(|(a, b)| {
+                            a.x <= hi.x
+                                && a.y <= hi.y
+                                && a.z <= hi.z
+                                && b.x >= lo.x
+                                && b.y >= lo.y
+                                && b.z >= lo.z
+                        }) {
+                            ids.push(id);
+                        }
+                    }
+                }
+            }
+        });
+        if let Some(pos) = sc
+            .last_best
+            .and_then(|b| sc.ids.iter().position(|&id| id == b))
+        {
+            sc.ids.swap(0, pos);
+        }
+    }
+
+    /// The fast residual with per-thread working memory.
+    fn residual_fast(&self, p: &Vector3<f64>, n: &Vector3<f64>, sc: &mut Scratch) -> Option<f64> {
+        self.candidates_stamped(p, n, sc);
+        let (r, lowest) = self.residual_of(p, n, &sc.ids);
+        if lowest.is_some() {
+            sc.last_best = lowest;
+        }
+        r
+    }
+
+    /// Residual over the candidate segments `ids`, and the segment giving it.
+    fn residual_of(
+        &self,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        ids: &[u32],
+    ) -> (Option<f64>, Option<u32>) {
+        let mut best = f64::INFINITY;
+        let mut lowest = None;
+        for &id in ids {
+            let Some(seg) = self.segments.get(id as usize) else {
+                continue;
+            };
+            if !self.may_reach(seg, p, n, best) {
+                continue;
+            }
+            let h = self.sweep_min(seg, p, n, best);
+            if h < best {
+                best = h;
+                lowest = Some(id);
+            }
+        }
+        ((best <= self.cap).then_some(best), lowest)
+    }
+
+    /// Whether the tool swept along `seg` may reach the line p + t n below `best`.
+    fn may_reach(&self, seg: &Segment, p: &Vector3<f64>, n: &Vector3<f64>, best: f64) -> bool {
+        let a = p - n * self.depth;
+        let b = p + n * self.cap;
+        if segment_distance(&a, &b, &seg.mid_tip, &seg.mid_top) > self.cutter.radius + seg.margin {
+            return false;
+        }
+        // No point of the swept tool lies lower along n than this bound.
+        let bound = self
+            .cutter
+            .support_low(&seg.tip0, &seg.axis0, p, n)
+            .min(self.cutter.support_low(&seg.tip1, &seg.axis1, p, n))
+            - 0.5 * seg.travel;
+        bound < best
     }
 
     /// Residual at surface parameters (u, v) (clamped to the domain).
@@ -550,6 +926,17 @@ impl<'a> Simulator<'a> {
 
     /// Samples the surface and builds the report.
     pub fn run(&self, settings: &ScallopSettings) -> Result<ScallopReport> {
+        self.run_with(settings, Method::Fast)
+    }
+
+    /// [`Self::run`] with the exact reference residual everywhere. Slow; kept
+    /// for the accuracy tests and benches.
+    #[doc(hidden)]
+    pub fn run_reference(&self, settings: &ScallopSettings) -> Result<ScallopReport> {
+        self.run_with(settings, Method::Reference)
+    }
+
+    fn run_with(&self, settings: &ScallopSettings, method: Method) -> Result<ScallopReport> {
         let ((u0, u1), (v0, v1)) = self.surface.domain();
         let (len_u, len_v) = extents(self.surface);
         let res = grid_resolution(settings, &self.cutter, len_u, len_v)?;
@@ -557,44 +944,16 @@ impl<'a> Simulator<'a> {
         let nv = ((len_v / res).ceil() as usize).max(2);
         let du = (u1 - u0) / nu as f64;
         let dv = (v1 - v0) / nv as f64;
-        let total = nu * nv;
 
-        // Samples, then residuals in parallel over fixed row chunks: each sample
-        // is computed independently, so the result does not depend on threads.
-        let mut uv = Vec::with_capacity(total);
-        let mut xyz = Vec::with_capacity(total);
-        let mut frames = Vec::with_capacity(total);
-        for i in 0..nu {
-            for j in 0..nv {
-                let (u, v) = (u0 + (i as f64 + 0.5) * du, v0 + (j as f64 + 0.5) * dv);
-                uv.push([u, v]);
-                match self.sample(u, v) {
-                    Some((p, n, area)) => {
-                        xyz.push([p.x, p.y, p.z]);
-                        frames.push(Some((p, n, area * du * dv)));
-                    }
-                    None => {
-                        let p = self.surface.point(u, v);
-                        xyz.push([p.x, p.y, p.z]);
-                        frames.push(None);
-                    }
-                }
-            }
-        }
-        let residual = self.residuals(&frames);
+        let (uv, xyz, frames) = self.sample_grid((u0, v0), (du, dv), (nu, nv));
+        let residual = self.residuals(&frames, method);
 
         let mut uncovered = 0.0;
         let mut machined = 0.0;
-        let mut best_max: Option<(f64, usize)> = None;
-        for (k, (f, r)) in frames.iter().zip(&residual).enumerate() {
+        for (f, r) in frames.iter().zip(&residual) {
             let Some((_, _, area)) = f else { continue };
             match r {
-                Some(r) => {
-                    machined += area;
-                    if best_max.is_none_or(|(b, _)| *r > b) {
-                        best_max = Some((*r, k));
-                    }
-                }
+                Some(_) => machined += area,
                 None => uncovered += area,
             }
         }
@@ -605,8 +964,8 @@ impl<'a> Simulator<'a> {
             xyz,
             residual,
         };
-        let max_res = self.refine(&map, 1.0, du, dv);
-        let min_res = self.refine(&map, -1.0, du, dv);
+        let max_res = self.refine(&map, 1.0, du, dv, method);
+        let min_res = self.refine(&map, -1.0, du, dv, method);
         Ok(ScallopReport {
             max_scallop_mm: max_res.map_or(0.0, |r| r.max(0.0)),
             max_gouge_mm: min_res.map_or(0.0, |r| (-r).max(0.0)),
@@ -617,18 +976,54 @@ impl<'a> Simulator<'a> {
         })
     }
 
-    fn residuals(&self, frames: &[Frame]) -> Vec<Option<f64>> {
-        let chunk = frames
-            .len()
-            .div_ceil(crate::parallel::threads() * 8)
-            .max(64);
-        crate::parallel::map_chunks(frames, chunk, |frames| {
-            let mut scratch = Vec::new();
+    /// The grid's cell centres: (u, v), points, and frames, in parallel over
+    /// rows (each sample is independent, so the result does not depend on threads).
+    #[allow(clippy::type_complexity)]
+    fn sample_grid(
+        &self,
+        (u0, v0): (f64, f64),
+        (du, dv): (f64, f64),
+        (nu, nv): (usize, usize),
+    ) -> (Vec<[f64; 2]>, Vec<[f64; 3]>, Vec<Frame>) {
+        let rows: Vec<usize> = (0..nu).collect();
+        let parts = crate::parallel::map_chunks(&rows, 4, |rows| {
+            let mut out = Vec::with_capacity(rows.len() * nv);
+            for &i in rows {
+                for j in 0..nv {
+                    let (u, v) = (u0 + (i as f64 + 0.5) * du, v0 + (j as f64 + 0.5) * dv);
+                    let (p, frame) = match self.sample(u, v) {
+                        Some((p, n, area)) => (p, Some((p, n, area * du * dv))),
+                        None => (self.surface.point(u, v).coords, None),
+                    };
+                    out.push(([u, v], [p.x, p.y, p.z], frame));
+                }
+            }
+            out
+        });
+        let total = nu * nv;
+        let mut uv = Vec::with_capacity(total);
+        let mut xyz = Vec::with_capacity(total);
+        let mut frames = Vec::with_capacity(total);
+        for (a, b, c) in parts.into_iter().flatten() {
+            uv.push(a);
+            xyz.push(b);
+            frames.push(c);
+        }
+        (uv, xyz, frames)
+    }
+
+    /// Residuals of all samples, in parallel over chunks of a fixed size (the
+    /// fast residual carries the previous sample's lowest segment within a
+    /// chunk, so chunks must not depend on the number of threads).
+    fn residuals(&self, frames: &[Frame], method: Method) -> Vec<Option<f64>> {
+        const CHUNK: usize = 1024;
+        crate::parallel::map_chunks(frames, CHUNK, |frames| {
+            let mut scratch = Scratch::new(self.segments.len());
             frames
                 .iter()
                 .map(|f| {
                     f.as_ref()
-                        .and_then(|(p, n, _)| self.residual(p, n, &mut scratch))
+                        .and_then(|(p, n, _)| self.residual_by(p, n, &mut scratch, method))
                 })
                 .collect::<Vec<_>>()
         })
@@ -637,9 +1032,30 @@ impl<'a> Simulator<'a> {
         .collect()
     }
 
+    fn residual_by(
+        &self,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        scratch: &mut Scratch,
+        method: Method,
+    ) -> Option<f64> {
+        match method {
+            Method::Fast => self.residual_fast(p, n, scratch),
+            Method::Reference => self.residual_reference(p, n, &mut scratch.ids),
+        }
+    }
+
     /// Refines the grid's extreme residual (`sign` 1: max, -1: min) by compass
-    /// search in (u, v) from its best local extrema; `None` if nothing is covered.
-    fn refine(&self, map: &ResidualMap, sign: f64, du: f64, dv: f64) -> Option<f64> {
+    /// search in (u, v) from its best local extrema, the starts in parallel;
+    /// `None` if nothing is covered.
+    fn refine(
+        &self,
+        map: &ResidualMap,
+        sign: f64,
+        du: f64,
+        dv: f64,
+        method: Method,
+    ) -> Option<f64> {
         const STARTS: usize = 24;
         let (nu, nv) = (map.nu, map.nv);
         let value = |k: usize| map.residual.get(k).copied().flatten().map(|r| sign * r);
@@ -674,55 +1090,80 @@ impl<'a> Simulator<'a> {
             // No gouge on the grid: nothing to refine.
             return Some(-grid_best);
         }
-        let mut best = grid_best;
-        let mut scratch = Vec::new();
-        for &(r0, k) in extrema.iter().take(STARTS) {
-            let Some(&[mut u, mut v]) = map.uv.get(k) else {
-                continue;
-            };
-            let mut r = r0;
-            let (mut su, mut sv) = (du, dv);
-            for _ in 0..400 {
-                if su < du * 1e-7 {
-                    break;
-                }
-                let mut moved = None;
-                for (a, b) in [
-                    (1.0, 0.0),
-                    (-1.0, 0.0),
-                    (0.0, 1.0),
-                    (0.0, -1.0),
-                    (1.0, 1.0),
-                    (1.0, -1.0),
-                    (-1.0, 1.0),
-                    (-1.0, -1.0),
-                ] {
-                    let (uu, vv) = self.surface.clamp_uv(u + a * su, v + b * sv);
-                    let Some((p, n, _)) = self.sample(uu, vv) else {
-                        continue;
-                    };
-                    if let Some(x) = self.residual(&p, &n, &mut scratch) {
-                        if sign * x > r && moved.is_none_or(|(m, _, _)| sign * x > m) {
-                            moved = Some((sign * x, uu, vv));
-                        }
-                    }
-                }
-                match moved {
-                    Some((x, uu, vv)) => {
-                        r = x;
-                        u = uu;
-                        v = vv;
-                    }
-                    None => {
-                        su *= 0.5;
-                        sv *= 0.5;
+        extrema.truncate(STARTS);
+        let climbed = crate::parallel::map_chunks(&extrema, 1, |start| {
+            let mut scratch = Scratch::new(self.segments.len());
+            start
+                .iter()
+                .map(|&(r0, k)| self.climb(map, k, r0, sign, (du, dv), &mut scratch, method))
+                .fold(f64::NEG_INFINITY, f64::max)
+        });
+        Some(sign * climbed.into_iter().fold(grid_best, f64::max))
+    }
+
+    /// Compass search in (u, v) for the largest `sign * residual` from grid sample `k`.
+    #[allow(clippy::too_many_arguments)]
+    fn climb(
+        &self,
+        map: &ResidualMap,
+        k: usize,
+        r0: f64,
+        sign: f64,
+        (du, dv): (f64, f64),
+        scratch: &mut Scratch,
+        method: Method,
+    ) -> f64 {
+        let Some(&[mut u, mut v]) = map.uv.get(k) else {
+            return r0;
+        };
+        let mut r = r0;
+        let (mut su, mut sv) = (du, dv);
+        for _ in 0..400 {
+            if su < du * 1e-7 {
+                break;
+            }
+            let mut moved = None;
+            for (a, b) in [
+                (1.0, 0.0),
+                (-1.0, 0.0),
+                (0.0, 1.0),
+                (0.0, -1.0),
+                (1.0, 1.0),
+                (1.0, -1.0),
+                (-1.0, 1.0),
+                (-1.0, -1.0),
+            ] {
+                let (uu, vv) = self.surface.clamp_uv(u + a * su, v + b * sv);
+                let Some((p, n, _)) = self.sample(uu, vv) else {
+                    continue;
+                };
+                if let Some(x) = self.residual_by(&p, &n, scratch, method) {
+                    if sign * x > r && moved.is_none_or(|(m, _, _)| sign * x > m) {
+                        moved = Some((sign * x, uu, vv));
                     }
                 }
             }
-            best = best.max(r);
+            match moved {
+                Some((x, uu, vv)) => {
+                    r = x;
+                    u = uu;
+                    v = vv;
+                }
+                None => {
+                    su *= 0.5;
+                    sv *= 0.5;
+                }
+            }
         }
-        Some(sign * best)
+        r
     }
+}
+
+/// Which residual a run uses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Method {
+    Fast,
+    Reference,
 }
 
 /// Largest arc lengths of the u- and v-isolines (sampled), mm.

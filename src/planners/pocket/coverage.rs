@@ -119,14 +119,30 @@ impl SegmentIndex {
         let (y0, y1) = span(p[1], self.origin[1], self.ny);
         let mut best: Option<(f64, Point2)> = None;
         let mut bound = max_dist;
+        // Squared distances screen the segments without a square root; one
+        // clearly beyond the bound (by more than hypot's rounding) is left out,
+        // any other is measured exactly as before, so the answer is the same.
+        let slack = 1.0 + 1e-12;
+        let mut bound2 = bound * bound * slack;
         for y in y0..=y1 {
             for x in x0..=x1 {
                 for &k in &self.buckets[y * self.nx + x] {
                     let (a, b) = self.segs[k as usize];
+                    // Distance to the segment's box first: a cheap lower bound.
+                    let bx = (a[0].min(b[0]) - p[0]).max(p[0] - a[0].max(b[0])).max(0.0);
+                    let by = (a[1].min(b[1]) - p[1]).max(p[1] - a[1].max(b[1])).max(0.0);
+                    if bx * bx + by * by > bound2 {
+                        continue;
+                    }
                     let f = segment_foot(a, b, p);
+                    let (dx, dy) = (f[0] - p[0], f[1] - p[1]);
+                    if dx * dx + dy * dy > bound2 {
+                        continue;
+                    }
                     let d = dist(f, p);
                     if d <= bound {
                         bound = d;
+                        bound2 = bound * bound * slack;
                         best = Some((d, f));
                     }
                 }

@@ -33,33 +33,96 @@ pub fn job_path_length_lower_bound(
 /// Lower bound of the path length for scallop h: the integral over the
 /// surface of dA / w_max(p). No set of passes can be shorter, since each unit
 /// of length clears at most w_max of area. `cells` per parameter direction.
+///
+/// It depends only on its arguments, and jobs on one surface (a node's burst,
+/// the strategies of `toolpath compare`) ask for the same one, so the last few
+/// are kept: a repeated call returns the stored value, the same bits.
 pub fn path_length_lower_bound(
     surface: &NurbsSurface,
     cutter: &LeadCutter,
     h: f64,
     cells: usize,
 ) -> Result<f64> {
+    let key = |e: &CacheEntry| {
+        e.cutter == (cutter.radius.to_bits(), cutter.lead.to_bits(), cutter.ball)
+            && e.h == h.to_bits()
+            && e.cells == cells
+            && e.surface == *surface
+    };
+    if let Some(value) = cache()
+        .lock()
+        .ok()
+        .and_then(|c| c.iter().find(|e| key(e)).map(|e| e.value))
+    {
+        return Ok(value);
+    }
+    let value = compute(surface, cutter, h, cells)?;
+    if let Ok(mut c) = cache().lock() {
+        if c.len() >= CACHE_ENTRIES {
+            c.remove(0);
+        }
+        c.push(CacheEntry {
+            surface: surface.clone(),
+            cutter: (cutter.radius.to_bits(), cutter.lead.to_bits(), cutter.ball),
+            h: h.to_bits(),
+            cells,
+            value,
+        });
+    }
+    Ok(value)
+}
+
+/// Lower bounds kept (oldest dropped first).
+const CACHE_ENTRIES: usize = 8;
+
+struct CacheEntry {
+    surface: NurbsSurface,
+    cutter: (u64, u64, bool),
+    h: u64,
+    cells: usize,
+    value: f64,
+}
+
+fn cache() -> &'static std::sync::Mutex<Vec<CacheEntry>> {
+    static CACHE: std::sync::OnceLock<std::sync::Mutex<Vec<CacheEntry>>> =
+        std::sync::OnceLock::new();
+    CACHE.get_or_init(Default::default)
+}
+
+/// The integral: the cells' Gauss terms computed in parallel over rows of
+/// cells, then summed in the fixed row-major order (the same bits on any
+/// number of threads). The first gouge in that order is the error.
+fn compute(surface: &NurbsSurface, cutter: &LeadCutter, h: f64, cells: usize) -> Result<f64> {
     let ((u0, u1), (v0, v1)) = surface.domain();
     let (du, dv) = ((u1 - u0) / cells as f64, (v1 - v0) / cells as f64);
-    let mut total = 0.0;
-    for i in 0..cells {
-        for j in 0..cells {
-            for &(a, wa) in &GAUSS3 {
-                for &(b, wb) in &GAUSS3 {
-                    let (u, v) = (u0 + (i as f64 + a) * du, v0 + (j as f64 + b) * dv);
-                    let Some(g) = LocalGeometry::at(surface, u, v) else {
-                        continue;
-                    };
-                    let w = match max_strip_width(cutter, h, &g) {
-                        Ok((w, _)) => w,
-                        Err(WidthError::Gouge { depth }) => {
-                            return Err(gouge_error(cutter, [u, v], g.k_max, depth));
-                        }
-                    };
-                    total += wa * wb * du * dv * g.area_element() / w;
+    let rows: Vec<usize> = (0..cells).collect();
+    let terms = crate::parallel::map_chunks(&rows, 1, |rows| {
+        let mut terms = Vec::with_capacity(rows.len() * cells * 9);
+        for &i in rows {
+            for j in 0..cells {
+                for &(a, wa) in &GAUSS3 {
+                    for &(b, wb) in &GAUSS3 {
+                        let (u, v) = (u0 + (i as f64 + a) * du, v0 + (j as f64 + b) * dv);
+                        let Some(g) = LocalGeometry::at(surface, u, v) else {
+                            continue;
+                        };
+                        let w = match max_strip_width(cutter, h, &g) {
+                            Ok((w, _)) => w,
+                            Err(WidthError::Gouge { depth }) => {
+                                terms.push(Err(gouge_error(cutter, [u, v], g.k_max, depth)));
+                                return terms;
+                            }
+                        };
+                        terms.push(Ok(wa * wb * du * dv * g.area_element() / w));
+                    }
                 }
             }
         }
+        terms
+    });
+    let mut total = 0.0;
+    for term in terms.into_iter().flatten() {
+        total += term?;
     }
     Ok(total)
 }
