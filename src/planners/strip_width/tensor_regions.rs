@@ -301,8 +301,7 @@ fn mean_feed_line(surface: &NurbsSurface, s: &PassSettings) -> Option<Vec<Vector
         let mut out = Vec::new();
         let (mut uv, mut d) = (mid, dir);
         for _ in 0..max_steps {
-            let Some((next, nd, hit)) = super::passes::walk_on_surface(surface, uv, d, step)
-            else {
+            let Some((next, nd, hit)) = super::passes::walk_on_surface(surface, uv, d, step) else {
                 break;
             };
             out.push(next);
