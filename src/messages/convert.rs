@@ -464,8 +464,17 @@ pub fn pose_array(job: &Job, result: &PlanResult, header: msgs::Header) -> msgs:
     msgs::PoseArray { header, poses }
 }
 
-/// The joint trajectory as a ROS message: metres and radians (REP 103).
+/// The joint trajectory as a ROS message: metres and radians (REP 103). Its
+/// stamp follows the machine's start policy: zero (JTC starts on receipt) or
+/// `header`'s stamp plus the start delay.
 pub fn joint_trajectory_msg(t: &JointTrajectory, header: msgs::Header) -> msgs::JointTrajectory {
+    let header = msgs::Header {
+        stamp: match t.stamp {
+            machines::Stamp::Zero => msgs::Time::ZERO,
+            machines::Stamp::At(delay_s) => header.stamp.plus_secs(delay_s),
+        },
+        ..header
+    };
     let scale: Vec<f64> = t.rotary.iter().map(|r| if *r { 1.0 } else { MM }).collect();
     let points = t
         .timed
@@ -493,6 +502,77 @@ pub fn joint_trajectory_msg(t: &JointTrajectory, header: msgs::Header) -> msgs::
         joint_names: t.joint_names.iter().map(|s| s.to_string()).collect(),
         points,
     }
+}
+
+/// A JointTrajectory message in internal units (mm, rad), for the joints
+/// `names` with `limits` (a joint not among them is left unscaled; the
+/// controller rules reject it by name).
+pub fn trajectory_points(
+    m: &msgs::JointTrajectory,
+    names: &[String],
+    limits: &[machines::JointLimit],
+) -> machines::jtc::Points {
+    let scale: Vec<f64> = m
+        .joint_names
+        .iter()
+        .map(|n| match names.iter().position(|x| x == n) {
+            Some(j) if !limits[j].rotary => 1.0 / MM,
+            _ => 1.0,
+        })
+        .collect();
+    let rows = |r: &[f64]| -> Vec<f64> {
+        r.iter()
+            .zip(scale.iter().chain(std::iter::repeat(&1.0)))
+            .map(|(x, s)| x * s)
+            .collect()
+    };
+    let accelerations: Vec<Vec<f64>> = m.points.iter().map(|p| rows(&p.accelerations)).collect();
+    machines::jtc::Points {
+        joint_names: m.joint_names.clone(),
+        times: m
+            .points
+            .iter()
+            .map(|p| p.time_from_start.as_secs_f64())
+            .collect(),
+        positions: m.points.iter().map(|p| rows(&p.positions)).collect(),
+        velocities: m.points.iter().map(|p| rows(&p.velocities)).collect(),
+        accelerations: if accelerations.iter().all(|a| a.is_empty()) {
+            Vec::new()
+        } else {
+            accelerations
+        },
+    }
+}
+
+/// The pose (mm, rad, in the controller's joint order) of a measured joint
+/// state. Errors name a missing joint or a value outside the travel.
+pub fn joint_state_pose(
+    m: &msgs::JointState,
+    names: &[String],
+    limits: &[machines::JointLimit],
+) -> Result<Vec<f64>> {
+    let cols = machines::controller::match_joints("name", &m.name, names)
+        .map_err(|e| e.within("joint_states"))?;
+    let q = cols
+        .iter()
+        .zip(limits)
+        .map(|(&c, l)| {
+            let x = m.position.get(c).copied().ok_or_else(|| {
+                Error::invalid(
+                    "joint_states.position",
+                    format!(
+                        "has {} values for {} names: no position of joint {}",
+                        m.position.len(),
+                        m.name.len(),
+                        m.name[c]
+                    ),
+                )
+            })?;
+            Ok(if l.rotary { x } else { x / MM })
+        })
+        .collect::<Result<Vec<f64>>>()?;
+    machines::controller::check_start("the joint state", &q, limits, names)?;
+    Ok(q)
 }
 
 /// Region colours (a qualitative palette), cycled.

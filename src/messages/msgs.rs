@@ -77,6 +77,10 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
         include_str!("defs/sensor_msgs/CompressedImage.msg"),
     ),
     (
+        "sensor_msgs/JointState",
+        include_str!("defs/sensor_msgs/JointState.msg"),
+    ),
+    (
         "std_msgs/ColorRGBA",
         include_str!("defs/std_msgs/ColorRGBA.msg"),
     ),
@@ -255,6 +259,27 @@ impl Duration {
     }
 }
 
+impl Time {
+    pub const ZERO: Time = Time { sec: 0, nanosec: 0 };
+
+    /// This time plus `s` (>= 0) seconds, rounded to the nanosecond.
+    pub fn plus_secs(&self, s: f64) -> Self {
+        let d = Duration::from_secs_f64(s);
+        let ns = u64::from(self.nanosec) + u64::from(d.nanosec);
+        Self {
+            sec: self
+                .sec
+                .saturating_add(d.sec)
+                .saturating_add((ns / 1_000_000_000) as i32),
+            nanosec: (ns % 1_000_000_000) as u32,
+        }
+    }
+
+    pub fn as_secs_f64(&self) -> f64 {
+        self.sec as f64 + self.nanosec as f64 * 1e-9
+    }
+}
+
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Header {
     pub stamp: Time,
@@ -376,6 +401,17 @@ pub struct CompressedImage {
     pub data: Vec<u8>,
 }
 ros_message!(CompressedImage, "sensor_msgs", "CompressedImage");
+
+/// Measured joint positions (m, rad), velocities and efforts, by name.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct JointState {
+    pub header: Header,
+    pub name: Vec<String>,
+    pub position: Vec<f64>,
+    pub velocity: Vec<f64>,
+    pub effort: Vec<f64>,
+}
+ros_message!(JointState, "sensor_msgs", "JointState");
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct UVCoordinate {
@@ -636,6 +672,7 @@ mod tests {
         check::<MarkerArray>();
         check::<ColorRGBA>();
         check::<CompressedImage>();
+        check::<JointState>();
         check::<MeshFile>();
         check::<UVCoordinate>();
     }

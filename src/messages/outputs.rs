@@ -9,7 +9,9 @@ use crate::formats::{Job, Machine, PlanResult};
 use crate::machines::JointTrajectory;
 
 /// The output messages of one planned job, all stamped with one header (so
-/// that clients can match them to their Toolpath by stamp).
+/// that clients can match them to their Toolpath by stamp), except the
+/// trajectory, whose stamp is its start time for the controller (zero by
+/// default: start on receipt).
 #[derive(Clone, Debug, PartialEq)]
 pub struct JobOutputs {
     pub toolpath: Toolpath,
@@ -92,7 +94,15 @@ mod tests {
         let out = job_outputs(&job, "plane_shape", &result, &trajectory, &header);
         assert_eq!(out.toolpath.header, header);
         assert_eq!(out.poses.header, header);
-        assert_eq!(out.trajectory.header, header);
+        // The trajectory's stamp is zero (JTC starts it on receipt), or the
+        // planning stamp plus the start delay.
+        assert_eq!(out.trajectory.header.stamp, crate::messages::Time::ZERO);
+        assert_eq!(out.trajectory.header.frame_id, header.frame_id);
+        let mut at = trajectory.clone();
+        at.stamp = crate::machines::Stamp::At(1.999_999_999_5);
+        let m = convert::joint_trajectory_msg(&at, header.clone());
+        assert_eq!(m.header.stamp, super::super::Time { sec: 9, nanosec: 9 });
+        assert!(out.trajectory.points[0].time_from_start.as_secs_f64() > 0.0);
         assert!(out.markers.markers.iter().all(|m| m.header == header));
         assert_eq!(out.toolpath.job_id, job.job_id);
         assert_eq!(out.toolpath.surface_id, "plane_shape");
