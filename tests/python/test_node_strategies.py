@@ -181,7 +181,11 @@ def test_strategy_through_the_node(strategy, results, client, node):
     assert traj.joint_names == names
     assert len(traj.points) == len(points) + 2 * len(passes)
     times = [p.time_from_start.sec + p.time_from_start.nanosec * 1e-9 for p in traj.points]
-    assert times[0] == 0.0 and all(b > a for a, b in zip(times, times[1:]))
+    # JTC: a zero stamp starts on receipt; the first point (the first approach)
+    # comes after the move from the machine's pose, never at 0.
+    assert (traj.header.stamp.sec, traj.header.stamp.nanosec) == (0, 0)
+    assert times[0] > 0.0 and all(b > a for a, b in zip(times, times[1:]))
+    assert all(v == 0.0 for v in traj.points[-1].velocities)
     assert abs(times[-1] - tp.stats.trajectory_duration_s) < 1e-6
     limits = joint_limits(machine)
     for p in traj.points:
