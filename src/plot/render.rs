@@ -285,11 +285,11 @@ impl Scene {
         pts
     }
 
+    /// The freeform picture: the top and oblique views of the passes, the
+    /// residual map when the result was simulated, and the legend.
     fn build_freeform(&mut self, input: &PlotInput) {
-        let r = input.result;
         let extent = Self::freeform_extent(input);
         let (w, h) = (PANEL_W as i32, PANEL_H as i32);
-        let y0 = TITLE_H as i32;
         let views = [
             ("top view (x right, y up)", Projection::Top),
             (
@@ -301,80 +301,115 @@ impl Scene {
             ),
         ];
         for (k, (name, proj)) in views.into_iter().enumerate() {
-            let panel = Panel::fit(k as i32 * w, y0, w, h, proj, &extent);
-            let mut d = PanelDrawing {
-                title: name.to_string(),
-                frame: (panel.x0, panel.y0, w, h),
-                ..Default::default()
-            };
-            if let Some(s) = input.surface {
-                for curve in surface_outline(s) {
-                    d.lines.push(Line {
-                        points: curve.iter().map(|p| panel.px(*p)).collect(),
-                        color: OUTLINE,
-                        width: 1,
-                    });
-                }
-            }
-            for pass in &r.passes {
-                let cc: Vec<[f64; 3]> = pass.points.iter().map(|p| p.cc).collect();
-                d.lines.push(Line {
-                    points: thin(&cc, 4000).iter().map(|p| panel.px(*p)).collect(),
-                    color: REGION_COLORS[pass.region % REGION_COLORS.len()],
-                    width: 2,
-                });
-            }
-            for sep in r.separatrices.iter().flatten() {
-                d.lines.push(Line {
-                    points: sep.iter().map(|p| panel.px(*p)).collect(),
-                    color: SEPARATRIX,
-                    width: 3,
-                });
-            }
-            self::feed_arrows(r, &panel, &extent, &mut d);
-            for dp in r.degenerate_points.iter().flatten() {
-                d.markers.push(Marker {
-                    at: panel.px(dp.xyz),
-                    color: if dp.kind == "trisector" {
-                        TRISECTOR
-                    } else {
-                        WEDGE
-                    },
-                    triangle: dp.kind == "trisector",
-                });
-            }
-            if k == 0 {
-                d.scale_bar = scale_bar(&panel, &extent);
-            }
-            if r.passes.is_empty() {
-                d.note = Some("no passes in this result".to_string());
-            }
+            let panel = Panel::fit(k as i32 * w, TITLE_H as i32, w, h, proj, &extent);
+            let d = Self::freeform_view(input, name, &panel, &extent, k == 0);
             self.panels.push(d);
         }
         if let Some(map) = input.residual {
-            let panel = Panel::fit(2 * w, y0, w - 90, h, Projection::Top, &extent);
-            let mut d = PanelDrawing {
-                title: "residual height (simulator), top view".to_string(),
-                frame: (panel.x0, panel.y0, w, h),
-                ..Default::default()
-            };
-            let max = map.residual.iter().flatten().fold(0.0f64, |m, &x| {
-                if x.is_finite() {
-                    m.max(x)
-                } else {
-                    m
-                }
-            });
-            residual_quads(map, &panel, max, &mut d);
-            d.color_scale = Some(ColorScale {
-                x: panel.x0 + w - 84,
-                y: y0 + 60,
-                h: h - 140,
-                max,
-            });
-            d.scale_bar = scale_bar(&panel, &extent);
-            self.panels.push(d);
+            self.panels.push(Self::residual_view(map, &extent));
         }
+        self.freeform_legend(input);
+    }
+
+    /// One view of the passes: surface outline, passes coloured by region,
+    /// separatrices, feed arrows, degenerate points; the scale bar on the
+    /// first view only.
+    fn freeform_view(
+        input: &PlotInput,
+        name: &str,
+        panel: &Panel,
+        extent: &[[f64; 3]],
+        with_scale_bar: bool,
+    ) -> PanelDrawing {
+        let r = input.result;
+        let (w, h) = (PANEL_W as i32, PANEL_H as i32);
+        let mut d = PanelDrawing {
+            title: name.to_string(),
+            frame: (panel.x0, panel.y0, w, h),
+            ..Default::default()
+        };
+        if let Some(s) = input.surface {
+            for curve in surface_outline(s) {
+                d.lines.push(Line {
+                    points: curve.iter().map(|p| panel.px(*p)).collect(),
+                    color: OUTLINE,
+                    width: 1,
+                });
+            }
+        }
+        for pass in &r.passes {
+            let cc: Vec<[f64; 3]> = pass.points.iter().map(|p| p.cc).collect();
+            d.lines.push(Line {
+                points: thin(&cc, 4000).iter().map(|p| panel.px(*p)).collect(),
+                color: REGION_COLORS[pass.region % REGION_COLORS.len()],
+                width: 2,
+            });
+        }
+        for sep in r.separatrices.iter().flatten() {
+            d.lines.push(Line {
+                points: sep.iter().map(|p| panel.px(*p)).collect(),
+                color: SEPARATRIX,
+                width: 3,
+            });
+        }
+        self::feed_arrows(r, panel, extent, &mut d);
+        for dp in r.degenerate_points.iter().flatten() {
+            d.markers.push(Marker {
+                at: panel.px(dp.xyz),
+                color: if dp.kind == "trisector" {
+                    TRISECTOR
+                } else {
+                    WEDGE
+                },
+                triangle: dp.kind == "trisector",
+            });
+        }
+        if with_scale_bar {
+            d.scale_bar = scale_bar(panel, extent);
+        }
+        if r.passes.is_empty() {
+            d.note = Some("no passes in this result".to_string());
+        }
+        d
+    }
+
+    /// The third panel: the simulator's residual height, top view, with its
+    /// colour scale.
+    fn residual_view(map: &super::ResidualOverlay, extent: &[[f64; 3]]) -> PanelDrawing {
+        let (w, h) = (PANEL_W as i32, PANEL_H as i32);
+        let y0 = TITLE_H as i32;
+        let panel = Panel::fit(2 * w, y0, w - 90, h, Projection::Top, extent);
+        let mut d = PanelDrawing {
+            title: "residual height (simulator), top view".to_string(),
+            frame: (panel.x0, panel.y0, w, h),
+            ..Default::default()
+        };
+        let max =
+            map.residual.iter().flatten().fold(
+                0.0f64,
+                |m, &x| {
+                    if x.is_finite() {
+                        m.max(x)
+                    } else {
+                        m
+                    }
+                },
+            );
+        residual_quads(map, &panel, max, &mut d);
+        d.color_scale = Some(ColorScale {
+            x: panel.x0 + w - 84,
+            y: y0 + 60,
+            h: h - 140,
+            max,
+        });
+        d.scale_bar = scale_bar(&panel, extent);
+        d
+    }
+
+    /// Legend of the freeform picture: regions (at most 8 named), the kinds of
+    /// degenerate point present, separatrix, feed, uncut and gouge colours.
+    fn freeform_legend(&mut self, input: &PlotInput) {
+        let r = input.result;
         let mut regions: Vec<usize> = r.passes.iter().map(|p| p.region).collect();
         regions.sort_unstable();
         regions.dedup();

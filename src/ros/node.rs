@@ -594,21 +594,20 @@ fn receive_shape(shared: &Shared, id: String, shape: Result<Shape>) {
     shared.wake.notify_all();
 }
 
-/// Runs the node until SIGINT/SIGTERM. Prints one line "ready ..." on stdout
-/// once every topic exists (tests and the demo wait for it).
-pub async fn run(config: NodeConfig) -> Result<()> {
-    config.validate()?;
-    let domain = config.domain_id()?;
-    let settings = config.node.clone();
-    let mut ros = RosNode::new(
-        &settings.name,
-        &settings.namespace,
-        domain,
-        config.interfaces()?,
-    )?;
-    let surfaces = ros.subscription::<msgs::Surface>(topics::SURFACE, qos::shapes_reader())?;
-    let pockets = ros.subscription::<msgs::Pocket>(topics::POCKET, qos::shapes_reader())?;
-    let jobs = ros.subscription::<msgs::Job>(topics::JOB, qos::job_reader())?;
+/// The node's readers of its inputs.
+struct Inputs {
+    surfaces: Subscription<msgs::Surface>,
+    pockets: Subscription<msgs::Pocket>,
+    jobs: Subscription<msgs::Job>,
+}
+
+/// Creates the output publishers and the optional recorder, iceoryx2 thread
+/// and NC program directory; returns the iceoryx2 thread to join at the end.
+fn start_outputs(
+    ros: &mut RosNode,
+    config: &NodeConfig,
+) -> Result<(Arc<Outputs>, Option<std::thread::JoinHandle<()>>)> {
+    let settings = &config.node;
     let recorder = if config.recording.enabled {
         Some(Arc::new(Recorder::start(
             &config.recording,
@@ -631,7 +630,7 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         belt6: Mutex::new(ros.publisher(topics::BELT6_TRAJECTORY, qos::results())?),
         markers: Mutex::new(ros.publisher(topics::MARKERS, qos::results())?),
         frame_id: settings.frame_id.clone(),
-        recorder: recorder.clone(),
+        recorder,
         last_stamp_ns: AtomicU64::new(0),
         ipc: ipc.as_ref().map(|(tx, _)| tx.clone()),
         programs: if config.post.enabled {
@@ -644,18 +643,23 @@ pub async fn run(config: NodeConfig) -> Result<()> {
             None
         },
     });
-    let ipc_thread = ipc.map(|(_, handle)| handle);
-    let shared = Arc::new(Shared {
-        state: Mutex::new(State::default()),
-        wake: Condvar::new(),
-    });
+    Ok((outputs, ipc.map(|(_, handle)| handle)))
+}
+
+/// Starts the `workers` planning threads on the shared queue.
+fn start_workers(
+    config: &NodeConfig,
+    shared: &Arc<Shared>,
+    outputs: &Arc<Outputs>,
+) -> Result<Vec<std::thread::JoinHandle<()>>> {
+    let settings = &config.node;
     let options = RunOptions {
         skip_verify: !settings.verify,
         no_timing: false,
     };
     let mut handles = Vec::new();
     for k in 0..settings.workers {
-        let (s, o, m) = (Arc::clone(&shared), Arc::clone(&outputs), config.machines());
+        let (s, o, m) = (Arc::clone(shared), Arc::clone(outputs), config.machines());
         let timeout_s = settings.surface_timeout_s;
         let h = std::thread::Builder::new()
             .name(format!("planner-{k}"))
@@ -663,9 +667,13 @@ pub async fn run(config: NodeConfig) -> Result<()> {
             .map_err(|e| Error::planning(format!("cannot start a planning thread: {e}")))?;
         handles.push(h);
     }
-    let timeout = Duration::from_secs_f64(settings.surface_timeout_s);
-    let machines = config.machines();
-    let mut extra = recorder
+    Ok(handles)
+}
+
+/// Prints the one "ready ..." line on stdout and flushes it.
+fn announce_ready(ros: &RosNode, config: &NodeConfig, domain: u16, outputs: &Outputs) {
+    let mut extra = outputs
+        .recorder
         .as_ref()
         .map(|r| format!(", recording to {}", r.directory().display()))
         .unwrap_or_default();
@@ -675,57 +683,78 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     println!(
         "ready: node {} on ROS domain {domain}, interfaces {}{extra}",
         ros.node.fully_qualified_name(),
-        settings.interfaces.join(",")
+        config.node.interfaces.join(",")
     );
     use std::io::Write;
     let _ = std::io::stdout().flush();
+}
 
-    let mut surface_stream = Box::pin(surfaces.async_stream());
-    let mut pocket_stream = Box::pin(pockets.async_stream());
-    let mut job_stream = Box::pin(jobs.async_stream());
+/// Receives shapes and jobs (recording each as it arrives) until SIGINT or
+/// SIGTERM. Never plans: jobs go to the workers' queue.
+async fn receive_until_signal(
+    inputs: Inputs,
+    shared: &Shared,
+    outputs: &Outputs,
+    machines: &Machines,
+    timeout: Duration,
+) -> Result<()> {
+    let recorder = outputs.recorder.as_deref();
+    let mut surface_stream = Box::pin(inputs.surfaces.async_stream());
+    let mut pocket_stream = Box::pin(inputs.pockets.async_stream());
+    let mut job_stream = Box::pin(inputs.jobs.async_stream());
     let mut sigterm = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
         .map_err(|e| Error::planning(format!("cannot watch SIGTERM: {e}")))?;
     loop {
         tokio::select! {
             Some(r) = job_stream.next() => match r {
                 Ok((msg, _)) => {
-                    if let Some(rec) = &recorder {
+                    if let Some(rec) = recorder {
                         rec.record(topics::JOB, &msg);
                     }
-                    receive_job(&shared, &outputs, &machines, msg, timeout)
+                    receive_job(shared, outputs, machines, msg, timeout)
                 }
                 Err(e) => log::error!("undecodable message on topic job: {e:?}"),
             },
             Some(r) = surface_stream.next() => match r {
                 Ok((msg, _)) => {
-                    if let Some(rec) = &recorder {
+                    if let Some(rec) = recorder {
                         rec.record(topics::SURFACE, &msg);
                     }
                     let shape = convert::surface_from_msg(&msg).map(Shape::Surface);
-                    receive_shape(&shared, msg.surface_id, shape);
+                    receive_shape(shared, msg.surface_id, shape);
                 }
                 Err(e) => log::error!("undecodable message on topic surface: {e:?}"),
             },
             Some(r) = pocket_stream.next() => match r {
                 Ok((msg, _)) => {
-                    if let Some(rec) = &recorder {
+                    if let Some(rec) = recorder {
                         rec.record(topics::POCKET, &msg);
                     }
                     let shape = convert::pocket_from_msg(&msg).map(Shape::Pocket);
-                    receive_shape(&shared, msg.pocket_id, shape);
+                    receive_shape(shared, msg.pocket_id, shape);
                 }
                 Err(e) => log::error!("undecodable message on topic pocket: {e:?}"),
             },
-            _ = tokio::signal::ctrl_c() => break,
-            _ = sigterm.recv() => break,
+            _ = tokio::signal::ctrl_c() => return Ok(()),
+            _ = sigterm.recv() => return Ok(()),
         }
     }
+}
+
+/// Stops the workers after their current job, then the iceoryx2 thread, then
+/// closes the recording.
+fn shut_down(
+    shared: &Shared,
+    workers: Vec<std::thread::JoinHandle<()>>,
+    outputs: Arc<Outputs>,
+    ipc_thread: Option<std::thread::JoinHandle<()>>,
+) {
     shared.lock().shutdown = true;
     shared.wake.notify_all();
-    // Workers finish their current job; the process exits after them.
-    for h in handles {
+    for h in workers {
         let _ = h.join();
     }
+    let recorder = outputs.recorder.clone();
     // The workers are gone: dropping the outputs closes the iceoryx2 channel,
     // and its thread removes the publisher's shared memory as it ends.
     drop(outputs);
@@ -746,5 +775,36 @@ pub async fn run(config: NodeConfig) -> Result<()> {
             None => {}
         }
     }
-    Ok(())
+}
+
+/// Runs the node until SIGINT/SIGTERM. Prints one line "ready ..." on stdout
+/// once every topic exists (tests and the demo wait for it).
+pub async fn run(config: NodeConfig) -> Result<()> {
+    config.validate()?;
+    let domain = config.domain_id()?;
+    let settings = &config.node;
+    let mut ros = RosNode::new(
+        &settings.name,
+        &settings.namespace,
+        domain,
+        config.interfaces()?,
+    )?;
+    let inputs = Inputs {
+        surfaces: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
+        pockets: ros.subscription(topics::POCKET, qos::shapes_reader())?,
+        jobs: ros.subscription(topics::JOB, qos::job_reader())?,
+    };
+    let (outputs, ipc_thread) = start_outputs(&mut ros, &config)?;
+    let shared = Arc::new(Shared {
+        state: Mutex::new(State::default()),
+        wake: Condvar::new(),
+    });
+    let workers = start_workers(&config, &shared, &outputs)?;
+    announce_ready(&ros, &config, domain, &outputs);
+    let timeout = Duration::from_secs_f64(settings.surface_timeout_s);
+    let received =
+        receive_until_signal(inputs, &shared, &outputs, &config.machines(), timeout).await;
+    // Workers finish their current job; the process exits after them.
+    shut_down(&shared, workers, outputs, ipc_thread);
+    received
 }

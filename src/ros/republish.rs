@@ -16,6 +16,7 @@ use crate::recording::runs::{
 use futures::StreamExt;
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::ros2::QosProfile;
+use ros2_client::{Publisher, Subscription};
 use std::collections::BTreeSet;
 use std::net::IpAddr;
 use std::path::Path;
@@ -80,120 +81,146 @@ impl Answers {
     }
 }
 
-/// Republishes the inputs of the bag at `path` to a running node and compares
-/// its answers with the recording.
-pub async fn republish(path: &Path, options: &PublishOptions) -> Result<ReplayReport> {
-    let rec = Recorded::read(path)?;
-    let ids: BTreeSet<String> = rec.jobs.iter().map(|j| j.job_id.clone()).collect();
-    if ids.len() != rec.jobs.len() {
-        return Err(Error::invalid(
-            path.display().to_string(),
-            "the bag has several jobs with the same job_id: a node's answers could not be told apart",
-        ));
-    }
-    let mut ros = RosNode::new(
-        "toolpath_replay",
-        &options.namespace,
-        options.domain_id,
-        options.interfaces.clone(),
-    )?;
-    let surface_pub = ros.publisher::<msgs::Surface>(topics::SURFACE, qos::shapes())?;
-    let pocket_pub = ros.publisher::<msgs::Pocket>(topics::POCKET, qos::shapes())?;
-    let job_pub = ros.publisher::<msgs::Job>(topics::JOB, qos::job())?;
-    let status_sub = ros.subscription::<msgs::JobStatus>(topics::JOB_STATUS, reader_qos())?;
-    let toolpath_sub = ros.subscription::<msgs::Toolpath>(topics::TOOLPATH, reader_qos())?;
-    let poses_sub = ros.subscription::<msgs::PoseArray>(topics::TOOL_POSES, reader_qos())?;
-    let mill5_sub =
-        ros.subscription::<msgs::JointTrajectory>(topics::MILL5_TRAJECTORY, reader_qos())?;
-    let belt6_sub =
-        ros.subscription::<msgs::JointTrajectory>(topics::BELT6_TRAJECTORY, reader_qos())?;
-    tokio::time::timeout(
-        options.discovery_timeout,
-        job_pub.wait_for_subscription(&ros.node),
-    )
-    .await
-    .map_err(|_| {
-        Error::planning(format!(
-            "no node subscribes to {}job on ROS domain {} within {:.0} s: is `toolpath node` running there (ROS_DOMAIN_ID, namespace)?",
-            options.namespace.trim_end_matches('/').to_string() + "/",
+/// The replay's participant: publishers of the node's inputs and readers of
+/// its outputs, all matched before anything is sent.
+struct Link {
+    surface_pub: Publisher<msgs::Surface>,
+    pocket_pub: Publisher<msgs::Pocket>,
+    job_pub: Publisher<msgs::Job>,
+    status_sub: Subscription<msgs::JobStatus>,
+    toolpath_sub: Subscription<msgs::Toolpath>,
+    poses_sub: Subscription<msgs::PoseArray>,
+    mill5_sub: Subscription<msgs::JointTrajectory>,
+    belt6_sub: Subscription<msgs::JointTrajectory>,
+    /// Last: dropped after the endpoints that belong to it.
+    ros: RosNode,
+}
+
+impl Link {
+    /// Creates the topics and waits until the node reads `job` and our
+    /// `job_status` reader is matched (or else early answers are lost).
+    async fn connect(options: &PublishOptions) -> Result<Self> {
+        let mut ros = RosNode::new(
+            "toolpath_replay",
+            &options.namespace,
             options.domain_id,
-            options.discovery_timeout.as_secs_f64()
-        ))
-    })?;
-    // Our own readers must be matched too, or early answers are lost.
-    tokio::time::timeout(
-        options.discovery_timeout,
-        status_sub.wait_for_publisher(&ros.node),
-    )
-    .await
-    .map_err(|_| Error::planning("the node's job_status publisher was not discovered"))?;
-    let since = msgs::Time::now();
-    let header = msgs::Header {
-        stamp: since,
-        frame_id: "workpiece".into(),
-    };
-    for s in &rec.surfaces {
-        let mut m = s.clone();
-        m.header.stamp = header.stamp;
-        surface_pub
-            .publish(m)
-            .map_err(|e| Error::planning(format!("cannot publish surface: {e:?}")))?;
+            options.interfaces.clone(),
+        )?;
+        let link = Link {
+            surface_pub: ros.publisher(topics::SURFACE, qos::shapes())?,
+            pocket_pub: ros.publisher(topics::POCKET, qos::shapes())?,
+            job_pub: ros.publisher(topics::JOB, qos::job())?,
+            status_sub: ros.subscription(topics::JOB_STATUS, reader_qos())?,
+            toolpath_sub: ros.subscription(topics::TOOLPATH, reader_qos())?,
+            poses_sub: ros.subscription(topics::TOOL_POSES, reader_qos())?,
+            mill5_sub: ros.subscription(topics::MILL5_TRAJECTORY, reader_qos())?,
+            belt6_sub: ros.subscription(topics::BELT6_TRAJECTORY, reader_qos())?,
+            ros,
+        };
+        tokio::time::timeout(
+            options.discovery_timeout,
+            link.job_pub.wait_for_subscription(&link.ros.node),
+        )
+        .await
+        .map_err(|_| {
+            Error::planning(format!(
+                "no node subscribes to {}job on ROS domain {} within {:.0} s: is `toolpath node` running there (ROS_DOMAIN_ID, namespace)?",
+                options.namespace.trim_end_matches('/').to_string() + "/",
+                options.domain_id,
+                options.discovery_timeout.as_secs_f64()
+            ))
+        })?;
+        tokio::time::timeout(
+            options.discovery_timeout,
+            link.status_sub.wait_for_publisher(&link.ros.node),
+        )
+        .await
+        .map_err(|_| Error::planning("the node's job_status publisher was not discovered"))?;
+        Ok(link)
     }
-    for p in &rec.pockets {
-        let mut m = p.clone();
-        m.header.stamp = header.stamp;
-        pocket_pub
-            .publish(m)
-            .map_err(|e| Error::planning(format!("cannot publish pocket: {e:?}")))?;
-    }
-    for j in &rec.jobs {
-        let mut m = j.clone();
-        m.header.stamp = header.stamp;
-        job_pub
-            .publish(m)
-            .map_err(|e| Error::planning(format!("cannot publish job {}: {e:?}", j.job_id)))?;
-    }
-    let mut answers = Answers::default();
-    let mut statuses = Box::pin(status_sub.async_stream());
-    let mut toolpaths = Box::pin(toolpath_sub.async_stream());
-    let mut poses = Box::pin(poses_sub.async_stream());
-    let mut mill5 = Box::pin(mill5_sub.async_stream());
-    let mut belt6 = Box::pin(belt6_sub.async_stream());
-    let deadline = Instant::now() + options.timeout;
-    while !answers.complete(&ids) {
-        let left = deadline.saturating_duration_since(Instant::now());
-        if left.is_zero() {
-            break;
+
+    /// Publishes the bag's shapes, then its jobs, every header stamped `since`.
+    fn publish_inputs(&self, rec: &Recorded, since: msgs::Time) -> Result<()> {
+        for s in &rec.surfaces {
+            let mut m = s.clone();
+            m.header.stamp = since;
+            self.surface_pub
+                .publish(m)
+                .map_err(|e| Error::planning(format!("cannot publish surface: {e:?}")))?;
         }
-        tokio::select! {
-            Some(Ok((m, _))) = statuses.next() => {
-                if is_ours(&m.header, &since) && ids.contains(&m.job_id) {
-                    answers.statuses.push(m);
-                }
-            }
-            Some(Ok((m, _))) = toolpaths.next() => {
-                if is_ours(&m.header, &since) && ids.contains(&m.job_id) {
-                    answers.toolpaths.push(m);
-                }
-            }
-            Some(Ok((m, _))) = poses.next() => {
-                if is_ours(&m.header, &since) {
-                    answers.poses.push(m);
-                }
-            }
-            Some(Ok((m, _))) = mill5.next() => {
-                if is_ours(&m.header, &since) {
-                    answers.mill5.push(m);
-                }
-            }
-            Some(Ok((m, _))) = belt6.next() => {
-                if is_ours(&m.header, &since) {
-                    answers.belt6.push(m);
-                }
-            }
-            _ = tokio::time::sleep(left) => break,
+        for p in &rec.pockets {
+            let mut m = p.clone();
+            m.header.stamp = since;
+            self.pocket_pub
+                .publish(m)
+                .map_err(|e| Error::planning(format!("cannot publish pocket: {e:?}")))?;
         }
+        for j in &rec.jobs {
+            let mut m = j.clone();
+            m.header.stamp = since;
+            self.job_pub
+                .publish(m)
+                .map_err(|e| Error::planning(format!("cannot publish job {}: {e:?}", j.job_id)))?;
+        }
+        Ok(())
     }
+
+    /// Collects the node's outputs stamped at or after `since` until every
+    /// job in `ids` is complete or `timeout` passes.
+    async fn collect(
+        &self,
+        ids: &BTreeSet<String>,
+        since: &msgs::Time,
+        timeout: Duration,
+    ) -> Answers {
+        let mut answers = Answers::default();
+        let mut statuses = Box::pin(self.status_sub.async_stream());
+        let mut toolpaths = Box::pin(self.toolpath_sub.async_stream());
+        let mut poses = Box::pin(self.poses_sub.async_stream());
+        let mut mill5 = Box::pin(self.mill5_sub.async_stream());
+        let mut belt6 = Box::pin(self.belt6_sub.async_stream());
+        let deadline = Instant::now() + timeout;
+        while !answers.complete(ids) {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                break;
+            }
+            tokio::select! {
+                Some(Ok((m, _))) = statuses.next() => {
+                    if is_ours(&m.header, since) && ids.contains(&m.job_id) {
+                        answers.statuses.push(m);
+                    }
+                }
+                Some(Ok((m, _))) = toolpaths.next() => {
+                    if is_ours(&m.header, since) && ids.contains(&m.job_id) {
+                        answers.toolpaths.push(m);
+                    }
+                }
+                Some(Ok((m, _))) = poses.next() => {
+                    if is_ours(&m.header, since) {
+                        answers.poses.push(m);
+                    }
+                }
+                Some(Ok((m, _))) = mill5.next() => {
+                    if is_ours(&m.header, since) {
+                        answers.mill5.push(m);
+                    }
+                }
+                Some(Ok((m, _))) = belt6.next() => {
+                    if is_ours(&m.header, since) {
+                        answers.belt6.push(m);
+                    }
+                }
+                _ = tokio::time::sleep(left) => break,
+            }
+        }
+        answers
+    }
+}
+
+/// Compares the node's answers with the recording, job by job; a job without
+/// a final status within `timeout` is a difference.
+fn report(rec: &Recorded, answers: &Answers, timeout: Duration) -> ReplayReport {
     let mut report = ReplayReport {
         jobs: Vec::new(),
         truncated: rec.truncated.clone(),
@@ -211,7 +238,7 @@ pub async fn republish(path: &Path, options: &PublishOptions) -> Result<ReplayRe
         if new.state.is_none() {
             differences.push(format!(
                 "the node gave no final status within {:.0} s",
-                options.timeout.as_secs_f64()
+                timeout.as_secs_f64()
             ));
         }
         report.jobs.push(JobReplay {
@@ -222,5 +249,23 @@ pub async fn republish(path: &Path, options: &PublishOptions) -> Result<ReplayRe
             differences,
         });
     }
-    Ok(report)
+    report
+}
+
+/// Republishes the inputs of the bag at `path` to a running node and compares
+/// its answers with the recording.
+pub async fn republish(path: &Path, options: &PublishOptions) -> Result<ReplayReport> {
+    let rec = Recorded::read(path)?;
+    let ids: BTreeSet<String> = rec.jobs.iter().map(|j| j.job_id.clone()).collect();
+    if ids.len() != rec.jobs.len() {
+        return Err(Error::invalid(
+            path.display().to_string(),
+            "the bag has several jobs with the same job_id: a node's answers could not be told apart",
+        ));
+    }
+    let link = Link::connect(options).await?;
+    let since = msgs::Time::now();
+    link.publish_inputs(&rec, since)?;
+    let answers = link.collect(&ids, &since, options.timeout).await;
+    Ok(report(&rec, &answers, options.timeout))
 }
