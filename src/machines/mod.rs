@@ -578,7 +578,6 @@ mod controller_tests {
     //! [`jtc::check`] and of the timing.
     use super::*;
     use crate::formats::{Pass, PathPoint};
-    use crate::pipeline::{self, RunOptions};
     use crate::planners::NoProgress;
 
     /// Every rule of `jtc` recomputed from the raw trajectory: `Err` names the
@@ -647,11 +646,7 @@ mod controller_tests {
 
     fn planned(name: &str) -> (Job, PlanResult) {
         let job = crate::samples::job(name).unwrap();
-        let options = RunOptions {
-            skip_verify: true,
-            no_timing: true,
-        };
-        let result = pipeline::run(&job, &NoProgress, options).unwrap();
+        let result = crate::planners::plan(&job, &NoProgress).unwrap();
         (job, result)
     }
 

@@ -544,37 +544,6 @@ pub fn trajectory_points(
     }
 }
 
-/// The pose (mm, rad, in the controller's joint order) of a measured joint
-/// state. Errors name a missing joint or a value outside the travel.
-pub fn joint_state_pose(
-    m: &msgs::JointState,
-    names: &[String],
-    limits: &[machines::JointLimit],
-) -> Result<Vec<f64>> {
-    let cols = machines::controller::match_joints("name", &m.name, names)
-        .map_err(|e| e.within("joint_states"))?;
-    let q = cols
-        .iter()
-        .zip(limits)
-        .map(|(&c, l)| {
-            let x = m.position.get(c).copied().ok_or_else(|| {
-                Error::invalid(
-                    "joint_states.position",
-                    format!(
-                        "has {} values for {} names: no position of joint {}",
-                        m.position.len(),
-                        m.name.len(),
-                        m.name[c]
-                    ),
-                )
-            })?;
-            Ok(if l.rotary { x } else { x / MM })
-        })
-        .collect::<Result<Vec<f64>>>()?;
-    machines::controller::check_start("the joint state", &q, limits, names)?;
-    Ok(q)
-}
-
 /// Region colours (a qualitative palette), cycled.
 const PALETTE: [[f32; 3]; 8] = [
     [0.12, 0.47, 0.71],

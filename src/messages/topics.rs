@@ -9,6 +9,8 @@ pub const SURFACE: &str = "surface";
 pub const POCKET: &str = "pocket";
 /// Input: jobs.
 pub const JOB: &str = "job";
+/// Input: the machines' measured joint positions (sensor_msgs/JointState).
+pub const JOINT_STATES: &str = "joint_states";
 /// Output: the planned toolpath (mm, as the result file).
 pub const TOOLPATH: &str = "toolpath";
 /// Output: tool poses (m, REP 103).

@@ -5,6 +5,7 @@
 //! replay of a bag's inputs to a running node.
 
 pub mod config;
+pub mod joint_states;
 pub mod node;
 pub mod recorder;
 pub mod republish;

@@ -9,6 +9,7 @@
 //! status; a panic inside a planner becomes FAILED, never a dead node.
 
 use super::config::{IpcSettings, NodeConfig};
+use super::joint_states::JointStates;
 use super::recorder::Recorder;
 use crate::error::{Error, Result};
 use crate::formats::job::DEFAULT_FEED_RATE;
@@ -92,6 +93,14 @@ pub mod qos {
             Durability::TransientLocal,
             History::KeepLast { depth: 1000 },
         )
+    }
+    /// The node's reader of `joint_states`: best effort (matches reliable and
+    /// best-effort broadcasters), volatile, depth 10; only the latest counts.
+    pub fn joint_states() -> QosProfile {
+        QosProfile::subscription_default()
+            .reliability(ros2_client::qos::Reliability::BestEffort)
+            .durability(Durability::Volatile)
+            .history(History::KeepLast { depth: 10 })
     }
     /// Results (toolpath, tool_poses, trajectories, markers): transient-local, depth 10.
     pub fn results() -> QosProfile {
@@ -340,6 +349,8 @@ struct State {
 struct Shared {
     state: Mutex<State>,
     wake: Condvar,
+    /// The latest `/joint_states`: where each trajectory starts.
+    joints: JointStates,
 }
 
 impl Shared {
@@ -437,12 +448,41 @@ impl Progress for StatusProgress<'_> {
     }
 }
 
+/// Where `machine` is according to `/joint_states` (`None`: never reported,
+/// start from its home pose).
+fn start_pose(
+    joints: &JointStates,
+    machine: Machine,
+    machines: &Machines,
+) -> Result<Option<Vec<f64>>> {
+    let (names, limits, controller) = match machine {
+        Machine::Mill5 => (
+            machines.mill5.joint_names(),
+            machines.mill5.limits(),
+            &machines.mill5.controller,
+        ),
+        Machine::Belt6 => (
+            machines.belt6.joint_names(),
+            machines.belt6.limits(),
+            &machines.belt6.controller,
+        ),
+    };
+    joints.start_pose(
+        machine.name(),
+        &names,
+        &limits,
+        Duration::from_secs_f64(controller.joint_states_max_age_s),
+        Instant::now(),
+    )
+}
+
 /// Plans one job and publishes its outputs; returns the success summary.
 fn plan_and_publish(
     p: &Pending,
     shape: &Shape,
     outputs: &Outputs,
     machines: &Machines,
+    joints: &JointStates,
     options: RunOptions,
 ) -> Result<String> {
     let job = convert::job_from_msg(&p.msg, shape)?;
@@ -455,7 +495,8 @@ fn plan_and_publish(
     let planning_started = Instant::now();
     let result = pipeline::run(&job, &progress, options)?;
     let planning = planning_started.elapsed();
-    let trajectory = crate::machines::trajectory(&job, &result, machines)?;
+    let start = start_pose(joints, job.machine, machines)?;
+    let trajectory = crate::machines::trajectory_from(&job, &result, machines, start.as_deref())?;
     let out = msgs::job_outputs(
         &job,
         &p.msg.surface_id,
@@ -524,7 +565,7 @@ fn worker(
             ),
             Work::Plan(p, shape) => {
                 let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                    plan_and_publish(&p, &shape, &outputs, &machines, options)
+                    plan_and_publish(&p, &shape, &outputs, &machines, &shared.joints, options)
                 }));
                 match run {
                     Ok(Ok(summary)) => outputs.status(&p.msg.job_id, msgs::JobStatus::SUCCEEDED, 1.0, summary),
@@ -599,6 +640,7 @@ struct Inputs {
     surfaces: Subscription<msgs::Surface>,
     pockets: Subscription<msgs::Pocket>,
     jobs: Subscription<msgs::Job>,
+    joint_states: Subscription<msgs::JointState>,
 }
 
 /// Creates the output publishers and the optional recorder, iceoryx2 thread
@@ -702,6 +744,7 @@ async fn receive_until_signal(
     let mut surface_stream = Box::pin(inputs.surfaces.async_stream());
     let mut pocket_stream = Box::pin(inputs.pockets.async_stream());
     let mut job_stream = Box::pin(inputs.jobs.async_stream());
+    let mut joint_stream = Box::pin(inputs.joint_states.async_stream());
     let mut sigterm = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
         .map_err(|e| Error::planning(format!("cannot watch SIGTERM: {e}")))?;
     loop {
@@ -734,6 +777,15 @@ async fn receive_until_signal(
                     receive_shape(shared, msg.pocket_id, shape);
                 }
                 Err(e) => log::error!("undecodable message on topic pocket: {e:?}"),
+            },
+            Some(r) = joint_stream.next() => match r {
+                // Not recorded: a bag replays from the home pose.
+                Ok((msg, _)) => {
+                    if let Err(e) = shared.joints.update(&msg, Instant::now()) {
+                        log::warn!("ignored a joint state: {e}");
+                    }
+                }
+                Err(e) => log::error!("undecodable message on topic joint_states: {e:?}"),
             },
             _ = tokio::signal::ctrl_c() => return Ok(()),
             _ = sigterm.recv() => return Ok(()),
@@ -793,11 +845,13 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         surfaces: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
         pockets: ros.subscription(topics::POCKET, qos::shapes_reader())?,
         jobs: ros.subscription(topics::JOB, qos::job_reader())?,
+        joint_states: ros.subscription(topics::JOINT_STATES, qos::joint_states())?,
     };
     let (outputs, ipc_thread) = start_outputs(&mut ros, &config)?;
     let shared = Arc::new(Shared {
         state: Mutex::new(State::default()),
         wake: Condvar::new(),
+        joints: JointStates::default(),
     });
     let workers = start_workers(&config, &shared, &outputs)?;
     announce_ready(&ros, &config, domain, &outputs);
