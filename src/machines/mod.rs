@@ -70,6 +70,9 @@ pub struct JointTrajectory {
     pub start: Vec<f64>,
     /// Duration of the move from `start` to the first point, s.
     pub start_move_s: f64,
+    /// Index of each pass's first waypoint (its approach) in `timed`: the
+    /// machine is at rest there and at the retract before it.
+    pub pass_starts: Vec<usize>,
     pub timed: Timed,
 }
 
@@ -371,6 +374,12 @@ pub fn trajectory_from(
         None => 0.0,
     };
     timed.times.iter_mut().for_each(|t| *t += start_move_s);
+    let pass_starts = origins
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| matches!(o, Origin::Approach(_)))
+        .map(|(k, _)| k)
+        .collect();
     let trajectory = JointTrajectory {
         machine: machine_name.to_string(),
         joint_names,
@@ -379,6 +388,7 @@ pub fn trajectory_from(
         stamp: controller.stamp(),
         start,
         start_move_s,
+        pass_starts,
         timed,
     };
     if !trajectory.timed.times.is_empty() {

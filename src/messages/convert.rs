@@ -504,6 +504,45 @@ pub fn joint_trajectory_msg(t: &JointTrajectory, header: msgs::Header) -> msgs::
     }
 }
 
+/// The trajectory message cut into one trajectory per pass, for a controller
+/// that executes each when the previous one succeeded: each runs from a
+/// pass's approach to its retract (at rest at both), its times counted from
+/// the end of the previous pass, so its first point comes after the link
+/// from where the previous pass left the machine.
+pub fn trajectory_chunks(
+    t: &JointTrajectory,
+    m: &msgs::JointTrajectory,
+) -> Vec<msgs::JointTrajectory> {
+    let mut starts = t.pass_starts.clone();
+    if starts.first() != Some(&0) {
+        starts.insert(0, 0);
+    }
+    starts.push(m.points.len());
+    starts
+        .windows(2)
+        .filter(|w| w[1] > w[0])
+        .map(|w| {
+            let origin = if w[0] == 0 {
+                0.0
+            } else {
+                t.timed.times[w[0] - 1]
+            };
+            msgs::JointTrajectory {
+                header: m.header.clone(),
+                joint_names: m.joint_names.clone(),
+                points: m.points[w[0]..w[1]]
+                    .iter()
+                    .zip(&t.timed.times[w[0]..w[1]])
+                    .map(|(p, time)| msgs::JointTrajectoryPoint {
+                        time_from_start: msgs::Duration::from_secs_f64(time - origin),
+                        ..p.clone()
+                    })
+                    .collect(),
+            }
+        })
+        .collect()
+}
+
 /// A JointTrajectory message in internal units (mm, rad), for the joints
 /// `names` with `limits` (a joint not among them is left unscaled; the
 /// controller rules reject it by name).

@@ -53,6 +53,14 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
         include_str!("defs/builtin_interfaces/Time.msg"),
     ),
     (
+        "control_msgs/JointComponentTolerance",
+        include_str!("defs/control_msgs/JointComponentTolerance.msg"),
+    ),
+    (
+        "control_msgs/JointTolerance",
+        include_str!("defs/control_msgs/JointTolerance.msg"),
+    ),
+    (
         "geometry_msgs/Point",
         include_str!("defs/geometry_msgs/Point.msg"),
     ),
@@ -67,6 +75,14 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
     (
         "geometry_msgs/Quaternion",
         include_str!("defs/geometry_msgs/Quaternion.msg"),
+    ),
+    (
+        "geometry_msgs/Transform",
+        include_str!("defs/geometry_msgs/Transform.msg"),
+    ),
+    (
+        "geometry_msgs/Twist",
+        include_str!("defs/geometry_msgs/Twist.msg"),
     ),
     (
         "geometry_msgs/Vector3",
@@ -85,6 +101,7 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
         include_str!("defs/std_msgs/ColorRGBA.msg"),
     ),
     ("std_msgs/Header", include_str!("defs/std_msgs/Header.msg")),
+    ("std_msgs/String", include_str!("defs/std_msgs/String.msg")),
     ("toolpath_msgs/Job", include_str!("../../msg/msg/Job.msg")),
     (
         "toolpath_msgs/JobStatus",
@@ -126,6 +143,14 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
     (
         "trajectory_msgs/JointTrajectoryPoint",
         include_str!("defs/trajectory_msgs/JointTrajectoryPoint.msg"),
+    ),
+    (
+        "trajectory_msgs/MultiDOFJointTrajectory",
+        include_str!("defs/trajectory_msgs/MultiDOFJointTrajectory.msg"),
+    ),
+    (
+        "trajectory_msgs/MultiDOFJointTrajectoryPoint",
+        include_str!("defs/trajectory_msgs/MultiDOFJointTrajectoryPoint.msg"),
     ),
     (
         "visualization_msgs/Marker",
@@ -673,6 +698,14 @@ mod tests {
         check::<ColorRGBA>();
         check::<CompressedImage>();
         check::<JointState>();
+        use super::super::follow_joint_trajectory as fjt;
+        check::<fjt::Transform>();
+        check::<fjt::Twist>();
+        check::<fjt::MultiDOFJointTrajectory>();
+        check::<fjt::MultiDOFJointTrajectoryPoint>();
+        check::<fjt::JointTolerance>();
+        check::<fjt::JointComponentTolerance>();
+        check::<fjt::StringMsg>();
         check::<MeshFile>();
         check::<UVCoordinate>();
     }

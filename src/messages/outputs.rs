@@ -133,4 +133,43 @@ mod tests {
             JobStatus::FAILED
         );
     }
+
+    #[test]
+    fn per_pass_chunks_each_meet_the_controller_rules_from_where_the_last_left() {
+        let m = Machines::default();
+        for name in ["plane", "sine_wave"] {
+            let job = crate::samples::job(name).unwrap();
+            let options = RunOptions {
+                skip_verify: true,
+                no_timing: true,
+            };
+            let result = pipeline::run(&job, &NoProgress, options).unwrap();
+            let t = crate::machines::trajectory(&job, &result, &m).unwrap();
+            let whole = convert::joint_trajectory_msg(&t, Header::default());
+            let chunks = convert::trajectory_chunks(&t, &whole);
+            assert_eq!(chunks.len(), result.passes.len(), "{name}");
+            let mut start = t.start.clone();
+            let mut end = 0.0;
+            let mut points = 0;
+            for c in &chunks {
+                let p = convert::trajectory_points(c, &t.joint_names, &t.limits);
+                crate::machines::jtc::check(&p, &t.joint_names, &t.limits, Some(&start))
+                    .unwrap_or_else(|e| panic!("{name}: {e}"));
+                // Chunk times plus where the previous chunk ended give the
+                // whole trajectory's times.
+                for (k, time) in p.times.iter().enumerate() {
+                    let want = t.timed.times[points + k];
+                    assert!(
+                        (end + time - want).abs() < 2e-9,
+                        "{name}: {} vs {want}",
+                        end + time
+                    );
+                }
+                points += p.times.len();
+                end = t.timed.times[points - 1];
+                start = p.positions.last().unwrap().clone();
+            }
+            assert_eq!(points, whole.points.len());
+        }
+    }
 }
