@@ -9,6 +9,7 @@
 //! status; a panic inside a planner becomes FAILED, never a dead node.
 
 use super::config::{IpcSettings, NodeConfig};
+use super::execute::{self, Cancels, Execution, Report};
 use super::joint_states::JointStates;
 use super::recorder::Recorder;
 use crate::error::{Error, Result};
@@ -211,6 +212,10 @@ struct Outputs {
     last_stamp_ns: AtomicU64,
     /// To the iceoryx2 publisher thread (its publisher is not `Send`).
     ipc: Option<std::sync::mpsc::Sender<PlanResult>>,
+    /// Executors of the machines with `controller.execute: true`.
+    executors: Vec<(Machine, ExecutorQueue)>,
+    /// Cancel requests of executions.
+    cancels: Arc<Cancels>,
     /// NC programs of mill5 results: the cell's mill5, the format, the directory.
     programs: Option<(
         crate::post::PostMachine,
@@ -218,6 +223,9 @@ struct Outputs {
         std::path::PathBuf,
     )>,
 }
+
+/// The queue of a machine's executor task.
+type ExecutorQueue = tokio::sync::mpsc::UnboundedSender<(Execution, Arc<Report<'static>>)>;
 
 /// Starts the thread that owns the iceoryx2 publisher and sends it every
 /// result; fails (naming the service) when the publisher cannot be made.
@@ -480,7 +488,7 @@ fn start_pose(
 fn plan_and_publish(
     p: &Pending,
     shape: &Shape,
-    outputs: &Outputs,
+    outputs: &Arc<Outputs>,
     machines: &Machines,
     joints: &JointStates,
     options: RunOptions,
@@ -510,6 +518,12 @@ fn plan_and_publish(
         result.stats.compute_ms
     );
     let trajectory_topic = out.trajectory_topic();
+    let executor = outputs
+        .executors
+        .iter()
+        .find(|(m, _)| *m == job.machine)
+        .map(|(_, q)| q);
+    let chunks = executor.map(|_| convert::trajectory_chunks(&trajectory, &out.trajectory));
     let JobOutputs {
         toolpath,
         poses,
@@ -541,7 +555,38 @@ fn plan_and_publish(
     if let Some(tx) = &outputs.ipc {
         let _ = tx.send(result);
     }
-    Ok(summary)
+    match (executor, chunks) {
+        (Some(queue), Some(chunks)) => {
+            let executed = execute_job(queue, outputs, &job.job_id, chunks)?;
+            Ok(format!("{summary}; {executed}"))
+        }
+        _ => Ok(summary),
+    }
+}
+
+/// Hands a job's passes to its machine's executor and waits for the outcome,
+/// reporting its progress as RUNNING statuses.
+fn execute_job(
+    queue: &ExecutorQueue,
+    outputs: &Arc<Outputs>,
+    job_id: &str,
+    chunks: Vec<msgs::JointTrajectory>,
+) -> Result<String> {
+    let (reply, outcome) = std::sync::mpsc::channel();
+    let (o, id) = (Arc::clone(outputs), job_id.to_string());
+    let report: Arc<Report<'static>> =
+        Arc::new(move |f: f32, text: String| o.status(&id, msgs::JobStatus::RUNNING, f, text));
+    let e = Execution {
+        job_id: job_id.to_string(),
+        chunks,
+        reply,
+    };
+    queue
+        .send((e, report))
+        .map_err(|_| Error::planning("the executor has stopped"))?;
+    outcome
+        .recv()
+        .map_err(|_| Error::planning("the executor has stopped"))?
 }
 
 fn worker(
@@ -641,6 +686,7 @@ struct Inputs {
     pockets: Subscription<msgs::Pocket>,
     jobs: Subscription<msgs::Job>,
     joint_states: Subscription<msgs::JointState>,
+    cancels: Subscription<msgs::follow_joint_trajectory::StringMsg>,
 }
 
 /// Creates the output publishers and the optional recorder, iceoryx2 thread
@@ -664,6 +710,20 @@ fn start_outputs(
     } else {
         None
     };
+    let cancels = Arc::new(Cancels::default());
+    let mut executors = Vec::new();
+    for (machine, controller) in [
+        (Machine::Mill5, &config.mill5.controller),
+        (Machine::Belt6, &config.belt6.controller),
+    ] {
+        if controller.execute {
+            let action = controller.action(machine.name());
+            let client = Arc::new(execute::client(ros, &action)?);
+            let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+            tokio::spawn(execute::executor(client, action, rx, Arc::clone(&cancels)));
+            executors.push((machine, tx));
+        }
+    }
     let outputs = Arc::new(Outputs {
         status: Mutex::new(ros.publisher(topics::JOB_STATUS, qos::status())?),
         toolpath: Mutex::new(ros.publisher(topics::TOOLPATH, qos::results())?),
@@ -675,6 +735,8 @@ fn start_outputs(
         recorder,
         last_stamp_ns: AtomicU64::new(0),
         ipc: ipc.as_ref().map(|(tx, _)| tx.clone()),
+        executors,
+        cancels,
         programs: if config.post.enabled {
             Some((
                 crate::post::PostMachine::from_mill5(&config.mill5),
@@ -745,6 +807,7 @@ async fn receive_until_signal(
     let mut pocket_stream = Box::pin(inputs.pockets.async_stream());
     let mut job_stream = Box::pin(inputs.jobs.async_stream());
     let mut joint_stream = Box::pin(inputs.joint_states.async_stream());
+    let mut cancel_stream = Box::pin(inputs.cancels.async_stream());
     let mut sigterm = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
         .map_err(|e| Error::planning(format!("cannot watch SIGTERM: {e}")))?;
     loop {
@@ -786,6 +849,13 @@ async fn receive_until_signal(
                     }
                 }
                 Err(e) => log::error!("undecodable message on topic joint_states: {e:?}"),
+            },
+            Some(r) = cancel_stream.next() => match r {
+                Ok((msg, _)) => {
+                    log::info!("cancel of job {} requested", msg.data);
+                    outputs.cancels.cancel(&msg.data);
+                }
+                Err(e) => log::error!("undecodable message on topic cancel: {e:?}"),
             },
             _ = tokio::signal::ctrl_c() => return Ok(()),
             _ = sigterm.recv() => return Ok(()),
@@ -846,6 +916,7 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         pockets: ros.subscription(topics::POCKET, qos::shapes_reader())?,
         jobs: ros.subscription(topics::JOB, qos::job_reader())?,
         joint_states: ros.subscription(topics::JOINT_STATES, qos::joint_states())?,
+        cancels: ros.subscription(topics::CANCEL, qos::job())?,
     };
     let (outputs, ipc_thread) = start_outputs(&mut ros, &config)?;
     let shared = Arc::new(Shared {
@@ -858,7 +929,9 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     let timeout = Duration::from_secs_f64(settings.surface_timeout_s);
     let received =
         receive_until_signal(inputs, &shared, &outputs, &config.machines(), timeout).await;
-    // Workers finish their current job; the process exits after them.
+    // Executions are canceled at the controller; workers finish their
+    // current job; the process exits after them.
+    outputs.cancels.cancel_all();
     shut_down(&shared, workers, outputs, ipc_thread);
     received
 }
