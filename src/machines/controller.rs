@@ -22,7 +22,7 @@ pub enum StampPolicy {
 
 /// The `controller:` section of a machine. Omitted fields take the machine's
 /// defaults (see the accessors on the machine configs).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ControllerConfig {
     /// The controller's joint of each axis, in axis order (X Y Z A C, or
@@ -49,12 +49,24 @@ pub struct ControllerConfig {
 /// 50-1000 Hz, so a second means the publisher has stopped).
 pub const JOINT_STATES_MAX_AGE_S: f64 = 1.0;
 
+impl Default for ControllerConfig {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl ControllerConfig {
     /// The defaults of every field, as in launch_configs/default.yaml.
     pub fn new() -> Self {
         Self {
+            joint_names: None,
+            action: None,
+            stamp: StampPolicy::Zero,
+            start_delay_s: 0.0,
+            home_mm: None,
+            home_deg: None,
             joint_states_max_age_s: JOINT_STATES_MAX_AGE_S,
-            ..Default::default()
+            execute: false,
         }
     }
 
