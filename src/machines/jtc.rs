@@ -8,12 +8,14 @@
 //! joints' length; `time_from_start` strictly increases. The machine's: the
 //! first point comes after 0 (JTC then interpolates from the measured state);
 //! the last point is at rest; positions stay in the travel; velocity and
-//! acceleration limits hold between consecutive points by finite differences;
+//! acceleration limits hold between consecutive points by finite differences
+//! and on the cubic the controller interpolates between them;
 //! a rotary joint never turns further between two points than it can in that
 //! time (a C unwrapped the wrong way or a spin at the A = 0 singularity).
 
 use super::config::JointLimit;
 use super::controller::{match_joints, shown};
+use super::timing::hermite_peaks;
 use crate::error::{Error, Result};
 
 /// A trajectory as the controller receives it, in internal units.
@@ -196,6 +198,17 @@ pub fn check(
                     ),
                 ));
             }
+            let (vp, ap) = hermite_peaks(q0, q[k][j], v0, v[k][j], dt);
+            if vp > l.max_velocity * slack || ap > l.max_acceleration * slack {
+                return Err(Error::invalid(
+                    format!("points[{k}]"),
+                    format!(
+                        "the cubic the controller interpolates between {at} takes joint {name} to \
+                         {vp:.4} per s and {ap:.4} per s^2, over its limits {:.4} and {:.4}",
+                        l.max_velocity, l.max_acceleration
+                    ),
+                ));
+            }
         }
     }
     Ok(Points {
@@ -352,6 +365,21 @@ mod tests {
         let e = err(&good(), Some(&[100.0, 1000.0, 100.0, 0.0, 0.0]));
         assert!(
             e.contains("joint Y moves at 900.0000 per s between the start and points[0]"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn the_interpolated_cubic_stays_within_the_limits() {
+        // X from rest to rest, 400 mm in 1 s: the mean 400 mm/s is under
+        // 500, but the cubic peaks at 1.5 x 400 = 600 mm/s mid-way.
+        let mut p = good();
+        p.positions[1][0] = 500.0;
+        p.positions[2][0] = 500.0;
+        p.velocities[1] = vec![0.0; 5];
+        let e = err(&p, None);
+        assert!(
+            e.contains("points[1]: the cubic the controller interpolates between points[0] and [1] (1.0000 s) takes joint X to 600.0000 per s"),
             "{e}"
         );
     }

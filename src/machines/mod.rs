@@ -651,6 +651,32 @@ mod controller_tests {
         if v[n - 1].iter().any(|x| *x != 0.0) {
             out.push("last point moving".into());
         }
+        // The cubic Hermite the controller interpolates on every segment,
+        // sampled and differenced numerically.
+        for k in 1..n {
+            let h = times[k] - times[k - 1];
+            for (j, l) in limits.iter().enumerate() {
+                let (p0, p1, m0, m1) = (q[k - 1][j], q[k][j], v[k - 1][j] * h, v[k][j] * h);
+                let pos = |s: f64| {
+                    let (s2, s3) = (s * s, s * s * s);
+                    (2.0 * s3 - 3.0 * s2 + 1.0) * p0
+                        + (s3 - 2.0 * s2 + s) * m0
+                        + (-2.0 * s3 + 3.0 * s2) * p1
+                        + (s3 - s2) * m1
+                };
+                let m = 64;
+                let e = 1.0 / m as f64;
+                for i in 0..=m {
+                    let s = (i as f64 * e).clamp(e, 1.0 - e);
+                    let vel = (pos(s + e) - pos(s - e)) / (2.0 * e * h);
+                    let acc = (pos(s + e) - 2.0 * pos(s) + pos(s - e)) / (e * e * h * h);
+                    if vel.abs() > l.max_velocity * 1.001 || acc.abs() > l.max_acceleration * 1.05 {
+                        out.push(format!("segment {k} {} cubic v {vel} a {acc}", l.name));
+                        break;
+                    }
+                }
+            }
+        }
         out
     }
 
