@@ -2,6 +2,7 @@
 //! Lengths in mm, angles in degrees at this edge (`_deg` fields); converted to
 //! mm and radians by [`JointLimit`].
 
+use super::controller::ControllerConfig;
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 
@@ -120,7 +121,7 @@ pub(super) fn positive(field: &str, x: f64) -> Result<()> {
     Ok(())
 }
 
-pub(super) fn finite(field: &str, x: f64) -> Result<()> {
+pub(crate) fn finite(field: &str, x: f64) -> Result<()> {
     if !x.is_finite() {
         return Err(Error::invalid(field, format!("{x} is not a finite number")));
     }
@@ -158,6 +159,8 @@ pub struct Mill5Config {
     pub z: LinearAxis,
     pub a: RotaryAxis,
     pub c: RotaryAxis,
+    /// Its trajectory controller (joint names, action, start policy, home).
+    pub controller: ControllerConfig,
 }
 
 impl Default for Mill5Config {
@@ -172,6 +175,7 @@ impl Default for Mill5Config {
             z: LinearAxis::new(0.0, 1500.0, 300.0, 1500.0),
             a: RotaryAxis::new(-95.0, 95.0, 90.0, 360.0),
             c: RotaryAxis::new(-220.0, 220.0, 180.0, 720.0),
+            controller: ControllerConfig::new(),
         }
     }
 }
@@ -193,7 +197,27 @@ impl Mill5Config {
         self.y.validate("mill5.y")?;
         self.z.validate("mill5.z")?;
         self.a.validate("mill5.a")?;
-        self.c.validate("mill5.c")
+        self.c.validate("mill5.c")?;
+        let limits = self.limits();
+        self.controller.validate("mill5.controller", &limits)?;
+        super::controller::check_start(
+            "the home pose (home_mm, home_deg)",
+            &self.home(),
+            &limits,
+            &self.joint_names(),
+        )
+        .map_err(|e| Error::invalid("mill5.controller", e.to_string()))
+    }
+    /// The controller's joint names, in axis order.
+    pub fn joint_names(&self) -> Vec<String> {
+        self.controller.joint_names(&self.limits())
+    }
+    /// The home pose (mm, rad); by default above the workpiece origin at the
+    /// top of Z, tool vertical.
+    pub fn home(&self) -> Vec<f64> {
+        let o = self.workpiece_origin_mm;
+        self.controller
+            .home(&self.limits(), [o[0], o[1], self.z.max_mm])
     }
     pub fn limits(&self) -> Vec<JointLimit> {
         vec![
@@ -222,6 +246,8 @@ pub struct Belt6Config {
     pub a: RotaryAxis,
     pub b: RotaryAxis,
     pub c: RotaryAxis,
+    /// Its trajectory controller (joint names, action, start policy, home).
+    pub controller: ControllerConfig,
 }
 
 impl Default for Belt6Config {
@@ -236,6 +262,7 @@ impl Default for Belt6Config {
             a: RotaryAxis::new(-200.0, 200.0, 90.0, 360.0),
             b: RotaryAxis::new(-90.0, 90.0, 90.0, 360.0),
             c: RotaryAxis::new(-270.0, 270.0, 120.0, 480.0),
+            controller: ControllerConfig::new(),
         }
     }
 }
@@ -257,7 +284,27 @@ impl Belt6Config {
         self.z.validate("belt6.z")?;
         self.a.validate("belt6.a")?;
         self.b.validate("belt6.b")?;
-        self.c.validate("belt6.c")
+        self.c.validate("belt6.c")?;
+        let limits = self.limits();
+        self.controller.validate("belt6.controller", &limits)?;
+        super::controller::check_start(
+            "the home pose (home_mm, home_deg)",
+            &self.home(),
+            &limits,
+            &self.joint_names(),
+        )
+        .map_err(|e| Error::invalid("belt6.controller", e.to_string()))
+    }
+    /// The controller's joint names, in axis order.
+    pub fn joint_names(&self) -> Vec<String> {
+        self.controller.joint_names(&self.limits())
+    }
+    /// The home pose (mm, rad); by default above the workpiece origin at the
+    /// top of Z, wheel frame parallel to the machine's.
+    pub fn home(&self) -> Vec<f64> {
+        let o = self.workpiece_origin_mm;
+        self.controller
+            .home(&self.limits(), [o[0], o[1], self.z.max_mm])
     }
     pub fn limits(&self) -> Vec<JointLimit> {
         vec![

@@ -11,11 +11,14 @@
 
 pub mod belt6;
 pub mod config;
+pub mod controller;
 pub mod five_axis;
+pub mod jtc;
 pub mod mill5;
 pub mod timing;
 
 pub use config::{Belt6Config, JointLimit, Machines, Mill5Config};
+pub use controller::{ControllerConfig, Stamp, StampPolicy};
 pub use five_axis::{FiveAxis, FiveAxisConfig, Kinematics};
 
 use crate::error::{Error, Result};
@@ -50,19 +53,43 @@ impl std::fmt::Display for Origin {
     }
 }
 
-/// A job's timed joint trajectory in internal units (mm, rad, s).
+/// A job's timed joint trajectory in internal units (mm, rad, s), as its
+/// controller executes it: the first point (the first approach) comes after
+/// the move from `start`, which JTC interpolates from the measured state.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct JointTrajectory {
     pub machine: String,
-    pub joint_names: Vec<&'static str>,
+    /// The controller's joint names, in axis order.
+    pub joint_names: Vec<String>,
     /// Per joint: true for rotary (rad), false for linear (mm).
     pub rotary: Vec<bool>,
+    pub limits: Vec<JointLimit>,
+    /// When the controller starts it.
+    pub stamp: Stamp,
+    /// The pose the machine starts from (a joint state or the home pose).
+    pub start: Vec<f64>,
+    /// Duration of the move from `start` to the first point, s.
+    pub start_move_s: f64,
+    /// Index of each pass's first waypoint (its approach) in `timed`: the
+    /// machine is at rest there and at the retract before it.
+    pub pass_starts: Vec<usize>,
     pub timed: Timed,
 }
 
 impl JointTrajectory {
     pub fn duration(&self) -> f64 {
         self.timed.times.last().copied().unwrap_or(0.0)
+    }
+
+    /// The trajectory as the controller receives it.
+    pub fn points(&self) -> jtc::Points {
+        jtc::Points {
+            joint_names: self.joint_names.clone(),
+            times: self.timed.times.clone(),
+            positions: self.timed.positions.clone(),
+            velocities: self.timed.velocities.clone(),
+            accelerations: Vec::new(),
+        }
     }
 }
 
@@ -227,8 +254,21 @@ pub fn check_feed_rate(machine: Machine, feed_rate: f64, machines: &Machines) ->
     Ok(())
 }
 
-/// Builds the timed joint trajectory of a planned job on its machine.
+/// Builds the timed joint trajectory of a planned job on its machine,
+/// starting from the machine's home pose.
 pub fn trajectory(job: &Job, result: &PlanResult, machines: &Machines) -> Result<JointTrajectory> {
+    trajectory_from(job, result, machines, None)
+}
+
+/// Builds the timed joint trajectory of a planned job on its machine,
+/// starting from `start` (a measured joint state, mm and rad in axis order;
+/// `None` = the machine's home pose).
+pub fn trajectory_from(
+    job: &Job,
+    result: &PlanResult,
+    machines: &Machines,
+    start: Option<&[f64]>,
+) -> Result<JointTrajectory> {
     let passes = tool_poses(result);
     check_feed_rate(job.machine, job.feed_rate, machines)?;
     let (retract, machine_name) = match job.machine {
@@ -272,32 +312,32 @@ pub fn trajectory(job: &Job, result: &PlanResult, machines: &Machines) -> Result
         stops.push(true);
         rapid_before.push(false);
     }
-    let (joint_names, limits, mut q): (Vec<&'static str>, Vec<JointLimit>, Vec<Vec<f64>>) =
-        match job.machine {
-            Machine::Mill5 => {
-                let cfg = &machines.mill5;
-                let l = cfg.pivot_length_mm + job.tool_length();
-                let input: Vec<([f64; 3], [f64; 3])> =
-                    poses.iter().map(|t| (t.tip, t.axis)).collect();
-                let q = mill5::inverse_path(cfg, l, &input)?;
-                (
-                    vec!["X", "Y", "Z", "A", "C"],
-                    cfg.limits(),
-                    q.into_iter().map(|r| r.to_vec()).collect(),
-                )
-            }
-            Machine::Belt6 => {
-                let cfg = &machines.belt6;
-                let input: Vec<([f64; 3], [f64; 3], [f64; 3])> =
-                    poses.iter().map(|t| (t.tip, t.axis, t.normal)).collect();
-                let q = belt6::inverse_path(cfg, &input)?;
-                (
-                    vec!["X", "Y", "Z", "A", "B", "C"],
-                    cfg.limits(),
-                    q.into_iter().map(|r| r.to_vec()).collect(),
-                )
-            }
-        };
+    let (joint_names, limits, mut q): (Vec<String>, Vec<JointLimit>, Vec<Vec<f64>>) = match job
+        .machine
+    {
+        Machine::Mill5 => {
+            let cfg = &machines.mill5;
+            let l = cfg.pivot_length_mm + job.tool_length();
+            let input: Vec<([f64; 3], [f64; 3])> = poses.iter().map(|t| (t.tip, t.axis)).collect();
+            let q = mill5::inverse_path(cfg, l, &input)?;
+            (
+                cfg.joint_names(),
+                cfg.limits(),
+                q.into_iter().map(|r| r.to_vec()).collect(),
+            )
+        }
+        Machine::Belt6 => {
+            let cfg = &machines.belt6;
+            let input: Vec<([f64; 3], [f64; 3], [f64; 3])> =
+                poses.iter().map(|t| (t.tip, t.axis, t.normal)).collect();
+            let q = belt6::inverse_path(cfg, &input)?;
+            (
+                cfg.joint_names(),
+                cfg.limits(),
+                q.into_iter().map(|r| r.to_vec()).collect(),
+            )
+        }
+    };
     let flip = (job.machine == Machine::Mill5).then_some((3, 4));
     fit_limits(machine_name, &mut q, &limits, &origins, flip)?;
     let segments: Vec<Segment> = (1..poses.len())
@@ -307,13 +347,65 @@ pub fn trajectory(job: &Job, result: &PlanResult, machines: &Machines) -> Result
         })
         .collect();
     let rotary = limits.iter().map(|l| l.rotary).collect();
-    let timed = timing::parameterise(q, &segments, &stops, &limits);
-    Ok(JointTrajectory {
+    let mut timed = timing::parameterise(q, &segments, &stops, &limits);
+    let (controller, home) = match job.machine {
+        Machine::Mill5 => (&machines.mill5.controller, machines.mill5.home()),
+        Machine::Belt6 => (&machines.belt6.controller, machines.belt6.home()),
+    };
+    let (start, what) = match start {
+        Some(s) => (s.to_vec(), "the joint state"),
+        None => (home, "the home pose"),
+    };
+    if start.len() != limits.len() {
+        return Err(Error::planning(format!(
+            "{machine_name}: {what} has {} joints, the machine has {} axes",
+            start.len(),
+            limits.len()
+        )));
+    }
+    controller::check_start(
+        &format!("{machine_name}: {what}"),
+        &start,
+        &limits,
+        &joint_names,
+    )?;
+    let start_move_s = match timed.positions.first() {
+        Some(first) => controller::start_move_time(&start, first, &limits),
+        None => 0.0,
+    };
+    timed.times.iter_mut().for_each(|t| *t += start_move_s);
+    let pass_starts = origins
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| matches!(o, Origin::Approach(_)))
+        .map(|(k, _)| k)
+        .collect();
+    let trajectory = JointTrajectory {
         machine: machine_name.to_string(),
         joint_names,
         rotary,
+        limits,
+        stamp: controller.stamp(),
+        start,
+        start_move_s,
+        pass_starts,
         timed,
-    })
+    };
+    if !trajectory.timed.times.is_empty() {
+        // The timing guarantees these rules; a breach is a bug, not bad input.
+        jtc::check(
+            &trajectory.points(),
+            &trajectory.joint_names,
+            &trajectory.limits,
+            Some(&trajectory.start),
+        )
+        .map_err(|e| {
+            Error::planning(format!(
+                "{machine_name}: internal error, the trajectory breaks a controller rule (please report): {e}"
+            ))
+        })?;
+    }
+    Ok(trajectory)
 }
 
 #[cfg(test)]
@@ -486,5 +578,230 @@ mod tests {
             (q[0][4] - c(200.0)).abs() < 1e-12 && (q[2][4] - c(-10.0)).abs() < 1e-12,
             "{q:?}"
         );
+    }
+}
+
+#[cfg(test)]
+mod controller_tests {
+    //! The trajectories the machines build, checked against the controller
+    //! rules by finite differences computed here, independently of
+    //! [`jtc::check`] and of the timing.
+    use super::*;
+    use crate::formats::{Pass, PathPoint};
+    use crate::planners::NoProgress;
+
+    /// Every rule of `jtc` recomputed from the raw trajectory: `Err` names the
+    /// first breach.
+    fn breaches(t: &JointTrajectory, limits: &[JointLimit]) -> Vec<String> {
+        let mut out = Vec::new();
+        let (times, q, v) = (&t.timed.times, &t.timed.positions, &t.timed.velocities);
+        let n = times.len();
+        if times[0] <= 0.0 {
+            out.push(format!("first time {}", times[0]));
+        }
+        let mut names = t.joint_names.clone();
+        names.sort();
+        names.dedup();
+        if names.len() != limits.len() {
+            out.push("joint names not unique".into());
+        }
+        // The start move as JTC interpolates it (cubic from rest to rest),
+        // sampled densely.
+        let t0 = times[0];
+        for (j, l) in limits.iter().enumerate() {
+            let d = q[0][j] - t.start[j];
+            let m = 2000;
+            let pos = |s: f64| t.start[j] + d * (3.0 * s * s - 2.0 * s * s * s);
+            let h = t0 / m as f64;
+            for k in 1..m {
+                let s = k as f64 / m as f64;
+                let vel = (pos(s + 1.0 / m as f64) - pos(s - 1.0 / m as f64)) / (2.0 * h);
+                let acc =
+                    (pos(s + 1.0 / m as f64) - 2.0 * pos(s) + pos(s - 1.0 / m as f64)) / (h * h);
+                if vel.abs() > l.max_velocity * 1.0001 || acc.abs() > l.max_acceleration * 1.01 {
+                    out.push(format!("start move {} at {s}: v {vel} a {acc}", l.name));
+                    break;
+                }
+            }
+        }
+        for k in 0..n {
+            if k > 0 && times[k] <= times[k - 1] {
+                out.push(format!("time {k}"));
+            }
+            for (j, l) in limits.iter().enumerate() {
+                if q[k].len() != limits.len() || v[k].len() != limits.len() {
+                    out.push(format!("point {k} lengths"));
+                }
+                if q[k][j] < l.min - 1e-6 || q[k][j] > l.max + 1e-6 {
+                    out.push(format!("point {k} {} = {} outside", l.name, q[k][j]));
+                }
+                if k > 0 {
+                    let dt = times[k] - times[k - 1];
+                    let fd_v = (q[k][j] - q[k - 1][j]) / dt;
+                    let fd_a = (v[k][j] - v[k - 1][j]) / dt;
+                    if fd_v.abs() > l.max_velocity * 1.0001 {
+                        out.push(format!("point {k} {} fd velocity {fd_v}", l.name));
+                    }
+                    if fd_a.abs() > l.max_acceleration * 1.0001 {
+                        out.push(format!("point {k} {} fd acceleration {fd_a}", l.name));
+                    }
+                }
+            }
+        }
+        if v[n - 1].iter().any(|x| *x != 0.0) {
+            out.push("last point moving".into());
+        }
+        // The cubic Hermite the controller interpolates on every segment,
+        // sampled and differenced numerically.
+        for k in 1..n {
+            let h = times[k] - times[k - 1];
+            for (j, l) in limits.iter().enumerate() {
+                let (p0, p1, m0, m1) = (q[k - 1][j], q[k][j], v[k - 1][j] * h, v[k][j] * h);
+                let pos = |s: f64| {
+                    let (s2, s3) = (s * s, s * s * s);
+                    (2.0 * s3 - 3.0 * s2 + 1.0) * p0
+                        + (s3 - 2.0 * s2 + s) * m0
+                        + (-2.0 * s3 + 3.0 * s2) * p1
+                        + (s3 - s2) * m1
+                };
+                let m = 64;
+                let e = 1.0 / m as f64;
+                for i in 0..=m {
+                    let s = (i as f64 * e).clamp(e, 1.0 - e);
+                    let vel = (pos(s + e) - pos(s - e)) / (2.0 * e * h);
+                    let acc = (pos(s + e) - 2.0 * pos(s) + pos(s - e)) / (e * e * h * h);
+                    if vel.abs() > l.max_velocity * 1.001 || acc.abs() > l.max_acceleration * 1.05 {
+                        out.push(format!("segment {k} {} cubic v {vel} a {acc}", l.name));
+                        break;
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    fn planned(name: &str) -> (Job, PlanResult) {
+        let job = crate::samples::job(name).unwrap();
+        let result = crate::planners::plan(&job, &NoProgress).unwrap();
+        (job, result)
+    }
+
+    #[test]
+    fn sample_trajectories_of_both_machines_meet_the_controller_rules() {
+        let m = Machines::default();
+        for name in ["plane", "sine_wave"] {
+            let (job, result) = planned(name);
+            let t = trajectory(&job, &result, &m).unwrap();
+            let limits = match job.machine {
+                Machine::Mill5 => m.mill5.limits(),
+                Machine::Belt6 => m.belt6.limits(),
+            };
+            let b = breaches(&t, &limits);
+            assert!(b.is_empty(), "{name}: {b:?}");
+            assert!(t.timed.times[0] > 0.0 && t.start_move_s == t.timed.times[0]);
+            assert_eq!(t.stamp, Stamp::Zero);
+            // A joint state elsewhere: the move is longer, the rest the same.
+            let mut start = t.start.clone();
+            start[0] += 2000.0;
+            let u = trajectory_from(&job, &result, &m, Some(&start)).unwrap();
+            assert!(breaches(&u, &limits).is_empty(), "{name}");
+            let shift = u.timed.times[0] - t.timed.times[0];
+            assert!(shift > 0.0);
+            assert!(u
+                .timed
+                .times
+                .iter()
+                .zip(&t.timed.times)
+                .all(|(a, b)| (a - b - shift).abs() < 1e-9));
+            assert_eq!(u.timed.positions, t.timed.positions);
+        }
+    }
+
+    #[test]
+    fn configured_joint_names_and_stamp_policy_reach_the_trajectory() {
+        let mut m = Machines::default();
+        m.mill5.controller.joint_names =
+            Some(["gx", "gy", "gz", "ha", "hc"].map(String::from).to_vec());
+        m.mill5.controller.stamp = StampPolicy::At;
+        m.mill5.controller.start_delay_s = 0.5;
+        let (job, result) = planned("plane");
+        let t = trajectory(&job, &result, &m).unwrap();
+        assert_eq!(t.joint_names, ["gx", "gy", "gz", "ha", "hc"]);
+        assert_eq!(t.stamp, Stamp::At(0.5));
+    }
+
+    #[test]
+    fn a_joint_state_outside_the_travel_is_refused_by_name() {
+        let m = Machines::default();
+        let (job, result) = planned("plane");
+        let mut start = m.mill5.home();
+        start[2] = 1600.0;
+        let e = trajectory_from(&job, &result, &m, Some(&start))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("mill5: the joint state has joint Z (axis Z) at 1600.000 mm, outside its range 0..1500 mm"),
+            "{e}"
+        );
+    }
+
+    /// A straight mill5 cut whose tool axis sweeps from tilted towards -y,
+    /// past vertical (missing it by `miss` rad in x), to tilted towards +y.
+    fn sweep_past_vertical(miss: f64) -> PlanResult {
+        let n = 201;
+        let points = (0..n)
+            .map(|k| {
+                let s = k as f64 / (n - 1) as f64;
+                let tilt = (s - 0.5) * 0.6;
+                let axis = [miss.sin(), tilt.sin(), tilt.cos()];
+                PathPoint {
+                    cc: [s * 100.0, 0.0, 0.0],
+                    cl: [s * 100.0, 0.0, 0.0],
+                    axis,
+                    normal: Some([0.0, 0.0, 1.0]),
+                    ..Default::default()
+                }
+            })
+            .collect();
+        PlanResult {
+            passes: vec![Pass {
+                region: 0,
+                points,
+                min_strip_width: None,
+            }],
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn passing_near_a_equal_zero_slows_down_or_flips_never_spins() {
+        let m = Machines::default();
+        let limits = m.mill5.limits();
+        let (job, _) = planned("plane");
+        for miss in [0.0, 1e-3, 2e-2] {
+            let t = trajectory(&job, &sweep_past_vertical(miss), &m).unwrap();
+            let b = breaches(&t, &limits);
+            assert!(b.is_empty(), "miss {miss}: {b:?}");
+            // C turns at most half a turn through the cut (the axis swings
+            // from -y to +y), never a whole turn.
+            let c: Vec<f64> = t.timed.positions.iter().map(|r| r[4]).collect();
+            let span = c.iter().cloned().fold(f64::MIN, f64::max)
+                - c.iter().cloned().fold(f64::MAX, f64::min);
+            assert!(
+                span <= std::f64::consts::PI + 1e-6,
+                "miss {miss}: C spans {span}"
+            );
+        }
+        // Through vertical exactly, A changes sign and C holds.
+        let t = trajectory(&job, &sweep_past_vertical(0.0), &m).unwrap();
+        let c: Vec<f64> = t.timed.positions.iter().map(|r| r[4]).collect();
+        assert!(c.iter().all(|x| (x - c[0]).abs() < 1e-9), "{c:?}");
+        let a: Vec<f64> = t.timed.positions.iter().map(|r| r[3]).collect();
+        assert!(a[1] * a[a.len() - 2] < 0.0);
+        // Missing it by 1 mrad, C must swing about half a turn near the
+        // middle: the timing slows the cut there below the feed.
+        let t = trajectory(&job, &sweep_past_vertical(1e-3), &m).unwrap();
+        let dt = |k: usize| t.timed.times[k + 1] - t.timed.times[k];
+        assert!(dt(101) > 2.0 * dt(20), "{} vs {}", dt(101), dt(20));
     }
 }

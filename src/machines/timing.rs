@@ -5,8 +5,11 @@
 //! velocity limit. Waypoint velocities are the mean of the adjacent segment
 //! velocities, zero at stops (path ends, retracts). Acceleration, measured as
 //! the change of waypoint velocity over a segment, is then brought under the
-//! limits by lengthening the offending segments; a final uniform time scaling
-//! guarantees the bound (it scales accelerations by 1/k^2).
+//! limits by lengthening the offending segments, and so are the peaks of the
+//! cubic a trajectory controller interpolates between waypoints (it overshoots
+//! the mean velocity by up to 1.5 times between two stops); a final uniform
+//! time scaling guarantees the bounds (it scales velocities by 1/k and
+//! accelerations by 1/k^2).
 
 use super::config::JointLimit;
 
@@ -49,8 +52,34 @@ fn waypoint_velocities(q: &[Vec<f64>], dt: &[f64], stops: &[bool]) -> Vec<Vec<f6
         .collect()
 }
 
-/// Largest ratio of acceleration to its limit over all segments and joints.
-fn worst_acceleration(v: &[Vec<f64>], dt: &[f64], limits: &[JointLimit]) -> (f64, Vec<f64>) {
+/// Peak |velocity| and |acceleration| of the cubic Hermite a trajectory
+/// controller interpolates between (q0, v0) and (q1, v1) over `dt`:
+/// velocity v0 + b s + c s^2 on s in [0, 1], acceleration linear in s, so
+/// largest at an end.
+pub fn hermite_peaks(q0: f64, q1: f64, v0: f64, v1: f64, dt: f64) -> (f64, f64) {
+    let m = (q1 - q0) / dt;
+    let b = 6.0 * m - 4.0 * v0 - 2.0 * v1;
+    let c = 3.0 * v0 + 3.0 * v1 - 6.0 * m;
+    let mut peak = v0.abs().max(v1.abs());
+    if c != 0.0 {
+        let s = -b / (2.0 * c);
+        if s > 0.0 && s < 1.0 {
+            peak = peak.max((v0 + b * s + c * s * s).abs());
+        }
+    }
+    (peak, b.abs().max((b + 2.0 * c).abs()) / dt)
+}
+
+/// Largest ratio over all segments and joints of acceleration to its limit,
+/// or of velocity to its limit squared (stretching a segment by k divides
+/// velocities by k and accelerations by about k^2), for the change of
+/// waypoint velocity and for the cubic the controller interpolates.
+fn worst_acceleration(
+    q: &[Vec<f64>],
+    v: &[Vec<f64>],
+    dt: &[f64],
+    limits: &[JointLimit],
+) -> (f64, Vec<f64>) {
     let mut worst = 0.0f64;
     let per_segment: Vec<f64> = dt
         .iter()
@@ -59,7 +88,12 @@ fn worst_acceleration(v: &[Vec<f64>], dt: &[f64], limits: &[JointLimit]) -> (f64
             let r = limits
                 .iter()
                 .enumerate()
-                .map(|(j, l)| (v[k + 1][j] - v[k][j]).abs() / (l.max_acceleration * d))
+                .map(|(j, l)| {
+                    let fd = (v[k + 1][j] - v[k][j]).abs() / (l.max_acceleration * d);
+                    let (vp, ap) = hermite_peaks(q[k][j], q[k + 1][j], v[k][j], v[k + 1][j], d);
+                    fd.max(ap / l.max_acceleration)
+                        .max((vp / l.max_velocity).powi(2))
+                })
                 .fold(0.0, f64::max);
             worst = worst.max(r);
             r
@@ -95,7 +129,7 @@ pub fn parameterise(
         .collect();
     let mut v = waypoint_velocities(&q, &dt, stops);
     for _ in 0..60 {
-        let (worst, per_segment) = worst_acceleration(&v, &dt, limits);
+        let (worst, per_segment) = worst_acceleration(&q, &v, &dt, limits);
         if worst <= 1.0 {
             break;
         }
@@ -106,7 +140,7 @@ pub fn parameterise(
         }
         v = waypoint_velocities(&q, &dt, stops);
     }
-    let (worst, _) = worst_acceleration(&v, &dt, limits);
+    let (worst, _) = worst_acceleration(&q, &v, &dt, limits);
     if worst > 1.0 {
         // Stretching time by k divides velocities by k and accelerations by k^2.
         let k = worst.sqrt() * (1.0 + 1e-9);

@@ -53,6 +53,14 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
         include_str!("defs/builtin_interfaces/Time.msg"),
     ),
     (
+        "control_msgs/JointComponentTolerance",
+        include_str!("defs/control_msgs/JointComponentTolerance.msg"),
+    ),
+    (
+        "control_msgs/JointTolerance",
+        include_str!("defs/control_msgs/JointTolerance.msg"),
+    ),
+    (
         "geometry_msgs/Point",
         include_str!("defs/geometry_msgs/Point.msg"),
     ),
@@ -69,6 +77,14 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
         include_str!("defs/geometry_msgs/Quaternion.msg"),
     ),
     (
+        "geometry_msgs/Transform",
+        include_str!("defs/geometry_msgs/Transform.msg"),
+    ),
+    (
+        "geometry_msgs/Twist",
+        include_str!("defs/geometry_msgs/Twist.msg"),
+    ),
+    (
         "geometry_msgs/Vector3",
         include_str!("defs/geometry_msgs/Vector3.msg"),
     ),
@@ -77,10 +93,15 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
         include_str!("defs/sensor_msgs/CompressedImage.msg"),
     ),
     (
+        "sensor_msgs/JointState",
+        include_str!("defs/sensor_msgs/JointState.msg"),
+    ),
+    (
         "std_msgs/ColorRGBA",
         include_str!("defs/std_msgs/ColorRGBA.msg"),
     ),
     ("std_msgs/Header", include_str!("defs/std_msgs/Header.msg")),
+    ("std_msgs/String", include_str!("defs/std_msgs/String.msg")),
     ("toolpath_msgs/Job", include_str!("../../msg/msg/Job.msg")),
     (
         "toolpath_msgs/JobStatus",
@@ -122,6 +143,14 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
     (
         "trajectory_msgs/JointTrajectoryPoint",
         include_str!("defs/trajectory_msgs/JointTrajectoryPoint.msg"),
+    ),
+    (
+        "trajectory_msgs/MultiDOFJointTrajectory",
+        include_str!("defs/trajectory_msgs/MultiDOFJointTrajectory.msg"),
+    ),
+    (
+        "trajectory_msgs/MultiDOFJointTrajectoryPoint",
+        include_str!("defs/trajectory_msgs/MultiDOFJointTrajectoryPoint.msg"),
     ),
     (
         "visualization_msgs/Marker",
@@ -255,6 +284,27 @@ impl Duration {
     }
 }
 
+impl Time {
+    pub const ZERO: Time = Time { sec: 0, nanosec: 0 };
+
+    /// This time plus `s` (>= 0) seconds, rounded to the nanosecond.
+    pub fn plus_secs(&self, s: f64) -> Self {
+        let d = Duration::from_secs_f64(s);
+        let ns = u64::from(self.nanosec) + u64::from(d.nanosec);
+        Self {
+            sec: self
+                .sec
+                .saturating_add(d.sec)
+                .saturating_add((ns / 1_000_000_000) as i32),
+            nanosec: (ns % 1_000_000_000) as u32,
+        }
+    }
+
+    pub fn as_secs_f64(&self) -> f64 {
+        self.sec as f64 + self.nanosec as f64 * 1e-9
+    }
+}
+
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Header {
     pub stamp: Time,
@@ -376,6 +426,17 @@ pub struct CompressedImage {
     pub data: Vec<u8>,
 }
 ros_message!(CompressedImage, "sensor_msgs", "CompressedImage");
+
+/// Measured joint positions (m, rad), velocities and efforts, by name.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct JointState {
+    pub header: Header,
+    pub name: Vec<String>,
+    pub position: Vec<f64>,
+    pub velocity: Vec<f64>,
+    pub effort: Vec<f64>,
+}
+ros_message!(JointState, "sensor_msgs", "JointState");
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct UVCoordinate {
@@ -636,6 +697,15 @@ mod tests {
         check::<MarkerArray>();
         check::<ColorRGBA>();
         check::<CompressedImage>();
+        check::<JointState>();
+        use super::super::follow_joint_trajectory as fjt;
+        check::<fjt::Transform>();
+        check::<fjt::Twist>();
+        check::<fjt::MultiDOFJointTrajectory>();
+        check::<fjt::MultiDOFJointTrajectoryPoint>();
+        check::<fjt::JointTolerance>();
+        check::<fjt::JointComponentTolerance>();
+        check::<fjt::StringMsg>();
         check::<MeshFile>();
         check::<UVCoordinate>();
     }

@@ -9,7 +9,9 @@ use crate::formats::{Job, Machine, PlanResult};
 use crate::machines::JointTrajectory;
 
 /// The output messages of one planned job, all stamped with one header (so
-/// that clients can match them to their Toolpath by stamp).
+/// that clients can match them to their Toolpath by stamp), except the
+/// trajectory, whose stamp is its start time for the controller (zero by
+/// default: start on receipt).
 #[derive(Clone, Debug, PartialEq)]
 pub struct JobOutputs {
     pub toolpath: Toolpath,
@@ -92,7 +94,15 @@ mod tests {
         let out = job_outputs(&job, "plane_shape", &result, &trajectory, &header);
         assert_eq!(out.toolpath.header, header);
         assert_eq!(out.poses.header, header);
-        assert_eq!(out.trajectory.header, header);
+        // The trajectory's stamp is zero (JTC starts it on receipt), or the
+        // planning stamp plus the start delay.
+        assert_eq!(out.trajectory.header.stamp, crate::messages::Time::ZERO);
+        assert_eq!(out.trajectory.header.frame_id, header.frame_id);
+        let mut at = trajectory.clone();
+        at.stamp = crate::machines::Stamp::At(1.999_999_999_5);
+        let m = convert::joint_trajectory_msg(&at, header.clone());
+        assert_eq!(m.header.stamp, super::super::Time { sec: 9, nanosec: 9 });
+        assert!(out.trajectory.points[0].time_from_start.as_secs_f64() > 0.0);
         assert!(out.markers.markers.iter().all(|m| m.header == header));
         assert_eq!(out.toolpath.job_id, job.job_id);
         assert_eq!(out.toolpath.surface_id, "plane_shape");
@@ -122,5 +132,44 @@ mod tests {
             final_state(&Error::planning("no passes")),
             JobStatus::FAILED
         );
+    }
+
+    #[test]
+    fn per_pass_chunks_each_meet_the_controller_rules_from_where_the_last_left() {
+        let m = Machines::default();
+        for name in ["plane", "sine_wave"] {
+            let job = crate::samples::job(name).unwrap();
+            let options = RunOptions {
+                skip_verify: true,
+                no_timing: true,
+            };
+            let result = pipeline::run(&job, &NoProgress, options).unwrap();
+            let t = crate::machines::trajectory(&job, &result, &m).unwrap();
+            let whole = convert::joint_trajectory_msg(&t, Header::default());
+            let chunks = convert::trajectory_chunks(&t, &whole);
+            assert_eq!(chunks.len(), result.passes.len(), "{name}");
+            let mut start = t.start.clone();
+            let mut end = 0.0;
+            let mut points = 0;
+            for c in &chunks {
+                let p = convert::trajectory_points(c, &t.joint_names, &t.limits);
+                crate::machines::jtc::check(&p, &t.joint_names, &t.limits, Some(&start))
+                    .unwrap_or_else(|e| panic!("{name}: {e}"));
+                // Chunk times plus where the previous chunk ended give the
+                // whole trajectory's times.
+                for (k, time) in p.times.iter().enumerate() {
+                    let want = t.timed.times[points + k];
+                    assert!(
+                        (end + time - want).abs() < 2e-9,
+                        "{name}: {} vs {want}",
+                        end + time
+                    );
+                }
+                points += p.times.len();
+                end = t.timed.times[points - 1];
+                start = p.positions.last().unwrap().clone();
+            }
+            assert_eq!(points, whole.points.len());
+        }
     }
 }

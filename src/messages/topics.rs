@@ -9,6 +9,10 @@ pub const SURFACE: &str = "surface";
 pub const POCKET: &str = "pocket";
 /// Input: jobs.
 pub const JOB: &str = "job";
+/// Input: the machines' measured joint positions (sensor_msgs/JointState).
+pub const JOINT_STATES: &str = "joint_states";
+/// Input: a job id (std_msgs/String) whose execution is to be canceled.
+pub const CANCEL: &str = "cancel";
 /// Output: the planned toolpath (mm, as the result file).
 pub const TOOLPATH: &str = "toolpath";
 /// Output: tool poses (m, REP 103).

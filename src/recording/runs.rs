@@ -288,9 +288,27 @@ fn same_stamp(a: &msgs::Header, b: &msgs::Header) -> bool {
     a.stamp == b.stamp
 }
 
+/// Whether `j` is the trajectory published with toolpath `t`: its stamp is
+/// the toolpath's, or the start time the controller is given (zero, or
+/// later than planning), and it lasts as long as the toolpath says, to the
+/// microsecond (the stamp alone no longer names the job).
+pub fn is_trajectory_of(j: &msgs::JointTrajectory, t: &msgs::Toolpath) -> bool {
+    if same_stamp(&j.header, &t.header) {
+        return true;
+    }
+    let (js, ts) = (&j.header.stamp, &t.header.stamp);
+    let starts = *js == msgs::Time::ZERO || (js.sec, js.nanosec) >= (ts.sec, ts.nanosec);
+    let duration = j
+        .points
+        .last()
+        .map_or(0.0, |p| p.time_from_start.as_secs_f64());
+    starts && (duration - t.stats.trajectory_duration_s).abs() < 1e-6
+}
+
 /// Outputs of `job_id` among messages of one run: the last final status, the
-/// toolpath naming the job, and the poses and trajectory published with it
-/// (the node stamps all outputs of a job with one header stamp).
+/// toolpath naming the job, the poses published with it (the node stamps the
+/// outputs of a job with one header stamp) and its trajectory
+/// ([`is_trajectory_of`]).
 pub fn outputs_of<'a>(
     job_id: &str,
     statuses: &'a [msgs::JobStatus],
@@ -307,16 +325,13 @@ pub fn outputs_of<'a>(
     let toolpath = toolpaths.iter().rev().find(|t| t.job_id == job_id);
     let poses = toolpath.and_then(|t| poses.iter().find(|p| same_stamp(&p.header, &t.header)));
     let trajectory = toolpath.and_then(|t| {
-        let m = mill5
-            .iter()
-            .find(|j| same_stamp(&j.header, &t.header))
-            .map(|j| (Machine::Mill5, j));
-        m.or_else(|| {
-            belt6
-                .iter()
-                .find(|j| same_stamp(&j.header, &t.header))
-                .map(|j| (Machine::Belt6, j))
-        })
+        let (machine, list) = match t.machine.as_str() {
+            "belt6" => (Machine::Belt6, belt6),
+            _ => (Machine::Mill5, mill5),
+        };
+        list.iter()
+            .find(|j| is_trajectory_of(j, t))
+            .map(|j| (machine, j))
     });
     RunOutputs {
         state,

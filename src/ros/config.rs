@@ -329,6 +329,21 @@ mod tests {
     }
 
     #[test]
+    fn a_partial_controller_section_keeps_the_other_defaults() {
+        let c =
+            NodeConfig::parse("mill5:\n  controller:\n    execute: true\n    stamp: at\n").unwrap();
+        let mut want = crate::machines::ControllerConfig::new();
+        want.execute = true;
+        want.stamp = crate::machines::StampPolicy::At;
+        assert_eq!(c.mill5.controller, want);
+        assert_eq!(c.belt6.controller, crate::machines::ControllerConfig::new());
+        let e = NodeConfig::parse("belt6:\n  controller:\n    stamp: later\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("belt6.controller.stamp"), "{e}");
+    }
+
+    #[test]
     fn errors_name_the_field() {
         let e = NodeConfig::parse("mill5:\n  a:\n    min_deg: 10\n    max_deg: -10\n    max_velocity_deg_s: 1\n    max_acceleration_deg_s2: 1\n")
             .unwrap_err()

@@ -5,6 +5,9 @@
 //! replay of a bag's inputs to a running node.
 
 pub mod config;
+pub mod execute;
+pub mod fake_controller;
+pub mod joint_states;
 pub mod node;
 pub mod recorder;
 pub mod republish;

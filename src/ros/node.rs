@@ -9,6 +9,8 @@
 //! status; a panic inside a planner becomes FAILED, never a dead node.
 
 use super::config::{IpcSettings, NodeConfig};
+use super::execute::{self, Cancels, Execution, Report};
+use super::joint_states::JointStates;
 use super::recorder::Recorder;
 use crate::error::{Error, Result};
 use crate::formats::job::DEFAULT_FEED_RATE;
@@ -92,6 +94,14 @@ pub mod qos {
             Durability::TransientLocal,
             History::KeepLast { depth: 1000 },
         )
+    }
+    /// The node's reader of `joint_states`: best effort (matches reliable and
+    /// best-effort broadcasters), volatile, depth 10; only the latest counts.
+    pub fn joint_states() -> QosProfile {
+        QosProfile::subscription_default()
+            .reliability(ros2_client::qos::Reliability::BestEffort)
+            .durability(Durability::Volatile)
+            .history(History::KeepLast { depth: 10 })
     }
     /// Results (toolpath, tool_poses, trajectories, markers): transient-local, depth 10.
     pub fn results() -> QosProfile {
@@ -241,6 +251,10 @@ struct Outputs {
     last_stamp_ns: AtomicU64,
     /// To the iceoryx2 publisher thread (its publisher is not `Send`).
     ipc: Option<std::sync::mpsc::Sender<PlanResult>>,
+    /// Executors of the machines with `controller.execute: true`.
+    executors: Vec<(Machine, ExecutorQueue)>,
+    /// Cancel requests of executions.
+    cancels: Arc<Cancels>,
     /// NC programs of mill5 results: the cell's mill5, the format, the directory.
     programs: Option<(
         crate::post::PostMachine,
@@ -248,6 +262,9 @@ struct Outputs {
         std::path::PathBuf,
     )>,
 }
+
+/// The queue of a machine's executor task.
+type ExecutorQueue = tokio::sync::mpsc::UnboundedSender<(Execution, Arc<Report<'static>>)>;
 
 /// Starts the thread that owns the iceoryx2 publisher and sends it every
 /// result; fails (naming the service) when the publisher cannot be made.
@@ -449,6 +466,8 @@ impl State {
 struct Shared {
     state: Mutex<State>,
     wake: Condvar,
+    /// The latest `/joint_states`: where each trajectory starts.
+    joints: JointStates,
 }
 
 impl Shared {
@@ -546,12 +565,41 @@ impl Progress for StatusProgress<'_> {
     }
 }
 
+/// Where `machine` is according to `/joint_states` (`None`: never reported,
+/// start from its home pose).
+fn start_pose(
+    joints: &JointStates,
+    machine: Machine,
+    machines: &Machines,
+) -> Result<Option<Vec<f64>>> {
+    let (names, limits, controller) = match machine {
+        Machine::Mill5 => (
+            machines.mill5.joint_names(),
+            machines.mill5.limits(),
+            &machines.mill5.controller,
+        ),
+        Machine::Belt6 => (
+            machines.belt6.joint_names(),
+            machines.belt6.limits(),
+            &machines.belt6.controller,
+        ),
+    };
+    joints.start_pose(
+        machine.name(),
+        &names,
+        &limits,
+        Duration::from_secs_f64(controller.joint_states_max_age_s),
+        Instant::now(),
+    )
+}
+
 /// Plans one job and publishes its outputs; returns the success summary.
 fn plan_and_publish(
     p: &Pending,
     shape: &Shape,
-    outputs: &Outputs,
+    outputs: &Arc<Outputs>,
     machines: &Machines,
+    joints: &JointStates,
     options: RunOptions,
 ) -> Result<String> {
     let job = convert::job_from_msg(&p.msg, shape)?;
@@ -565,7 +613,8 @@ fn plan_and_publish(
     let result = pipeline::run(&job, &progress, options)?;
     pipeline::refuse_gouge(&job, &result)?;
     let planning = planning_started.elapsed();
-    let trajectory = crate::machines::trajectory(&job, &result, machines)?;
+    let start = start_pose(joints, job.machine, machines)?;
+    let trajectory = crate::machines::trajectory_from(&job, &result, machines, start.as_deref())?;
     let out = msgs::job_outputs(
         &job,
         &p.msg.surface_id,
@@ -589,6 +638,12 @@ fn plan_and_publish(
         summary.push_str(&format!("; WARNING: {why}"));
     }
     let trajectory_topic = out.trajectory_topic();
+    let executor = outputs
+        .executors
+        .iter()
+        .find(|(m, _)| *m == job.machine)
+        .map(|(_, q)| q);
+    let chunks = executor.map(|_| convert::trajectory_chunks(&trajectory, &out.trajectory));
     let JobOutputs {
         toolpath,
         poses,
@@ -620,7 +675,38 @@ fn plan_and_publish(
     if let Some(tx) = &outputs.ipc {
         let _ = tx.send(result);
     }
-    Ok(summary)
+    match (executor, chunks) {
+        (Some(queue), Some(chunks)) => {
+            let executed = execute_job(queue, outputs, &job.job_id, chunks)?;
+            Ok(format!("{summary}; {executed}"))
+        }
+        _ => Ok(summary),
+    }
+}
+
+/// Hands a job's passes to its machine's executor and waits for the outcome,
+/// reporting its progress as RUNNING statuses.
+fn execute_job(
+    queue: &ExecutorQueue,
+    outputs: &Arc<Outputs>,
+    job_id: &str,
+    chunks: Vec<msgs::JointTrajectory>,
+) -> Result<String> {
+    let (reply, outcome) = std::sync::mpsc::channel();
+    let (o, id) = (Arc::clone(outputs), job_id.to_string());
+    let report: Arc<Report<'static>> =
+        Arc::new(move |f: f32, text: String| o.status(&id, msgs::JobStatus::RUNNING, f, text));
+    let e = Execution {
+        job_id: job_id.to_string(),
+        chunks,
+        reply,
+    };
+    queue
+        .send((e, report))
+        .map_err(|_| Error::planning("the executor has stopped"))?;
+    outcome
+        .recv()
+        .map_err(|_| Error::planning("the executor has stopped"))?
 }
 
 fn worker(
@@ -642,7 +728,7 @@ fn worker(
             }
             Work::Plan(p, shape) => {
                 let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                    plan_and_publish(&p, &shape, &outputs, &machines, options)
+                    plan_and_publish(&p, &shape, &outputs, &machines, &shared.joints, options)
                 }));
                 let (state, progress, message) = match run {
                     Ok(Ok(summary)) => (msgs::JobStatus::SUCCEEDED, 1.0, summary),
@@ -737,6 +823,8 @@ struct Inputs {
     surfaces: Subscription<msgs::Surface>,
     pockets: Subscription<msgs::Pocket>,
     jobs: Subscription<msgs::Job>,
+    joint_states: Subscription<msgs::JointState>,
+    cancels: Subscription<msgs::follow_joint_trajectory::StringMsg>,
 }
 
 /// Creates the output publishers and the optional recorder, iceoryx2 thread
@@ -760,6 +848,20 @@ fn start_outputs(
     } else {
         None
     };
+    let cancels = Arc::new(Cancels::default());
+    let mut executors = Vec::new();
+    for (machine, controller) in [
+        (Machine::Mill5, &config.mill5.controller),
+        (Machine::Belt6, &config.belt6.controller),
+    ] {
+        if controller.execute {
+            let action = controller.action(machine.name());
+            let client = Arc::new(execute::client(ros, &action)?);
+            let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+            tokio::spawn(execute::executor(client, action, rx, Arc::clone(&cancels)));
+            executors.push((machine, tx));
+        }
+    }
     let outputs = Arc::new(Outputs {
         status: Mutex::new(ros.publisher(topics::JOB_STATUS, qos::status())?),
         toolpath: Mutex::new(ros.publisher(topics::TOOLPATH, qos::results())?),
@@ -771,6 +873,8 @@ fn start_outputs(
         recorder,
         last_stamp_ns: AtomicU64::new(0),
         ipc: ipc.as_ref().map(|(tx, _)| tx.clone()),
+        executors,
+        cancels,
         programs: if config.post.enabled {
             Some((
                 crate::post::PostMachine::from_mill5(&config.mill5),
@@ -840,6 +944,8 @@ async fn receive_until_signal(
     let mut surface_stream = Box::pin(inputs.surfaces.async_stream());
     let mut pocket_stream = Box::pin(inputs.pockets.async_stream());
     let mut job_stream = Box::pin(inputs.jobs.async_stream());
+    let mut joint_stream = Box::pin(inputs.joint_states.async_stream());
+    let mut cancel_stream = Box::pin(inputs.cancels.async_stream());
     let mut sigterm = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
         .map_err(|e| Error::planning(format!("cannot watch SIGTERM: {e}")))?;
     loop {
@@ -872,6 +978,22 @@ async fn receive_until_signal(
                     receive_shape(shared, msg.pocket_id, shape);
                 }
                 Err(e) => log::error!("undecodable message on topic pocket: {e:?}"),
+            },
+            Some(r) = joint_stream.next() => match r {
+                // Not recorded: a bag replays from the home pose.
+                Ok((msg, _)) => {
+                    if let Err(e) = shared.joints.update(&msg, Instant::now()) {
+                        log::warn!("ignored a joint state: {e}");
+                    }
+                }
+                Err(e) => log::error!("undecodable message on topic joint_states: {e:?}"),
+            },
+            Some(r) = cancel_stream.next() => match r {
+                Ok((msg, _)) => {
+                    log::info!("cancel of job {} requested", msg.data);
+                    outputs.cancels.cancel(&msg.data);
+                }
+                Err(e) => log::error!("undecodable message on topic cancel: {e:?}"),
             },
             _ = tokio::signal::ctrl_c() => return Ok(()),
             _ = sigterm.recv() => return Ok(()),
@@ -948,18 +1070,23 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         surfaces: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
         pockets: ros.subscription(topics::POCKET, qos::shapes_reader())?,
         jobs: ros.subscription(topics::JOB, qos::job_reader())?,
+        joint_states: ros.subscription(topics::JOINT_STATES, qos::joint_states())?,
+        cancels: ros.subscription(topics::CANCEL, qos::job())?,
     };
     let (outputs, ipc_thread) = start_outputs(&mut ros, &config)?;
     let shared = Arc::new(Shared {
         state: Mutex::new(State::default()),
         wake: Condvar::new(),
+        joints: JointStates::default(),
     });
     let workers = start_workers(&config, &shared, &outputs)?;
     announce_ready(&ros, &config, domain, &outputs);
     let timeout = Duration::from_secs_f64(settings.surface_timeout_s);
     let received =
         receive_until_signal(inputs, &shared, &outputs, &config.machines(), timeout).await;
-    // Workers finish their current job; the process exits after them.
+    // Executions are canceled at the controller; workers finish their
+    // current job; the process exits after them.
+    outputs.cancels.cancel_all();
     let recorded = shut_down(&shared, workers, outputs, ipc_thread);
     received.and(recorded)
 }

@@ -202,12 +202,14 @@ impl Link {
                     }
                 }
                 Some(Ok((m, _))) = mill5.next() => {
-                    if is_ours(&m.header, since) {
+                    // A trajectory's stamp is its start time: zero means on receipt.
+                    if is_ours(&m.header, since) || m.header.stamp == msgs::Time::ZERO {
                         answers.mill5.push(m);
                     }
                 }
                 Some(Ok((m, _))) = belt6.next() => {
-                    if is_ours(&m.header, since) {
+                    // A trajectory's stamp is its start time: zero means on receipt.
+                    if is_ours(&m.header, since) || m.header.stamp == msgs::Time::ZERO {
                         answers.belt6.push(m);
                     }
                 }

@@ -1,7 +1,9 @@
 """A test client of the node: publishes shapes and jobs, collects every output.
 
-All outputs of one job carry the same header stamp, so poses, trajectories and
-markers are matched to their Toolpath (which names the job) by stamp.
+All outputs of one job carry the same header stamp, so poses and markers are
+matched to their Toolpath (which names the job) by stamp. A trajectory's stamp
+is its start time for the controller (zero by default), so it is matched by its
+machine and its duration (the Toolpath's stats.trajectory_duration_s).
 """
 
 import math
@@ -28,7 +30,7 @@ class Client:
         self.statuses = {}
         self.toolpaths = {}
         self.poses = {}
-        self.trajectories = {}
+        self.trajectories = []
         self.markers = {}
         n.create_subscription(msgs.JobStatus, "job_status", self._on_status, QOS_READ_ALL)
         n.create_subscription(msgs.Toolpath, "toolpath", self._on_toolpath, QOS_READ_ALL)
@@ -53,7 +55,22 @@ class Client:
         self.poses[stamp_key(m.header)] = m
 
     def _on_traj(self, machine, m):
-        self.trajectories[stamp_key(m.header)] = (machine, m)
+        self.trajectories.append((machine, m))
+
+    def _trajectory_of(self, tp):
+        """The trajectory published with toolpath `tp`: same stamp, or a start
+        stamp (zero or later) and the toolpath's duration to the microsecond."""
+        for machine, m in self.trajectories:
+            if machine != tp.machine:
+                continue
+            if stamp_key(m.header) == stamp_key(tp.header):
+                return machine, m
+            last = m.points[-1].time_from_start if m.points else None
+            duration = last.sec + last.nanosec * 1e-9 if last else 0.0
+            starts = stamp_key(m.header) == (0, 0) or stamp_key(m.header) >= stamp_key(tp.header)
+            if starts and abs(duration - tp.stats.trajectory_duration_s) < 1e-6:
+                return machine, m
+        return None
 
     def _on_markers(self, m):
         if m.markers:
@@ -96,12 +113,12 @@ class Client:
             if tp is None:
                 return False
             k = stamp_key(tp.header)
-            return k in self.poses and k in self.trajectories and k in self.markers
+            return k in self.poses and self._trajectory_of(tp) is not None and k in self.markers
 
         assert self.node.spin_until(have, timeout), "outputs of %s incomplete" % job_id
         tp = self.toolpaths[job_id]
         k = stamp_key(tp.header)
-        return tp, self.poses[k], self.trajectories[k], self.markers[k]
+        return tp, self.poses[k], self._trajectory_of(tp), self.markers[k]
 
     def close(self):
         self.node.destroy_node()

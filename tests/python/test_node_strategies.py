@@ -181,7 +181,11 @@ def test_strategy_through_the_node(strategy, results, client, node):
     assert traj.joint_names == names
     assert len(traj.points) == len(points) + 2 * len(passes)
     times = [p.time_from_start.sec + p.time_from_start.nanosec * 1e-9 for p in traj.points]
-    assert times[0] == 0.0 and all(b > a for a, b in zip(times, times[1:]))
+    # JTC: a zero stamp starts on receipt; the first point (the first approach)
+    # comes after the move from the machine's pose, never at 0.
+    assert (traj.header.stamp.sec, traj.header.stamp.nanosec) == (0, 0)
+    assert times[0] > 0.0 and all(b > a for a, b in zip(times, times[1:]))
+    assert all(v == 0.0 for v in traj.points[-1].velocities)
     assert abs(times[-1] - tp.stats.trajectory_duration_s) < 1e-6
     limits = joint_limits(machine)
     for p in traj.points:
@@ -204,9 +208,11 @@ def test_strategy_through_the_node(strategy, results, client, node):
             assert norm([a - b for a, b in zip(tip, vec(q.cl))]) < 1e-6, (tip, vec(q.cl))
             assert norm([a - b for a, b in zip(ax, axis)]) < 1e-9
             if i > 0:
-                # Cutting moves never exceed the feed.
+                # Cutting moves never exceed the feed (times are whole
+                # nanoseconds: each difference may be off by up to 1 ns).
                 d = norm([a - b for a, b in zip(vec(q.cl), vec(p.points[i - 1].cl))])
-                assert d / (times[start + i] - times[start + i - 1]) <= FEED / 60.0 * (1 + 1e-6)
+                dt = times[start + i] - times[start + i - 1] + 1e-9
+                assert d / dt <= FEED / 60.0 * (1 + 1e-6)
         k = start + len(p.points) + 1  # past the retract waypoint
     assert k == len(traj.points)
     # Markers: clear, then one line strip per pass.

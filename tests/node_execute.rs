@@ -1,0 +1,257 @@
+//! End to end execution: the node (a child process, `execute: true` for both
+//! machines) sends each job pass by pass to fake FollowJointTrajectory
+//! controllers running here, which reject any goal that breaks the
+//! controller rules from the pose they are at. Checks a mill5 and a belt6 job
+//! run through, an abort and a rejection stop the job with the controller's
+//! reason, a cancel is forwarded, and a job after an abort starts from where
+//! the machine stopped. Loopback only, a random domain, the node killed by pid.
+
+#[path = "common/node_process.rs"]
+mod node_process;
+
+use futures::StreamExt;
+use node_process::NodeProcess;
+use std::net::{IpAddr, Ipv4Addr};
+use std::time::{Duration, Instant};
+use toolpath_planner::formats::Shape;
+use toolpath_planner::machines::Machines;
+use toolpath_planner::messages::follow_joint_trajectory::StringMsg;
+use toolpath_planner::messages::{self as msgs, convert, topics};
+use toolpath_planner::ros::fake_controller::{self, Behaviour, FakeOptions};
+use toolpath_planner::ros::node::{qos, RosNode};
+
+const CONFIG: &str = "node:\n  verify: false\nmill5:\n  controller:\n    execute: true\nbelt6:\n  controller:\n    execute: true\n";
+
+fn fast() -> Behaviour {
+    Behaviour {
+        time_scale: 0.01,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn jobs_execute_pass_by_pass_and_stop_on_abort_reject_and_cancel() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("node.yaml");
+    std::fs::write(&config, CONFIG).unwrap();
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    let d = (1 + (nanos ^ std::process::id().wrapping_mul(7919)) % 230) as u16;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
+        let mut cell = RosNode::new("fake_cell", "/", d, lo.clone()).unwrap();
+        let m = Machines::default();
+        let mill = fake_controller::spawn(
+            &mut cell,
+            FakeOptions {
+                action: "mill5_controller/follow_joint_trajectory".into(),
+                joint_names: m.mill5.joint_names(),
+                limits: m.mill5.limits(),
+                start: m.mill5.home(),
+                behaviour: fast(),
+            },
+        )
+        .unwrap();
+        let belt = fake_controller::spawn(
+            &mut cell,
+            FakeOptions {
+                action: "belt6_controller/follow_joint_trajectory".into(),
+                joint_names: m.belt6.joint_names(),
+                limits: m.belt6.limits(),
+                start: m.belt6.home(),
+                behaviour: fast(),
+            },
+        )
+        .unwrap();
+        let (_node, ready) = NodeProcess::spawn(&config, d);
+        assert!(ready.starts_with("ready"), "node said {ready:?}");
+        let mut client = RosNode::new("execute_client", "/", d, lo).unwrap();
+        let surfaces = client
+            .publisher::<msgs::Surface>(topics::SURFACE, qos::shapes())
+            .unwrap();
+        let jobs = client
+            .publisher::<msgs::Job>(topics::JOB, qos::job())
+            .unwrap();
+        let cancel = client
+            .publisher::<StringMsg>(topics::CANCEL, qos::job())
+            .unwrap();
+        let status = client
+            .subscription::<msgs::JobStatus>(topics::JOB_STATUS, qos::status_reader())
+            .unwrap();
+        tokio::time::timeout(
+            Duration::from_secs(20),
+            jobs.wait_for_subscription(&client.node),
+        )
+        .await
+        .expect("the node's job reader was not discovered");
+        tokio::time::timeout(
+            Duration::from_secs(20),
+            cancel.wait_for_subscription(&client.node),
+        )
+        .await
+        .expect("the node's cancel reader was not discovered");
+        // The node's action clients find the servers in the meantime.
+        tokio::time::sleep(Duration::from_secs(2)).await;
+        let plane = toolpath_planner::samples::job("plane").unwrap();
+        let sine = toolpath_planner::samples::job("sine_wave").unwrap();
+        for (id, job) in [("plane_shape", &plane), ("sine_shape", &sine)] {
+            let Shape::Surface(s) = &job.shape else {
+                panic!("surface jobs")
+            };
+            surfaces
+                .publish(convert::surface_to_msg(id, s, msgs::Header::default()))
+                .unwrap();
+        }
+        let mut statuses = Box::pin(status.async_stream());
+        // Sends a job; returns its final status. With `cancel_at`, cancels
+        // the job once a status text contains it.
+        let mut run = async |id: &str,
+                             job: &toolpath_planner::formats::Job,
+                             shape: &str,
+                             cancel_at: Option<&str>| {
+            let mut msg = convert::job_to_msg(job, shape, msgs::Header::default());
+            msg.job_id = id.into();
+            jobs.publish(msg).unwrap();
+            let deadline = Instant::now() + Duration::from_secs(120);
+            let mut canceled = false;
+            loop {
+                let left = deadline.saturating_duration_since(Instant::now());
+                let (st, _) = tokio::time::timeout(left, statuses.next())
+                    .await
+                    .unwrap_or_else(|_| panic!("no final status of {id}"))
+                    .unwrap()
+                    .unwrap();
+                if st.job_id != id {
+                    continue;
+                }
+                if let (Some(text), false) = (cancel_at, canceled) {
+                    if st.message.contains(text) {
+                        cancel.publish(StringMsg { data: id.into() }).unwrap();
+                        canceled = true;
+                    }
+                }
+                if st.is_final() {
+                    return st;
+                }
+            }
+        };
+
+        // A mill5 job runs through, one accepted goal per pass.
+        let st = run("mill_ok", &plane, "plane_shape", None).await;
+        assert_eq!(st.state, msgs::JobStatus::SUCCEEDED, "{}", st.message);
+        let goals = mill.goals();
+        let passes = goals.len();
+        assert!(passes >= 2, "{goals:?}");
+        assert!(
+            goals.iter().all(|g| g.accepted && g.outcome == "succeeded"),
+            "{goals:?}"
+        );
+        assert!(
+            st.message.contains(&format!(
+                "executed {passes} passes on mill5_controller/follow_joint_trajectory"
+            )),
+            "{}",
+            st.message
+        );
+        // Every goal's first point comes after 0 and its last is at rest
+        // (the fake checked all rules on receipt).
+        assert!(goals.iter().all(|g| g.trajectory.times[0] > 0.0));
+        assert!(goals.iter().all(|g| g
+            .trajectory
+            .velocities
+            .last()
+            .unwrap()
+            .iter()
+            .all(|v| *v == 0.0)));
+
+        // A belt6 job runs through on its own controller.
+        let st = run("belt_ok", &sine, "sine_shape", None).await;
+        assert_eq!(st.state, msgs::JobStatus::SUCCEEDED, "{}", st.message);
+        let bg = belt.goals();
+        assert!(
+            !bg.is_empty() && bg.iter().all(|g| g.accepted && g.outcome == "succeeded"),
+            "{bg:?}"
+        );
+        assert!(
+            st.message
+                .contains(&format!("executed {} passes on belt6_controller", bg.len())),
+            "{}",
+            st.message
+        );
+
+        // Aborted in its second pass: FAILED with the controller's error code.
+        mill.set(Behaviour {
+            abort_goal: Some(passes + 1),
+            ..fast()
+        });
+        let st = run("mill_abort", &plane, "plane_shape", None).await;
+        assert_eq!(st.state, msgs::JobStatus::FAILED);
+        assert!(
+            st.message.contains(&format!(
+                "aborted pass 2/{passes}: error_code -4 (PATH_TOLERANCE_VIOLATED)"
+            )),
+            "{}",
+            st.message
+        );
+        assert_eq!(
+            mill.goals().len(),
+            passes + 2,
+            "no pass is sent after the abort"
+        );
+        let stopped_at = mill.pose.lock().unwrap().clone();
+
+        // The next job starts from where the abort left the machine (its
+        // first goal passes the rules from that pose), then the controller
+        // rejects its first pass.
+        mill.set(Behaviour {
+            reject_goal: Some(passes + 2),
+            ..fast()
+        });
+        let st = run("mill_reject", &plane, "plane_shape", None).await;
+        assert_eq!(st.state, msgs::JobStatus::FAILED);
+        assert!(
+            st.message.contains(&format!("rejected pass 1/{passes}")),
+            "{}",
+            st.message
+        );
+        let rejected = mill.goals()[passes + 2].clone();
+        assert!(
+            !rejected.accepted && rejected.outcome == "told to reject",
+            "{rejected:?}"
+        );
+        let limits = m.mill5.limits();
+        toolpath_planner::machines::jtc::check(
+            &rejected.trajectory,
+            &m.mill5.joint_names(),
+            &limits,
+            Some(&stopped_at),
+        )
+        .expect("the move starts from the stopped pose");
+
+        // Canceled during its second pass (real time): the controller stops it.
+        mill.set(Behaviour {
+            time_scale: 1.0,
+            ..Default::default()
+        });
+        let st = run(
+            "mill_cancel",
+            &plane,
+            "plane_shape",
+            Some("executing pass 2/"),
+        )
+        .await;
+        assert_eq!(st.state, msgs::JobStatus::FAILED);
+        assert!(
+            st.message
+                .contains(&format!("canceled during pass 2/{passes}")),
+            "{}",
+            st.message
+        );
+        assert_eq!(mill.goals().last().unwrap().outcome, "canceled");
+    });
+}
