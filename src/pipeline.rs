@@ -393,6 +393,13 @@ pub fn fill_scallop_stats(result: &mut PlanResult, report: &ScallopReport) {
     extra.insert("simulation_resolution_mm".into(), report.resolution_mm);
 }
 
+/// Simulated figures within this much of a tolerance count as within it, mm
+/// (0.1 micrometre, far below what a machine holds): the simulator's refined
+/// extrema carry numerical error of that order, and a plan built to touch its
+/// band (MPEC's -delta, docs/methods.md) lands on it: die_saddle's plan gives
+/// a gouge of 0.0100136 mm against its 0.01 mm band.
+pub const CONFORMANCE_SLACK_MM: f64 = 1e-4;
+
 /// Where a simulated milling result breaks the job's tolerances, read from
 /// the figures [`fill_scallop_stats`] put into its stats. Nothing is out of
 /// spec in a result that was not simulated. Belt results are held to h only
@@ -420,11 +427,11 @@ impl Conformance {
     /// The same check on given simulated figures (mm).
     pub fn of_figures(job: &Job, max_gouge_mm: Option<f64>, max_scallop_mm: Option<f64>) -> Self {
         let tolerance = job.gouge_tolerance();
-        let gouge = max_gouge_mm.filter(|g| *g > tolerance).map(|g| {
+        let gouge = max_gouge_mm.filter(|g| *g > tolerance + CONFORMANCE_SLACK_MM).map(|g| {
             format!("the simulator finds a gouge of {g:.4} mm, beyond the job's gouge tolerance of {tolerance} mm")
         });
         let scallop = match (max_scallop_mm, job.scallop) {
-            (Some(s), Some(h)) if s > h => Some(format!(
+            (Some(s), Some(h)) if s > h + CONFORMANCE_SLACK_MM => Some(format!(
                 "the simulator finds a residual of {s:.4} mm, above the job's scallop height h = {h} mm"
             )),
             _ => None,

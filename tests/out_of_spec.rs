@@ -165,20 +165,21 @@ fn conformance_reads_the_simulated_figures_against_the_job() {
         Conformance::default(),
         "not simulated"
     );
-    r.stats.max_gouge_mm = Some(0.005);
-    r.stats.max_scallop_mm = Some(0.2);
+    // Within CONFORMANCE_SLACK_MM (1e-4 mm) of the limits: in spec.
+    r.stats.max_gouge_mm = Some(0.00505);
+    r.stats.max_scallop_mm = Some(0.20005);
     assert_eq!(
         Conformance::of(&job, &r),
         Conformance::default(),
         "on the limits"
     );
     assert!(pipeline::refuse_gouge(&job, &r).is_ok());
-    r.stats.max_gouge_mm = Some(0.0051);
+    r.stats.max_gouge_mm = Some(0.0052);
     let e = pipeline::refuse_gouge(&job, &r).unwrap_err();
     assert!(matches!(e, Error::OutOfSpec { gouge: true, .. }), "{e}");
     assert_eq!(e.exit_code(), 3);
     r.stats.max_gouge_mm = Some(0.0);
-    r.stats.max_scallop_mm = Some(0.2001);
+    r.stats.max_scallop_mm = Some(0.2002);
     let c = Conformance::of(&job, &r);
     assert!(c.gouge.is_none() && c.scallop.is_some());
     assert_eq!(c.error().unwrap().exit_code(), 4);

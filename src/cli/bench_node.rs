@@ -334,8 +334,9 @@ fn print_table(f: &Figures, domain: u16) {
         if !f.burst_planning_ms.is_empty() {
             let [p50, _, _, max] = percentiles(&f.burst_planning_ms);
             println!(
-                "burst jobs: planning p50 {p50:.1} ms, max {max:.1} ms each (one worker plans them one after another: {:.2} s per burst at p50)",
-                p50 * first.sent as f64 / 1e3
+                "burst jobs: planning p50 {p50:.1} ms, max {max:.1} ms each ({:.2} s of planning per burst at p50, over {} workers)",
+                p50 * first.sent as f64 / 1e3,
+                crate::ros::config::NodeSettings::default().worker_count()
             );
         }
     }
