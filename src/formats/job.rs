@@ -412,10 +412,18 @@ fn check_shape_kind(strategy: Strategy, shape: &Shape) -> Result<()> {
     }
 }
 
+/// Largest angle between the normals on the two sides of a knot that still
+/// counts as smooth, radians: a tangent-continuous join (an exact circle
+/// built from arcs with double knots) differs only by rounding there.
+const CREASE_ANGLE: f64 = 1e-3;
+
 /// Refuses a surface with a crease: an interior knot of multiplicity at
-/// least the degree makes the surface only C0 there (or not even that), where
-/// the normal jumps and the planners' curvature model, which assumes a
-/// smooth surface, would gouge. Each smooth piece can be planned on its own.
+/// least the degree lets the surface be only C0 there, and where the normal
+/// really jumps across it the planners' curvature model, which assumes a
+/// smooth surface, would gouge. Such knots are checked geometrically (normals
+/// on both sides at nine points along the knot line), so a tangent-continuous
+/// join such as a rational circle with double knots is accepted. Each smooth
+/// piece of a creased surface can be planned on its own.
 fn check_smooth(s: &crate::geometry::NurbsSurface) -> Result<()> {
     for (name, knots, degree) in [
         ("knots_u", s.knots_u(), s.degree_u()),
@@ -426,18 +434,45 @@ fn check_smooth(s: &crate::geometry::NurbsSurface) -> Result<()> {
         while k < knots.len() {
             let run = knots[k..].iter().take_while(|&&x| x == knots[k]).count();
             if knots[k] > first && knots[k] < last && run >= degree {
-                return Err(Error::invalid(
-                    format!("surface.{name}[{k}]"),
-                    format!(
-                        "knot {} has multiplicity {run}, not below the degree {degree}: the surface has a crease (only C0) there; split it at the crease and plan each smooth piece as its own job",
-                        knots[k]
-                    ),
-                ));
+                if let Some(angle) = normal_jump(s, name == "knots_u", knots[k], last - first) {
+                    return Err(Error::invalid(
+                        format!("surface.{name}[{k}]"),
+                        format!(
+                            "knot {} has multiplicity {run}, not below the degree {degree}, and the normal turns by {:.2} deg across it: the surface has a crease (only C0) there; split it at the crease and plan each smooth piece as its own job",
+                            knots[k],
+                            angle.to_degrees()
+                        ),
+                    ));
+                }
             }
             k += run;
         }
     }
     Ok(())
+}
+
+/// The largest angle between the normals just before and just after the
+/// knot `t` (of u when `along_u`, else of v) at nine points along the knot
+/// line, when it exceeds [`CREASE_ANGLE`].
+fn normal_jump(s: &crate::geometry::NurbsSurface, along_u: bool, t: f64, span: f64) -> Option<f64> {
+    let ((u0, u1), (v0, v1)) = s.domain();
+    let dt = 1e-7 * span;
+    let mut worst: f64 = 0.0;
+    for i in 0..9 {
+        let c = i as f64 / 8.0;
+        let (before, after) = if along_u {
+            let v = v0 + (v1 - v0) * c;
+            (s.normal(t - dt, v), s.normal(t + dt, v))
+        } else {
+            let u = u0 + (u1 - u0) * c;
+            (s.normal(u, t - dt), s.normal(u, t + dt))
+        };
+        // A normal undefined at a point (a pole) says nothing of a crease.
+        if let (Some(a), Some(b)) = (before, after) {
+            worst = worst.max(a.dot(&b).clamp(-1.0, 1.0).acos());
+        }
+    }
+    (worst > CREASE_ANGLE).then_some(worst)
 }
 
 impl Job {
