@@ -198,15 +198,11 @@ impl Mill5Config {
         self.z.validate("mill5.z")?;
         self.a.validate("mill5.a")?;
         self.c.validate("mill5.c")?;
-        let limits = self.limits();
-        self.controller.validate("mill5.controller", &limits)?;
-        super::controller::check_start(
-            "the home pose (home_mm, home_deg)",
-            &self.home(),
-            &limits,
-            &self.joint_names(),
+        self.controller.validate_with_home(
+            "mill5.controller",
+            &self.limits(),
+            self.default_home_mm(),
         )
-        .map_err(|e| Error::invalid("mill5.controller", e.to_string()))
     }
     /// The controller's joint names, in axis order.
     pub fn joint_names(&self) -> Vec<String> {
@@ -215,9 +211,13 @@ impl Mill5Config {
     /// The home pose (mm, rad); by default above the workpiece origin at the
     /// top of Z, tool vertical.
     pub fn home(&self) -> Vec<f64> {
+        self.controller.home(&self.limits(), self.default_home_mm())
+    }
+    /// X Y Z of the home pose when none is configured: above the workpiece
+    /// origin at the top of Z.
+    fn default_home_mm(&self) -> [f64; 3] {
         let o = self.workpiece_origin_mm;
-        self.controller
-            .home(&self.limits(), [o[0], o[1], self.z.max_mm])
+        [o[0], o[1], self.z.max_mm]
     }
     pub fn limits(&self) -> Vec<JointLimit> {
         vec![
@@ -285,15 +285,11 @@ impl Belt6Config {
         self.a.validate("belt6.a")?;
         self.b.validate("belt6.b")?;
         self.c.validate("belt6.c")?;
-        let limits = self.limits();
-        self.controller.validate("belt6.controller", &limits)?;
-        super::controller::check_start(
-            "the home pose (home_mm, home_deg)",
-            &self.home(),
-            &limits,
-            &self.joint_names(),
+        self.controller.validate_with_home(
+            "belt6.controller",
+            &self.limits(),
+            self.default_home_mm(),
         )
-        .map_err(|e| Error::invalid("belt6.controller", e.to_string()))
     }
     /// The controller's joint names, in axis order.
     pub fn joint_names(&self) -> Vec<String> {
@@ -302,9 +298,13 @@ impl Belt6Config {
     /// The home pose (mm, rad); by default above the workpiece origin at the
     /// top of Z, wheel frame parallel to the machine's.
     pub fn home(&self) -> Vec<f64> {
+        self.controller.home(&self.limits(), self.default_home_mm())
+    }
+    /// X Y Z of the home pose when none is configured: above the workpiece
+    /// origin at the top of Z.
+    fn default_home_mm(&self) -> [f64; 3] {
         let o = self.workpiece_origin_mm;
-        self.controller
-            .home(&self.limits(), [o[0], o[1], self.z.max_mm])
+        [o[0], o[1], self.z.max_mm]
     }
     pub fn limits(&self) -> Vec<JointLimit> {
         vec![

@@ -139,6 +139,24 @@ impl ControllerConfig {
         Ok(())
     }
 
+    /// [`Self::validate`], then the home pose (with `default_mm` for X Y Z)
+    /// checked as a start pose: inside the travel.
+    pub(super) fn validate_with_home(
+        &self,
+        field: &str,
+        axes: &[JointLimit],
+        default_mm: [f64; 3],
+    ) -> Result<()> {
+        self.validate(field, axes)?;
+        check_start(
+            "the home pose (home_mm, home_deg)",
+            &self.home(axes, default_mm),
+            axes,
+            &self.joint_names(axes),
+        )
+        .map_err(|e| Error::invalid(field, e.to_string()))
+    }
+
     /// The FollowJointTrajectory action of `machine`'s controller.
     pub fn action(&self, machine: &str) -> String {
         self.action
