@@ -20,7 +20,9 @@ use toolpath_planner::messages::{self as msgs, convert, topics};
 use toolpath_planner::ros::fake_controller::{self, Behaviour, FakeOptions};
 use toolpath_planner::ros::node::{qos, RosNode};
 
-const CONFIG: &str = "node:\n  verify: false\nmill5:\n  controller:\n    execute: true\nbelt6:\n  controller:\n    execute: true\n";
+// Both machines publish on one /joint_states, so the belt's joints get names
+// of their own (the node refuses two executing machines sharing a name).
+const CONFIG: &str = "node:\n  verify: false\nmill5:\n  controller:\n    execute: true\nbelt6:\n  controller:\n    execute: true\n    joint_names: [belt_X, belt_Y, belt_Z, belt_A, belt_B, belt_C]\n";
 
 fn fast() -> Behaviour {
     Behaviour {
@@ -46,6 +48,10 @@ fn jobs_execute_pass_by_pass_and_stop_on_abort_reject_and_cancel() {
         let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
         let mut cell = RosNode::new("fake_cell", "/", d, lo.clone()).unwrap();
         let m = Machines::default();
+        let belt_joints: Vec<String> = ["X", "Y", "Z", "A", "B", "C"]
+            .iter()
+            .map(|j| format!("belt_{j}"))
+            .collect();
         let mill = fake_controller::spawn(
             &mut cell,
             FakeOptions {
@@ -61,7 +67,7 @@ fn jobs_execute_pass_by_pass_and_stop_on_abort_reject_and_cancel() {
             &mut cell,
             FakeOptions {
                 action: "belt6_controller/follow_joint_trajectory".into(),
-                joint_names: m.belt6.joint_names(),
+                joint_names: belt_joints.clone(),
                 limits: m.belt6.limits(),
                 start: m.belt6.home(),
                 behaviour: fast(),
@@ -171,7 +177,13 @@ fn jobs_execute_pass_by_pass_and_stop_on_abort_reject_and_cancel() {
 
         // A belt6 job runs through on its own controller.
         let st = run("belt_ok", &sine, "sine_shape", None).await;
-        assert_eq!(st.state, msgs::JobStatus::SUCCEEDED, "{}", st.message);
+        assert_eq!(
+            st.state,
+            msgs::JobStatus::SUCCEEDED,
+            "{} {:?}",
+            st.message,
+            belt.goals()
+        );
         let bg = belt.goals();
         assert!(
             !bg.is_empty() && bg.iter().all(|g| g.accepted && g.outcome == "succeeded"),

@@ -329,6 +329,36 @@ pub struct Machines {
 impl Machines {
     pub fn validate(&self) -> Result<()> {
         self.mill5.validate()?;
-        self.belt6.validate()
+        self.belt6.validate()?;
+        self.check_joint_names_apart()
+    }
+
+    /// Both machines executing in one cell read one `/joint_states`, which
+    /// names joints only: a joint name both use would give each machine the
+    /// other's position as its start pose.
+    fn check_joint_names_apart(&self) -> Result<()> {
+        if !(self.mill5.controller.execute && self.belt6.controller.execute) {
+            return Ok(());
+        }
+        let mill = self.mill5.joint_names();
+        let shared: Vec<String> = self
+            .belt6
+            .joint_names()
+            .into_iter()
+            .filter(|n| mill.contains(n))
+            .collect();
+        if shared.is_empty() {
+            return Ok(());
+        }
+        Err(Error::invalid(
+            "belt6.controller.joint_names",
+            format!(
+                "shares the joints {} with mill5 while both machines execute: /joint_states \
+                 cannot tell them apart; give one machine its controller's own joint names \
+                 (e.g. belt6_{})",
+                shared.join(" "),
+                shared[0]
+            ),
+        ))
     }
 }

@@ -329,6 +329,22 @@ mod tests {
     }
 
     #[test]
+    fn two_executing_machines_need_their_own_joint_names() {
+        let both =
+            "mill5:\n  controller:\n    execute: true\nbelt6:\n  controller:\n    execute: true\n";
+        let e = NodeConfig::parse(both).unwrap_err().to_string();
+        assert!(
+            e.contains("belt6.controller.joint_names")
+                && e.contains("shares the joints X Y Z A C with mill5"),
+            "{e}"
+        );
+        let apart = format!("{both}    joint_names: [b_X, b_Y, b_Z, b_A, b_B, b_C]\n");
+        NodeConfig::parse(&apart).unwrap();
+        // One machine executing alone reads its own joints only.
+        NodeConfig::parse("mill5:\n  controller:\n    execute: true\n").unwrap();
+    }
+
+    #[test]
     fn a_partial_controller_section_keeps_the_other_defaults() {
         let c =
             NodeConfig::parse("mill5:\n  controller:\n    execute: true\n    stamp: at\n").unwrap();
