@@ -16,6 +16,9 @@ pub enum Error {
     /// beyond the gouge tolerance (exit code 3) or a residual above the
     /// scallop height h (exit code 4).
     OutOfSpec { message: String, gouge: bool },
+    /// Work stopped on request (a cancel) or by a limit (the job's time
+    /// budget): `canceled` tells the two apart. Exit code 5.
+    Stopped { message: String, canceled: bool },
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
@@ -30,6 +33,13 @@ impl Error {
     pub fn planning(message: impl Into<String>) -> Self {
         Error::Planning {
             message: message.into(),
+        }
+    }
+    /// A cancel from the job's owner: the job ends CANCELED.
+    pub fn canceled(message: impl Into<String>) -> Self {
+        Error::Stopped {
+            message: message.into(),
+            canceled: true,
         }
     }
     pub fn io(path: impl Into<String>, err: impl fmt::Display) -> Self {
@@ -69,13 +79,15 @@ impl Error {
         }
     }
     /// Process exit code for the CLI: 2 for bad input, 3 for a gouge beyond
-    /// the tolerance, 4 for a residual above h, 1 otherwise.
+    /// the tolerance, 4 for a residual above h, 5 for stopped work, 1
+    /// otherwise.
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::Invalid { .. } | Error::Io { .. } => 2,
             Error::Planning { .. } => 1,
             Error::OutOfSpec { gouge: true, .. } => 3,
             Error::OutOfSpec { gouge: false, .. } => 4,
+            Error::Stopped { .. } => 5,
         }
     }
 }
@@ -90,6 +102,11 @@ impl fmt::Display for Error {
             Error::Planning { message } => write!(f, "cannot plan: {message}"),
             Error::Io { path, message } => write!(f, "{path}: {message}"),
             Error::OutOfSpec { message, .. } => write!(f, "out of spec: {message}"),
+            Error::Stopped {
+                message,
+                canceled: true,
+            } => write!(f, "canceled: {message}"),
+            Error::Stopped { message, .. } => write!(f, "stopped: {message}"),
         }
     }
 }

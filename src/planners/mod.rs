@@ -26,6 +26,11 @@ pub const LOWER_BOUND_CELLS: usize = 40;
 pub trait Progress: Sync {
     /// `fraction` in 0..=1.
     fn set(&self, fraction: f32);
+    /// Why the work must stop now (`Error::Stopped`: a cancel, a time
+    /// limit), checked by long loops at their progress points; `Ok` to go on.
+    fn check(&self) -> Result<()> {
+        Ok(())
+    }
 }
 
 /// Discards progress.
