@@ -406,11 +406,7 @@ type JointPath = (Vec<String>, Vec<JointLimit>, Vec<Vec<f64>>);
 
 /// The machine's joint names, limits and the joint positions of `poses`
 /// by its inverse kinematics.
-fn joint_path(
-    job: &Job,
-    machines: &Machines,
-    poses: &[ToolPose],
-) -> Result<JointPath> {
+fn joint_path(job: &Job, machines: &Machines, poses: &[ToolPose]) -> Result<JointPath> {
     Ok(match job.machine {
         Machine::Mill5 => {
             let cfg = &machines.mill5;
