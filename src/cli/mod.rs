@@ -52,6 +52,19 @@ pub enum Command {
         /// Write compute_ms as 0 so repeated runs give identical bytes.
         #[arg(long)]
         no_timing: bool,
+        /// Stop planning after this many seconds (exit code 5); the job's
+        /// own time_limit_s also applies, the shorter stops it.
+        #[arg(long, value_name = "S")]
+        time_limit: Option<f64>,
+        /// Refuse, before planning, a job estimated to need more passes.
+        #[arg(long, value_name = "N", default_value_t = crate::pipeline::Budget::DEFAULT.max_passes)]
+        max_passes: f64,
+        /// Refuse, before planning, a job estimated to need more toolpath points.
+        #[arg(long, value_name = "N", default_value_t = crate::pipeline::Budget::DEFAULT.max_points)]
+        max_points: f64,
+        /// Refuse, before planning, a job estimated to need more memory (MB).
+        #[arg(long, value_name = "MB", default_value_t = crate::pipeline::Budget::DEFAULT.max_memory_mb)]
+        max_memory_mb: f64,
     },
     /// Print the differential geometry of a surface at (u, v) as JSON.
     Inspect {
@@ -240,7 +253,24 @@ pub fn run() -> i32 {
             output,
             no_verify,
             no_timing,
-        } => plan::run(&job, &output, no_verify, no_timing),
+            time_limit,
+            max_passes,
+            max_points,
+            max_memory_mb,
+        } => plan::run(
+            &job,
+            &output,
+            plan::Limits {
+                no_verify,
+                no_timing,
+                time_limit_s: time_limit,
+                budget: crate::pipeline::Budget {
+                    max_passes,
+                    max_points,
+                    max_memory_mb,
+                },
+            },
+        ),
         Command::Inspect { surface, uv } => inspect::run(&surface, uv[0], uv[1]),
         Command::Sample {
             name,
