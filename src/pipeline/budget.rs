@@ -337,3 +337,38 @@ fn pocket(job: &Job) -> Result<Estimate> {
         remedy: "use larger catalogue tools, a coarser simulation_resolution, or split the pocket".into(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::{run, RunOptions};
+    use crate::planners::NoProgress;
+
+    /// The planned passes and points of `job` against its estimate: the
+    /// estimate must not be below them (it decides refusals).
+    fn planned_within_estimate(job: &Job) -> (f64, f64) {
+        let e = estimate(job).unwrap();
+        let r = run(job, &NoProgress, RunOptions::PLAN_ONLY).unwrap();
+        let (passes, points) = (r.stats.passes as f64, r.stats.points.unwrap() as f64);
+        eprintln!(
+            "{} {}: passes {passes} / est {:.0} = {:.2}, points {points} / est {:.0} = {:.2}, mem est {:.1} MB",
+            job.job_id,
+            job.strategy.name(),
+            e.passes,
+            passes / e.passes,
+            e.points,
+            points / e.points,
+            e.memory_mb
+        );
+        (passes / e.passes, points / e.points)
+    }
+
+    #[test]
+    fn estimates_are_above_the_planned_counts_of_the_samples() {
+        for s in crate::samples::list() {
+            let job = crate::samples::job(s.name).unwrap();
+            let (p, q) = planned_within_estimate(&job);
+            assert!(p <= 1.0 && q <= 1.0, "{}: {p} {q}", s.name);
+        }
+    }
+}
