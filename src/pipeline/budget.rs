@@ -255,12 +255,15 @@ fn belt(job: &Job) -> Result<Estimate> {
         surface.longest_iso_curve_length(true),
         surface.longest_iso_curve_length(false),
     );
-    // Either direction may be across the feed (iso-planar sections run
-    // anywhere): the longer one, both ways.
-    let across = lu.max(lv);
+    // Section planes may run in any direction (iso-planar), so the extent
+    // across them is at most the control net's diagonal (the surface lies
+    // in its box), and so is the chord of one pass; a wavy pass is longer
+    // than its chord by at most LENGTH_OVER_BOUND.
+    let (lo, hi) = surface.bounding_box();
+    let across = (hi - lo).norm().max(lu.max(lv));
     let passes = across / (BELT_STEP_SHARE * spec.width);
     let spacing = point_spacing(&spec);
-    let points = passes * (across / spacing + POINTS_PER_PASS);
+    let points = passes * (LENGTH_OVER_BOUND * across / spacing + POINTS_PER_PASS);
     let a = area(surface);
     let removal_nodes = match job.simulation_resolution {
         Some(res) => (lu / res + 1.0) * (lv / res + 1.0),
@@ -325,7 +328,11 @@ fn pocket(job: &Job) -> Result<Estimate> {
     let points = length / spacing;
     // Medial-axis samples every 0.1 mm along about the perimeter.
     let axis_samples = perimeter / 0.1;
-    let passes = contours * (1 + pocket.holes.len()) as f64 + catalogue.len() as f64;
+    // Contours split where the pocket narrows, and each smaller tool cleans
+    // a few stretches of the medial axis the larger ones left: twice the
+    // contours and four passes a tool cover the samples (the leaf's two
+    // necks and tip need the most).
+    let passes = 2.0 * contours * (1 + pocket.holes.len()) as f64 + 4.0 * catalogue.len() as f64;
     let memory_mb = cells * 2.0 / 1e6 + points * 16.0 * 4.0 / 1e6 + axis_samples * 48.0 / 1e6;
     Ok(Estimate {
         passes,
