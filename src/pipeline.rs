@@ -56,11 +56,15 @@ pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<Pl
     let progress: &dyn Progress = &limited;
     progress.check()?;
     options.budget.check(job)?;
+    let verify = !options.skip_verify && is_milling(job.strategy);
+    if verify {
+        // A grid the simulator would refuse is refused before planning.
+        scallop::check_resolution(job.surface()?, job.simulation_resolution)?;
+    }
     let start = Instant::now();
     let candidates = planners::plan_candidates(job, progress)?;
     progress.check()?;
     let mut planning_s = start.elapsed().as_secs_f64();
-    let verify = !options.skip_verify && is_milling(job.strategy);
     let mut result = if verify {
         let (result, repair_s) = verify_candidates(job, candidates, progress)?;
         planning_s += repair_s;

@@ -1247,6 +1247,33 @@ fn extents(surface: &NurbsSurface) -> (f64, f64) {
     (len_u, len_v)
 }
 
+/// Checks a job's `simulation_resolution` on `surface` before any work: the
+/// grid it asks for must stay within [`MAX_SAMPLES`].
+pub fn check_resolution(surface: &NurbsSurface, resolution_mm: Option<f64>) -> Result<()> {
+    match resolution_mm {
+        Some(r) => {
+            let (len_u, len_v) = extents(surface);
+            fixed_resolution(r, len_u, len_v).map(|_| ())
+        }
+        None => Ok(()),
+    }
+}
+
+/// A given grid resolution `r` > 0, refused when its grid on a surface of
+/// `len_u` x `len_v` mm exceeds [`MAX_SAMPLES`].
+fn fixed_resolution(r: f64, len_u: f64, len_v: f64) -> Result<f64> {
+    let n = (len_u / r).ceil().max(2.0) * (len_v / r).ceil().max(2.0);
+    if n.is_nan() || n > MAX_SAMPLES as f64 {
+        return Err(Error::invalid(
+            "simulation_resolution",
+            format!(
+                "{r} mm needs {n:.0} samples on this {len_u:.1} x {len_v:.1} mm surface, more than the limit {MAX_SAMPLES}"
+            ),
+        ));
+    }
+    Ok(r)
+}
+
 fn grid_resolution(
     settings: &ScallopSettings,
     cutter: &CutterShape,
@@ -1262,16 +1289,7 @@ fn grid_resolution(
     }
     let count = |res: f64| (len_u / res).ceil().max(2.0) * (len_v / res).ceil().max(2.0);
     if r > 0.0 {
-        let n = count(r);
-        if n > MAX_SAMPLES as f64 {
-            return Err(Error::invalid(
-                "simulation_resolution",
-                format!(
-                    "{r} mm needs {n:.0} samples on this {len_u:.1} x {len_v:.1} mm surface, more than the limit {MAX_SAMPLES}"
-                ),
-            ));
-        }
-        return Ok(r);
+        return fixed_resolution(r, len_u, len_v);
     }
     let mut res = cutter.radius / 8.0;
     let n = count(res);
