@@ -99,6 +99,14 @@ fn special_oversized_and_binary_files_are_refused_at_once() {
         let got = run(&["inspect", path, "--uv", "0.5", "0.5"], d, QUICK);
         assert_error(&got, 2, expect);
     }
+    // A job whose surface is a file reference to one of them.
+    for (path, expect) in [("/dev/zero", special), ("fifo.json", special)] {
+        let mut job = sample_job("plane");
+        job["surface"] = json!({ "file": path });
+        write(d, "ref.json", &job);
+        let got = run(&["plan", "ref.json", "-o", "out.json"], d, QUICK);
+        assert_error(&got, 2, &[path, expect]);
+    }
     assert!(!d.join("out.json").exists());
 }
 
