@@ -244,6 +244,32 @@ pub enum BagAction {
     },
 }
 
+/// Exit code of an internal error (a panic): EX_SOFTWARE of sysexits.h.
+pub const INTERNAL_ERROR_EXIT: i32 = 70;
+
+/// [`run`] with panics turned into one line on stderr and exit code
+/// [`INTERNAL_ERROR_EXIT`] instead of a backtrace; with `RUST_BACKTRACE`
+/// set, the standard report is kept for debugging. In the node a panic in
+/// a job is caught at the job boundary and only this line is logged.
+pub fn run_guarded() -> i32 {
+    if std::env::var_os("RUST_BACKTRACE").is_none() {
+        std::panic::set_hook(Box::new(|info| {
+            let what = info
+                .payload()
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| info.payload().downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            let at = info
+                .location()
+                .map(|l| format!(" at {}:{}", l.file(), l.line()))
+                .unwrap_or_default();
+            eprintln!("error: internal error (please report): {what}{at}");
+        }));
+    }
+    std::panic::catch_unwind(run).unwrap_or(INTERNAL_ERROR_EXIT)
+}
+
 /// Runs the CLI and returns the process exit code.
 pub fn run() -> i32 {
     let cli = Cli::parse();
