@@ -225,3 +225,100 @@ fn hostile_jobs_fail_with_a_reason_and_the_node_keeps_serving() {
     });
     drop(node);
 }
+
+/// With two workers (the default on a 2-core machine), a small job sent
+/// after a heavy one is served while the heavy one still plans.
+#[test]
+fn a_small_job_overtakes_a_heavy_one_with_two_workers() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("node.yaml");
+    std::fs::write(
+        &config,
+        "node:\n  verify: false\n  workers: 2\n  job_time_limit_s: 60\n",
+    )
+    .unwrap();
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    let d = (1 + (nanos ^ std::process::id().wrapping_mul(7907)).wrapping_add(97) % 230) as u16;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let (node, ready) = NodeProcess::spawn(&config, d);
+    assert!(ready.starts_with("ready"), "node said {ready:?}");
+    rt.block_on(async {
+        let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
+        let mut client = RosNode::new("overtake_client", "/", d, lo).unwrap();
+        let surfaces = client
+            .publisher::<msgs::Surface>(topics::SURFACE, qos::shapes())
+            .unwrap();
+        let jobs = client
+            .publisher::<msgs::Job>(topics::JOB, qos::job())
+            .unwrap();
+        let cancel = client
+            .publisher::<StringMsg>(topics::CANCEL, qos::job())
+            .unwrap();
+        let status = client
+            .subscription::<msgs::JobStatus>(topics::JOB_STATUS, qos::status_reader())
+            .unwrap();
+        tokio::time::timeout(
+            Duration::from_secs(20),
+            jobs.wait_for_subscription(&client.node),
+        )
+        .await
+        .expect("the node's job reader was not discovered");
+        tokio::time::timeout(
+            Duration::from_secs(20),
+            cancel.wait_for_subscription(&client.node),
+        )
+        .await
+        .expect("the node's cancel reader was not discovered");
+        let plane = samples::job("plane").unwrap();
+        let wing = samples::job("wing_mould").unwrap();
+        for (id, job) in [("plane_shape", &plane), ("wing_shape", &wing)] {
+            let Shape::Surface(s) = &job.shape else {
+                panic!("surface jobs")
+            };
+            surfaces
+                .publish(convert::surface_to_msg(id, s, msgs::Header::default()))
+                .unwrap();
+        }
+        let mut statuses = Box::pin(status.async_stream());
+        let mut heavy = convert::job_to_msg(&wing, "wing_shape", msgs::Header::default());
+        heavy.job_id = "heavy".into();
+        let mut small = convert::job_to_msg(&plane, "plane_shape", msgs::Header::default());
+        small.job_id = "small".into();
+        jobs.publish(heavy).unwrap();
+        // The small job goes once the heavy one is planning.
+        let deadline = Instant::now() + Duration::from_secs(120);
+        let mut sent_small = false;
+        let mut finals = Vec::new();
+        while finals.len() < 2 {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let (st, _) = tokio::time::timeout(left, statuses.next())
+                .await
+                .expect("no final statuses")
+                .unwrap()
+                .unwrap();
+            if st.job_id == "heavy" && st.state == msgs::JobStatus::RUNNING && !sent_small {
+                jobs.publish(small.clone()).unwrap();
+                sent_small = true;
+            }
+            if st.job_id == "small" && st.is_final() {
+                assert_eq!(st.state, msgs::JobStatus::SUCCEEDED, "{}", st.message);
+                // Done with the heavy one still planning: stop it.
+                cancel
+                    .publish(StringMsg {
+                        data: "heavy".into(),
+                    })
+                    .unwrap();
+            }
+            if st.is_final() {
+                finals.push(st.job_id.clone());
+            }
+        }
+        assert_eq!(finals, ["small", "heavy"], "the small job waited");
+    });
+    drop(node);
+}
