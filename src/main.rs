@@ -1,3 +1,3 @@
 fn main() {
-    std::process::exit(toolpath_planner::cli::run());
+    std::process::exit(toolpath_planner::cli::run_guarded());
 }

@@ -8,6 +8,12 @@ use crate::planners::{self, Progress};
 use crate::simulation::scallop::{self, ScallopReport, ScallopSettings};
 use std::time::Instant;
 
+pub mod budget;
+pub mod limits;
+
+pub use budget::{Budget, Estimate};
+pub use limits::{Limited, TimeLimit};
+
 /// Options that do not change the toolpath.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RunOptions {
@@ -15,6 +21,11 @@ pub struct RunOptions {
     pub skip_verify: bool,
     /// Report compute_ms as 0 so that repeated runs give identical bytes.
     pub no_timing: bool,
+    /// Stop the job once it has run this long (besides the job's own
+    /// `time_limit_s`: the shorter one stops it).
+    pub time_limit: Option<TimeLimit>,
+    /// Refuse a job whose estimate exceeds these before planning.
+    pub budget: Budget,
 }
 
 impl RunOptions {
@@ -22,6 +33,8 @@ impl RunOptions {
     pub const PLAN_ONLY: RunOptions = RunOptions {
         skip_verify: true,
         no_timing: true,
+        time_limit: None,
+        budget: Budget::DEFAULT,
     };
 }
 
@@ -29,13 +42,31 @@ impl RunOptions {
 /// milling plans are verified by the simulator and repaired (see
 /// [`verify_and_repair`]); of several candidate plans (tensor_regions) the
 /// shortest after repair is kept, preferring one within the scallop height.
+///
+/// Before any of that the job's estimate is checked against
+/// `options.budget`; the job's `time_limit_s` and `options.time_limit` stop
+/// it through `progress` checks (`Error::Stopped`), as a cancel does.
 pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<PlanResult> {
+    let own = job.time_limit_s.map(|seconds| TimeLimit {
+        seconds,
+        parameter: "the job's time_limit_s",
+    });
+    let own = Limited::new(progress, own);
+    let limited = Limited::new(&own, options.time_limit);
+    let progress: &dyn Progress = &limited;
+    progress.check()?;
+    options.budget.check(job)?;
+    let verify = !options.skip_verify && is_milling(job.strategy);
+    if verify {
+        // A grid the simulator would refuse is refused before planning.
+        scallop::check_resolution(job.surface()?, job.simulation_resolution)?;
+    }
     let start = Instant::now();
     let candidates = planners::plan_candidates(job, progress)?;
+    progress.check()?;
     let mut planning_s = start.elapsed().as_secs_f64();
-    let verify = !options.skip_verify && is_milling(job.strategy);
     let mut result = if verify {
-        let (result, repair_s) = verify_candidates(job, candidates)?;
+        let (result, repair_s) = verify_candidates(job, candidates, progress)?;
         planning_s += repair_s;
         result
     } else {
@@ -55,6 +86,7 @@ pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<Pl
         (planning_s * 1e6).round() / 1000.0
     };
     if !options.skip_verify && is_belt(job.strategy) {
+        progress.check()?;
         verify_belt(job, &mut result)?;
     }
     progress.set(1.0);
@@ -69,7 +101,11 @@ pub const MAX_VERIFIED_CANDIDATES: usize = 3;
 /// candidate already longer before repair than the best after repair is not
 /// verified (repair only adds passes). Returns the kept result with its
 /// simulator figures and the seconds spent making repair passes.
-fn verify_candidates(job: &Job, candidates: Vec<PlanResult>) -> Result<(PlanResult, f64)> {
+fn verify_candidates(
+    job: &Job,
+    candidates: Vec<PlanResult>,
+    progress: &dyn Progress,
+) -> Result<(PlanResult, f64)> {
     let total = candidates.len();
     let mut best: Option<(PlanResult, ScallopReport)> = None;
     let mut repair_s = 0.0;
@@ -83,8 +119,9 @@ fn verify_candidates(job: &Job, candidates: Vec<PlanResult>) -> Result<(PlanResu
             }
         }
         verified += 1;
+        progress.check()?;
         let started = Instant::now();
-        let (mut result, report, sim_s) = verify_and_repair(job, candidate)?;
+        let (mut result, report, sim_s) = verify_and_repair_checked(job, candidate, progress)?;
         repair_s += (started.elapsed().as_secs_f64() - sim_s).max(0.0);
         if rank > 0 {
             if let Some(choice) = &mut result.plan_choice {
@@ -139,12 +176,22 @@ pub fn is_flat_end(strategy: Strategy) -> bool {
 /// simulations took.
 pub fn verify_and_repair(
     job: &Job,
+    result: PlanResult,
+) -> Result<(PlanResult, ScallopReport, f64)> {
+    verify_and_repair_checked(job, result, &planners::NoProgress)
+}
+
+/// [`verify_and_repair`], checking `progress` for a stop in the simulator
+/// and between repair rounds.
+pub fn verify_and_repair_checked(
+    job: &Job,
     mut result: PlanResult,
+    progress: &dyn Progress,
 ) -> Result<(PlanResult, ScallopReport, f64)> {
     let mut sim_s = 0.0;
     let mut simulate = |r: &PlanResult| -> Result<ScallopReport> {
         let t = Instant::now();
-        let report = verify_milling(job, r)?;
+        let report = verify_milling_checked(job, r, progress)?;
         sim_s += t.elapsed().as_secs_f64();
         Ok(report)
     };
@@ -160,6 +207,7 @@ pub fn verify_and_repair(
             .max()
             .unwrap_or(0);
         for _ in 0..REPAIR_ROUNDS {
+            progress.check()?;
             let islands = islands(&report, h, job.tool()?.radius());
             if islands.is_empty() {
                 break;
@@ -377,9 +425,18 @@ pub fn is_milling(strategy: Strategy) -> bool {
 
 /// Runs the scallop simulator on a milling result of `job` at the job's `simulation_resolution`.
 pub fn verify_milling(job: &Job, result: &PlanResult) -> Result<ScallopReport> {
+    verify_milling_checked(job, result, &planners::NoProgress)
+}
+
+/// [`verify_milling`], checking `progress` for a stop about every thousand samples.
+pub fn verify_milling_checked(
+    job: &Job,
+    result: &PlanResult,
+    progress: &dyn Progress,
+) -> Result<ScallopReport> {
     let surface = job.surface()?;
     let settings = ScallopSettings::with_resolution(job.simulation_resolution);
-    scallop::simulate(surface, job.tool()?, result, &settings)
+    scallop::simulate_checked(surface, job.tool()?, result, &settings, progress)
 }
 
 /// Puts the simulator's figures into the result's stats: max_scallop_mm,

@@ -39,6 +39,7 @@ fn job(
         section_normal: None,
         simulation_resolution: None,
         grinding: None,
+        time_limit_s: None,
     }
 }
 
@@ -443,6 +444,7 @@ fn plan_and_simulate(
         RunOptions {
             skip_verify: false,
             no_timing: true,
+            ..RunOptions::default()
         },
     )
     .unwrap();
@@ -551,6 +553,7 @@ fn hamann_removal_on_a_flat_part_matches_the_model() {
         RunOptions {
             skip_verify: false,
             no_timing: true,
+            ..RunOptions::default()
         },
     )
     .unwrap();

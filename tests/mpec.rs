@@ -81,6 +81,7 @@ fn job_file(feed: FeedDirection) -> JobFile {
         section_normal: None,
         simulation_resolution: None,
         grinding: None,
+        time_limit_s: None,
     }
 }
 

@@ -59,6 +59,7 @@ fn wing_mould_load() -> BurstLoad {
                 section_normal: None,
                 simulation_resolution: None,
                 grinding: None,
+                time_limit_s: None,
             };
             Job::new(file, Shape::Surface(s.clone()))
         }),

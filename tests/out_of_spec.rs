@@ -43,6 +43,7 @@ fn ball_job() -> JobFile {
         section_normal: None,
         simulation_resolution: Some(0.25),
         grinding: None,
+        time_limit_s: None,
     }
 }
 

@@ -34,6 +34,7 @@ fn job_file(strategy: Strategy, tool: Tool, shape: &Shape) -> JobFile {
         section_normal: None,
         simulation_resolution: Some(0.25),
         grinding: None,
+        time_limit_s: None,
     }
 }
 

@@ -75,6 +75,7 @@ fn bench_job(job_id: &str, surface: NurbsSurface) -> Result<Job> {
         section_normal: None,
         simulation_resolution: None,
         grinding: None,
+        time_limit_s: None,
     };
     Job::new(file, Shape::Surface(surface))
 }

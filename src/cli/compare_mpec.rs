@@ -90,6 +90,7 @@ pub fn run(job: &Job) -> Result<()> {
         RunOptions {
             skip_verify: true,
             no_timing: false,
+            ..RunOptions::default()
         },
     )?;
     let mpec_ms = start.elapsed().as_secs_f64() * 1e3;

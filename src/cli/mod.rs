@@ -52,6 +52,19 @@ pub enum Command {
         /// Write compute_ms as 0 so repeated runs give identical bytes.
         #[arg(long)]
         no_timing: bool,
+        /// Stop planning after this many seconds (exit code 5); the job's
+        /// own time_limit_s also applies, the shorter stops it.
+        #[arg(long, value_name = "S")]
+        time_limit: Option<f64>,
+        /// Refuse, before planning, a job estimated to need more passes.
+        #[arg(long, value_name = "N", default_value_t = crate::pipeline::Budget::DEFAULT.max_passes)]
+        max_passes: f64,
+        /// Refuse, before planning, a job estimated to need more toolpath points.
+        #[arg(long, value_name = "N", default_value_t = crate::pipeline::Budget::DEFAULT.max_points)]
+        max_points: f64,
+        /// Refuse, before planning, a job estimated to need more memory (MB).
+        #[arg(long, value_name = "MB", default_value_t = crate::pipeline::Budget::DEFAULT.max_memory_mb)]
+        max_memory_mb: f64,
     },
     /// Print the differential geometry of a surface at (u, v) as JSON.
     Inspect {
@@ -231,6 +244,32 @@ pub enum BagAction {
     },
 }
 
+/// Exit code of an internal error (a panic): EX_SOFTWARE of sysexits.h.
+pub const INTERNAL_ERROR_EXIT: i32 = 70;
+
+/// [`run`] with panics turned into one line on stderr and exit code
+/// [`INTERNAL_ERROR_EXIT`] instead of a backtrace; with `RUST_BACKTRACE`
+/// set, the standard report is kept for debugging. In the node a panic in
+/// a job is caught at the job boundary and only this line is logged.
+pub fn run_guarded() -> i32 {
+    if std::env::var_os("RUST_BACKTRACE").is_none() {
+        std::panic::set_hook(Box::new(|info| {
+            let what = info
+                .payload()
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| info.payload().downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            let at = info
+                .location()
+                .map(|l| format!(" at {}:{}", l.file(), l.line()))
+                .unwrap_or_default();
+            eprintln!("error: internal error (please report): {what}{at}");
+        }));
+    }
+    std::panic::catch_unwind(run).unwrap_or(INTERNAL_ERROR_EXIT)
+}
+
 /// Runs the CLI and returns the process exit code.
 pub fn run() -> i32 {
     let cli = Cli::parse();
@@ -240,7 +279,24 @@ pub fn run() -> i32 {
             output,
             no_verify,
             no_timing,
-        } => plan::run(&job, &output, no_verify, no_timing),
+            time_limit,
+            max_passes,
+            max_points,
+            max_memory_mb,
+        } => plan::run(
+            &job,
+            &output,
+            plan::Limits {
+                no_verify,
+                no_timing,
+                time_limit_s: time_limit,
+                budget: crate::pipeline::Budget {
+                    max_passes,
+                    max_points,
+                    max_memory_mb,
+                },
+            },
+        ),
         Command::Inspect { surface, uv } => inspect::run(&surface, uv[0], uv[1]),
         Command::Sample {
             name,

@@ -1,22 +1,41 @@
 use super::progress::Bar;
 use crate::error::Result;
 use crate::formats;
-use crate::pipeline::{self, Conformance, RunOptions};
+use crate::pipeline::{self, Budget, Conformance, RunOptions, TimeLimit};
 use std::path::Path;
+
+/// The options of `toolpath plan` that bound or skip work.
+pub struct Limits {
+    pub no_verify: bool,
+    pub no_timing: bool,
+    /// `--time-limit`, s.
+    pub time_limit_s: Option<f64>,
+    pub budget: Budget,
+}
 
 /// Plans the job and writes the result, unless the simulator finds a gouge
 /// beyond the job's gouge tolerance (exit code 3, nothing written: a toolpath
 /// that cuts into the part is never handed out). A residual above h writes
-/// the result and exits with code 4.
-pub fn run(job_path: &Path, output: &Path, no_verify: bool, no_timing: bool) -> Result<()> {
+/// the result and exits with code 4; a job stopped by its time limit exits
+/// with code 5.
+pub fn run(job_path: &Path, output: &Path, limits: Limits) -> Result<()> {
+    if let Some(s) = limits.time_limit_s {
+        TimeLimit::validate(s, "--time-limit")?;
+    }
+    limits.budget.validate("--")?;
     let job = formats::read_job(job_path)?;
     let bar = Bar::new(&format!("planning {}", job.job_id));
     let result = pipeline::run(
         &job,
         &bar,
         RunOptions {
-            skip_verify: no_verify,
-            no_timing,
+            skip_verify: limits.no_verify,
+            no_timing: limits.no_timing,
+            time_limit: limits.time_limit_s.map(|seconds| TimeLimit {
+                seconds,
+                parameter: "--time-limit",
+            }),
+            budget: limits.budget,
         },
     );
     bar.finish();

@@ -186,6 +186,9 @@ pub struct JobFile {
     pub simulation_resolution: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grinding: Option<GrindingParams>,
+    /// Stop planning after this many seconds (the job FAILS, stopped).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_limit_s: Option<f64>,
 }
 
 /// A validated job.
@@ -208,7 +211,13 @@ pub struct Job {
     pub section_normal: Option<[f64; 3]>,
     pub simulation_resolution: Option<f64>,
     pub grinding: GrindingParams,
+    /// s; `None`: only the limit of the CLI or node applies.
+    pub time_limit_s: Option<f64>,
 }
+
+/// Longest time limit a job (or a config) may give, s: a week. Beyond it a
+/// limit is not one, and adding it to an instant stays far from overflow.
+pub const MAX_TIME_LIMIT_S: f64 = 7.0 * 24.0 * 3600.0;
 
 /// Default feed rate, mm/min.
 pub const DEFAULT_FEED_RATE: f64 = 1000.0;
@@ -275,6 +284,15 @@ impl JobFile {
         finite_positive("tolerance", self.tolerance)?;
         finite_positive("feed_rate", self.feed_rate)?;
         finite_positive("simulation_resolution", self.simulation_resolution)?;
+        finite_positive("time_limit_s", self.time_limit_s)?;
+        if let Some(t) = self.time_limit_s {
+            if t > MAX_TIME_LIMIT_S {
+                return Err(Error::invalid(
+                    "time_limit_s",
+                    format!("{t} s is above the longest limit of {MAX_TIME_LIMIT_S} s (a week)"),
+                ));
+            }
+        }
         finite("lead_angle_deg", self.lead_angle_deg)?;
         finite("side_tilt_deg", self.side_tilt_deg)?;
         for (name, angle) in [
@@ -527,6 +545,7 @@ impl Job {
             section_normal: f.section_normal,
             simulation_resolution: f.simulation_resolution,
             grinding: f.grinding.unwrap_or_default(),
+            time_limit_s: f.time_limit_s,
         })
     }
 
@@ -549,6 +568,7 @@ impl Job {
             section_normal: self.section_normal,
             simulation_resolution: self.simulation_resolution,
             grinding: (self.grinding != GrindingParams::default()).then_some(self.grinding),
+            time_limit_s: self.time_limit_s,
         }
     }
 

@@ -43,8 +43,59 @@ pub fn parse_json(text: &str, what: &str) -> Result<serde_json::Value> {
     Ok(value)
 }
 
-fn read_text(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|e| Error::io(path.display().to_string(), e))
+/// Largest text input file (job, surface, pocket, result, config), bytes:
+/// far above any real surface (a 1000 x 1000 control net is about 80 MB).
+pub const MAX_TEXT_FILE_BYTES: u64 = 256 << 20;
+
+/// The bytes of a regular file of at most `max_bytes`. Anything else is
+/// refused before it is opened: a directory, a device such as /dev/zero
+/// (endless) or a FIFO (opening one waits for a writer) would wedge the
+/// reader.
+pub fn read_file_limited(path: &Path, max_bytes: u64) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let shown = path.display().to_string();
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(&shown, e))?;
+    if !meta.is_file() {
+        let kind = if meta.is_dir() {
+            "a directory"
+        } else {
+            "a special file (device, FIFO or socket)"
+        };
+        return Err(Error::io(
+            &shown,
+            format!("is {kind}, not a regular file: give the path of a file"),
+        ));
+    }
+    let too_big = |size: u64| {
+        Error::io(
+            &shown,
+            format!("is {size} bytes, above the limit of {max_bytes} bytes for this kind of file"),
+        )
+    };
+    if meta.len() > max_bytes {
+        return Err(too_big(meta.len()));
+    }
+    let file = std::fs::File::open(path).map_err(|e| Error::io(&shown, e))?;
+    // The file may have grown since: never read more than the limit.
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(max_bytes + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::io(&shown, e))?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(too_big(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
+/// A text input file ([`read_file_limited`] to [`MAX_TEXT_FILE_BYTES`]) as UTF-8.
+pub fn read_text(path: &Path) -> Result<String> {
+    let bytes = read_file_limited(path, MAX_TEXT_FILE_BYTES)?;
+    String::from_utf8(bytes).map_err(|e| {
+        Error::io(
+            path.display().to_string(),
+            format!("is not UTF-8 text: {e}"),
+        )
+    })
 }
 
 /// Reads a surface or pocket file.

@@ -456,6 +456,7 @@ mod tests {
             section_normal: None,
             simulation_resolution: None,
             grinding: None,
+            time_limit_s: None,
         };
         Job::new(file, Shape::Surface(crate::samples::surfaces::plane())).unwrap()
     }

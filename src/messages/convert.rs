@@ -210,6 +210,7 @@ pub fn job_file_from_msg(m: &msgs::Job) -> Result<JobFile> {
         section_normal: None,
         simulation_resolution: None,
         grinding: None,
+        time_limit_s: None,
     })
 }
 

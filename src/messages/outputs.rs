@@ -84,6 +84,7 @@ mod tests {
         let options = RunOptions {
             skip_verify: true,
             no_timing: true,
+            ..RunOptions::default()
         };
         let result = pipeline::run(&job, &NoProgress, options).unwrap();
         let trajectory = crate::machines::trajectory(&job, &result, &Machines::default()).unwrap();
@@ -142,6 +143,7 @@ mod tests {
             let options = RunOptions {
                 skip_verify: true,
                 no_timing: true,
+                ..RunOptions::default()
             };
             let result = pipeline::run(&job, &NoProgress, options).unwrap();
             let t = crate::machines::trajectory(&job, &result, &m).unwrap();

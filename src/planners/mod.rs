@@ -40,6 +40,18 @@ impl Progress for NoProgress {
     fn set(&self, _fraction: f32) {}
 }
 
+/// Checks through to `0` but reports no fractions: for work run beside other
+/// work (candidate plans in parallel), whose own fractions would make the
+/// caller's progress jump back and forth.
+pub struct CheckOnly<'a>(pub &'a dyn Progress);
+
+impl Progress for CheckOnly<'_> {
+    fn set(&self, _fraction: f32) {}
+    fn check(&self) -> Result<()> {
+        self.0.check()
+    }
+}
+
 /// The candidate plans of a job, shortest first: several for
 /// `tensor_regions` (it keeps the shortest that verifies), one otherwise.
 pub fn plan_candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>> {

@@ -98,6 +98,7 @@ pub fn job(
         section_normal: None,
         simulation_resolution: None,
         grinding: None,
+        time_limit_s: None,
     };
     crate::formats::Job::new(file, crate::formats::Shape::Surface(surface)).expect("valid test job")
 }

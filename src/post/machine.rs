@@ -152,8 +152,7 @@ impl PostMachine {
 
     /// Reads a machine file; errors name the file and the field.
     pub fn read(path: &Path) -> Result<Self> {
-        let text =
-            std::fs::read_to_string(path).map_err(|e| Error::io(path.display().to_string(), e))?;
+        let text = crate::formats::read_text(path)?;
         Self::parse(&text).map_err(|e| e.in_file(path))
     }
 }

@@ -132,8 +132,7 @@ impl BagMetadata {
 
     /// Reads metadata.yaml; errors name the field.
     pub fn read(path: &Path) -> Result<Self> {
-        let text =
-            std::fs::read_to_string(path).map_err(|e| Error::io(path.display().to_string(), e))?;
+        let text = crate::formats::read_text(path)?;
         let de = serde_yaml_ng::Deserializer::from_str(&text);
         let file: MetadataFile = serde_path_to_error::deserialize(de).map_err(|e| {
             Error::invalid(

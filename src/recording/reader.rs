@@ -105,9 +105,12 @@ pub fn read_bag(path: &Path) -> Result<Bag> {
     Ok(bag)
 }
 
+/// Largest bag file read, bytes: the whole file is held in memory.
+pub const MAX_BAG_BYTES: u64 = 4 << 30;
+
 fn read_mcap(path: &Path, bag: &mut Bag) -> Result<()> {
     let shown = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| Error::io(&shown, e))?;
+    let bytes = crate::formats::read_file_limited(path, MAX_BAG_BYTES)?;
     if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
         return Err(Error::invalid(
             shown,

@@ -29,12 +29,30 @@ pub struct NodeSettings {
     pub workers: usize,
     /// Run the simulator check after planning (fills max_scallop_mm).
     pub verify: bool,
+    /// A job still planning after this many seconds FAILS (stopped), which
+    /// frees its worker for the jobs queued behind it; 0 = no limit
+    /// (docs/limits.md).
+    pub job_time_limit_s: f64,
+    /// Jobs estimated to need more than this are refused before planning.
+    pub budget: crate::pipeline::Budget,
 }
+
+/// Default `node.job_time_limit_s`: ten minutes, about a hundred times what
+/// the samples take, so only a runaway job meets it.
+pub const DEFAULT_JOB_TIME_LIMIT_S: f64 = 600.0;
 
 /// Most planning workers a config may ask for.
 pub const MAX_WORKERS: usize = 256;
 
 impl NodeSettings {
+    /// The time limit of every job, if any.
+    pub fn time_limit(&self) -> Option<crate::pipeline::TimeLimit> {
+        (self.job_time_limit_s > 0.0).then_some(crate::pipeline::TimeLimit {
+            seconds: self.job_time_limit_s,
+            parameter: "node.job_time_limit_s",
+        })
+    }
+
     /// Planning threads the node starts: `workers`, or the machine's available
     /// cores when it is 0.
     pub fn worker_count(&self) -> usize {
@@ -57,6 +75,8 @@ impl Default for NodeSettings {
             surface_timeout_s: 10.0,
             workers: 0,
             verify: true,
+            job_time_limit_s: DEFAULT_JOB_TIME_LIMIT_S,
+            budget: crate::pipeline::Budget::DEFAULT,
         }
     }
 }
@@ -196,8 +216,7 @@ pub struct NodeConfig {
 impl NodeConfig {
     /// Reads and validates a YAML config; errors name the file and the field.
     pub fn read(path: &Path) -> Result<Self> {
-        let text =
-            std::fs::read_to_string(path).map_err(|e| Error::io(path.display().to_string(), e))?;
+        let text = crate::formats::read_text(path)?;
         Self::parse(&text).map_err(|e| e.in_file(path))
     }
 
@@ -223,6 +242,16 @@ impl NodeConfig {
                 "must be a finite number >= 0",
             ));
         }
+        if n.job_time_limit_s != 0.0 {
+            crate::pipeline::TimeLimit::validate(n.job_time_limit_s, "node.job_time_limit_s")
+                .map_err(|e| match e {
+                    Error::Invalid { field, message } => {
+                        Error::invalid(field, format!("{message} (0 = no limit)"))
+                    }
+                    e => e,
+                })?;
+        }
+        n.budget.validate("node.budget")?;
         if n.workers > MAX_WORKERS {
             return Err(Error::invalid(
                 "node.workers",

@@ -107,6 +107,15 @@ impl Cancels {
         self.lock().1 = true;
         self.wake.notify_waiters();
     }
+    /// Whether `job_id` itself was canceled (not everything at shut-down:
+    /// planning finishes then, as before).
+    pub fn requested(&self, job_id: &str) -> bool {
+        self.lock().0.contains(job_id)
+    }
+    /// Drops the cancel of a job that has ended.
+    pub fn forget(&self, job_id: &str) {
+        self.lock().0.remove(job_id);
+    }
     fn is_canceled(&self, job_id: &str) -> bool {
         let g = self.lock();
         g.1 || g.0.contains(job_id)

@@ -549,7 +549,8 @@ fn next_work(shared: &Shared) -> Option<Work> {
     }
 }
 
-/// RUNNING statuses from planner progress, at most every 100 ms or 10 %.
+/// RUNNING statuses from planner progress, at most every 100 ms or 10 %;
+/// its check stops a job canceled on the `cancel` topic.
 struct StatusProgress<'a> {
     outputs: &'a Outputs,
     job_id: &'a str,
@@ -575,6 +576,13 @@ impl Progress for StatusProgress<'_> {
             self.outputs
                 .status(self.job_id, msgs::JobStatus::RUNNING, f, String::new());
         }
+    }
+
+    fn check(&self) -> Result<()> {
+        if self.outputs.cancels.requested(self.job_id) {
+            return Err(Error::canceled("canceled on topic cancel while planning"));
+        }
+        Ok(())
     }
 }
 
@@ -760,6 +768,8 @@ fn worker(
             }
         };
         outputs.status(&job_id, state, progress, message);
+        // A later job under this id starts uncanceled.
+        outputs.cancels.forget(&job_id);
         let idle = {
             let mut st = shared.lock();
             st.active.remove(&job_id);
@@ -820,6 +830,8 @@ fn receive_job(
     }
     st.active.insert(msg.job_id.clone(), msg.clone());
     drop(st);
+    // A cancel sent before this job (for an earlier one of its id) is not its own.
+    outputs.cancels.forget(&msg.job_id);
     // ACCEPTED before the job is queued, so a worker's statuses follow it;
     // published without the lock (a reliable publish may wait).
     outputs.status(&msg.job_id, msgs::JobStatus::ACCEPTED, 0.0, String::new());
@@ -931,6 +943,8 @@ fn start_workers(
     let options = RunOptions {
         skip_verify: !settings.verify,
         no_timing: false,
+        time_limit: settings.time_limit(),
+        budget: settings.budget,
     };
     let mut handles = Vec::new();
     for k in 0..settings.worker_count() {

@@ -122,6 +122,7 @@ fn base_job(name: &str, strategy: Strategy, tool: Tool) -> JobFile {
         section_normal: None,
         simulation_resolution: None,
         grinding: None,
+        time_limit_s: None,
     }
 }
 

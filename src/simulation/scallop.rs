@@ -25,6 +25,7 @@
 use crate::error::{Error, Result};
 use crate::formats::PlanResult;
 use crate::geometry::NurbsSurface;
+use crate::planners::{NoProgress, Progress};
 use crate::tools::{CutterShape, Tool};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -93,8 +94,20 @@ pub fn simulate(
     result: &PlanResult,
     settings: &ScallopSettings,
 ) -> Result<ScallopReport> {
+    simulate_checked(surface, tool, result, settings, &NoProgress)
+}
+
+/// [`simulate`], checking `progress` for a stop about every thousand samples.
+pub fn simulate_checked(
+    surface: &NurbsSurface,
+    tool: &Tool,
+    result: &PlanResult,
+    settings: &ScallopSettings,
+    progress: &dyn Progress,
+) -> Result<ScallopReport> {
+    progress.check()?;
     let sim = Simulator::new(surface, tool, result)?;
-    sim.run(settings)
+    sim.run_with(settings, Method::Fast, progress)
 }
 
 /// One straight tool motion between two consecutive points of a pass.
@@ -926,17 +939,24 @@ impl<'a> Simulator<'a> {
 
     /// Samples the surface and builds the report.
     pub fn run(&self, settings: &ScallopSettings) -> Result<ScallopReport> {
-        self.run_with(settings, Method::Fast)
+        self.run_with(settings, Method::Fast, &NoProgress)
     }
 
     /// [`Self::run`] with the exact reference residual everywhere. Slow; kept
     /// for the accuracy tests and benches.
     #[doc(hidden)]
     pub fn run_reference(&self, settings: &ScallopSettings) -> Result<ScallopReport> {
-        self.run_with(settings, Method::Reference)
+        self.run_with(settings, Method::Reference, &NoProgress)
     }
 
-    fn run_with(&self, settings: &ScallopSettings, method: Method) -> Result<ScallopReport> {
+    /// The report; `progress` is checked per chunk of samples, and a stop
+    /// found in any chunk ends the run with it.
+    fn run_with(
+        &self,
+        settings: &ScallopSettings,
+        method: Method,
+        progress: &dyn Progress,
+    ) -> Result<ScallopReport> {
         let ((u0, u1), (v0, v1)) = self.surface.domain();
         let (len_u, len_v) = extents(self.surface);
         let res = grid_resolution(settings, &self.cutter, len_u, len_v)?;
@@ -945,8 +965,16 @@ impl<'a> Simulator<'a> {
         let du = (u1 - u0) / nu as f64;
         let dv = (v1 - v0) / nv as f64;
 
-        let (uv, xyz, frames) = self.sample_grid((u0, v0), (du, dv), (nu, nv));
-        let residual = self.residuals(&frames, method);
+        let stop = std::sync::OnceLock::new();
+        let (uv, xyz, frames) = self.sample_grid((u0, v0), (du, dv), (nu, nv), (progress, &stop));
+        if let Some(e) = stop.into_inner() {
+            return Err(e);
+        }
+        let stop = std::sync::OnceLock::new();
+        let residual = self.residuals(&frames, method, (progress, &stop));
+        if let Some(e) = stop.into_inner() {
+            return Err(e);
+        }
 
         let mut uncovered = 0.0;
         let mut machined = 0.0;
@@ -964,7 +992,9 @@ impl<'a> Simulator<'a> {
             xyz,
             residual,
         };
+        progress.check()?;
         let max_res = self.refine(&map, 1.0, du, dv, method);
+        progress.check()?;
         let min_res = self.refine(&map, -1.0, du, dv, method);
         Ok(ScallopReport {
             max_scallop_mm: max_res.map_or(0.0, |r| r.max(0.0)),
@@ -978,15 +1008,24 @@ impl<'a> Simulator<'a> {
 
     /// The grid's cell centres: (u, v), points, and frames, in parallel over
     /// rows (each sample is independent, so the result does not depend on threads).
+    /// A stop found by `check` is put in its cell and leaves the rest unsampled.
     #[allow(clippy::type_complexity)]
     fn sample_grid(
         &self,
         (u0, v0): (f64, f64),
         (du, dv): (f64, f64),
         (nu, nv): (usize, usize),
+        (progress, stop): (&dyn Progress, &std::sync::OnceLock<Error>),
     ) -> (Vec<[f64; 2]>, Vec<[f64; 3]>, Vec<Frame>) {
         let rows: Vec<usize> = (0..nu).collect();
         let parts = crate::parallel::map_chunks(&rows, 4, |rows| {
+            if stop.get().is_some() {
+                return Vec::new();
+            }
+            if let Err(e) = progress.check() {
+                let _ = stop.set(e);
+                return Vec::new();
+            }
             let mut out = Vec::with_capacity(rows.len() * nv);
             for &i in rows {
                 for j in 0..nv {
@@ -1014,10 +1053,23 @@ impl<'a> Simulator<'a> {
 
     /// Residuals of all samples, in parallel over chunks of a fixed size (the
     /// fast residual carries the previous sample's lowest segment within a
-    /// chunk, so chunks must not depend on the number of threads).
-    fn residuals(&self, frames: &[Frame], method: Method) -> Vec<Option<f64>> {
+    /// chunk, so chunks must not depend on the number of threads). A stop
+    /// found by `check` is put in its cell and leaves the rest uncomputed.
+    fn residuals(
+        &self,
+        frames: &[Frame],
+        method: Method,
+        (progress, stop): (&dyn Progress, &std::sync::OnceLock<Error>),
+    ) -> Vec<Option<f64>> {
         const CHUNK: usize = 1024;
         crate::parallel::map_chunks(frames, CHUNK, |frames| {
+            if stop.get().is_some() {
+                return Vec::new();
+            }
+            if let Err(e) = progress.check() {
+                let _ = stop.set(e);
+                return Vec::new();
+            }
             let mut scratch = Scratch::new(self.segments.len());
             frames
                 .iter()
@@ -1195,6 +1247,33 @@ fn extents(surface: &NurbsSurface) -> (f64, f64) {
     (len_u, len_v)
 }
 
+/// Checks a job's `simulation_resolution` on `surface` before any work: the
+/// grid it asks for must stay within [`MAX_SAMPLES`].
+pub fn check_resolution(surface: &NurbsSurface, resolution_mm: Option<f64>) -> Result<()> {
+    match resolution_mm {
+        Some(r) => {
+            let (len_u, len_v) = extents(surface);
+            fixed_resolution(r, len_u, len_v).map(|_| ())
+        }
+        None => Ok(()),
+    }
+}
+
+/// A given grid resolution `r` > 0, refused when its grid on a surface of
+/// `len_u` x `len_v` mm exceeds [`MAX_SAMPLES`].
+fn fixed_resolution(r: f64, len_u: f64, len_v: f64) -> Result<f64> {
+    let n = (len_u / r).ceil().max(2.0) * (len_v / r).ceil().max(2.0);
+    if n.is_nan() || n > MAX_SAMPLES as f64 {
+        return Err(Error::invalid(
+            "simulation_resolution",
+            format!(
+                "{r} mm needs {n:.0} samples on this {len_u:.1} x {len_v:.1} mm surface, more than the limit {MAX_SAMPLES}"
+            ),
+        ));
+    }
+    Ok(r)
+}
+
 fn grid_resolution(
     settings: &ScallopSettings,
     cutter: &CutterShape,
@@ -1210,16 +1289,7 @@ fn grid_resolution(
     }
     let count = |res: f64| (len_u / res).ceil().max(2.0) * (len_v / res).ceil().max(2.0);
     if r > 0.0 {
-        let n = count(r);
-        if n > MAX_SAMPLES as f64 {
-            return Err(Error::invalid(
-                "simulation_resolution",
-                format!(
-                    "{r} mm needs {n:.0} samples on this {len_u:.1} x {len_v:.1} mm surface, more than the limit {MAX_SAMPLES}"
-                ),
-            ));
-        }
-        return Ok(r);
+        return fixed_resolution(r, len_u, len_v);
     }
     let mut res = cutter.radius / 8.0;
     let n = count(res);

@@ -100,6 +100,7 @@ pub fn plan_paths(
         }
         paths.push(path);
         progress.set(((c - c0) / range).clamp(0.0, 1.0) as f32 * 0.95);
+        progress.check()?;
         if last {
             break;
         }

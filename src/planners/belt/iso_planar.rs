@@ -281,6 +281,7 @@ pub fn plan_paths(
                 0.45 * side as f32
                     + 0.45 * (((offset - start) * sign) / (0.5 * extent)).clamp(0.0, 1.0) as f32,
             );
+            progress.check()?;
             if last {
                 break;
             }

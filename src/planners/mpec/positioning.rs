@@ -687,6 +687,7 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
         }
         passes.push(pass);
         progress.set(((t - t0) / (t1 - t0)).clamp(0.0, 1.0) as f32 * 0.99);
+        progress.check()?;
         if t >= t1 || planner.gap(&samples, t, t1) <= plus {
             break;
         }

@@ -24,7 +24,7 @@ use crate::formats::result::{polyline_length_2d, MedialBranch, PocketTool};
 use crate::formats::{Job, PlanResult};
 use crate::geometry::medial_axis::{medial_axis, MedialAxis};
 use crate::geometry::pocket::{Pocket, Point2};
-use crate::planners::Progress;
+use crate::planners::{NoProgress, Progress};
 use cavalier_contours::shape_algorithms::Shape;
 
 /// Stepover between roughing contours as a fraction of the diameter. The paper
@@ -156,18 +156,21 @@ fn residual_dmax(dense: &[Vec<[f64; 3]>], swept: &Swept) -> f64 {
 }
 
 /// Roughing (or single-tool) passes: contour offsets R, R + H, ... and medial-axis
-/// moves through the islands the contours leave.
+/// moves through the islands the contours leave. `progress` is checked once
+/// per contour.
 fn contour_passes(
     shape: &Shape<f64>,
     dense: &[Vec<[f64; 3]>],
     diameter: f64,
-) -> (Vec<Vec<Point2>>, f64) {
+    progress: &dyn Progress,
+) -> Result<(Vec<Vec<Point2>>, f64)> {
     let r = 0.5 * diameter;
     let h = STEPOVER_FRACTION * diameter;
     let mut passes = Vec::new();
     let mut length = 0.0;
     let mut d = r;
     for _ in 0..100_000 {
+        progress.check()?;
         let loops = inward_offset(shape, d);
         if loops.is_empty() {
             break;
@@ -209,7 +212,7 @@ fn contour_passes(
         }
         flush(&mut run, &mut passes, &mut length);
     }
-    (passes, length)
+    Ok((passes, length))
 }
 
 /// Points of a closed flattened loop, at most `step` apart (last == first).
@@ -365,7 +368,8 @@ pub fn plan_pocket(
         at: pocket.outer[0],
     };
 
-    let (passes, length) = contour_passes(&shape, &dense, d_rough);
+    progress.check()?;
+    let (passes, length) = contour_passes(&shape, &dense, d_rough, progress)?;
     if passes.is_empty() {
         return Err(Error::planning(format!(
             "no room for the roughing tool of diameter {d_rough} mm"
@@ -373,11 +377,13 @@ pub fn plan_pocket(
     }
     done.push("roughing", d_rough, passes, Some(length), None);
     progress.set(0.5);
+    progress.check()?;
 
     // Corner cleaning: tools in decreasing order while the medial axis still
     // leaves circles unmachined that the root tool would not clear.
     let mut previous = d_rough;
     loop {
+        progress.check()?;
         let residual = residual_dmax(&dense, &done.swept);
         if residual <= 0.0 {
             break;
@@ -395,6 +401,7 @@ pub fn plan_pocket(
         }
     }
     progress.set(0.8);
+    progress.check()?;
 
     if d_root < previous - 1e-9 {
         let passes = cleaning_passes(&shape, &boundary, &done.swept, d_root);
@@ -436,7 +443,7 @@ pub fn plan_single_tool(
     }
     let shape = pocket_shape(pocket);
     let dense = dense_branches(&ma);
-    let (passes, length) = contour_passes(&shape, &dense, diameter);
+    let (passes, length) = contour_passes(&shape, &dense, diameter, &NoProgress)?;
     let (passes, _) = order_paths(passes, pocket.outer[0]);
     let h = resolution.unwrap_or_else(|| default_resolution(pocket));
     let mut raster = Raster::new(pocket, h);

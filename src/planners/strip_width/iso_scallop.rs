@@ -18,7 +18,8 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     let region = whole_domain(surface);
     let initial = boundary_start(surface, &settings, feed, false);
     progress.set(0.1);
-    let passes = cover(surface, &settings, &region, &initial)?;
+    progress.check()?;
+    let passes = cover(surface, &settings, &region, &initial, progress)?;
     let mut result = PlanResult::new(&job.job_id, job.strategy.name());
     result.passes = passes;
     result.stats.path_length_lower_bound_mm = Some(

@@ -52,6 +52,7 @@ pub fn plan_passes(
         across += step;
         forward = !forward;
         progress.set((0.45 * ((across - c0) / span).min(1.0)) as f32);
+        progress.check()?;
     }
     for _attempt in 0..4 {
         let count = ((span / worst) * (1.0 + 1e-9)).ceil().max(1.0) as usize;
@@ -84,6 +85,7 @@ pub fn plan_passes(
             extend_pass(surface, &mut pass.points, s)?;
             passes.push(pass);
             progress.set((0.5 + 0.45 * k as f64 / count as f64) as f32);
+            progress.check()?;
         }
         if ok {
             return Ok(passes);

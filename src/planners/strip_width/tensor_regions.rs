@@ -16,7 +16,7 @@ use crate::error::Result;
 use crate::formats::result::{DegeneratePoint, Region as RegionOut};
 use crate::formats::{FeedDirection, Job, Pass, PlanResult};
 use crate::geometry::{LocalGeometry, NurbsSurface};
-use crate::planners::{NoProgress, Progress};
+use crate::planners::{CheckOnly, Progress};
 use nalgebra::{Point3, Vector2, Vector3};
 
 /// Grid cells per direction for the degenerate-point search.
@@ -83,8 +83,10 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
     let surface = job.surface()?;
     let settings = PassSettings::from_job(job)?;
     let k_b = settings.cutter.k_b();
+    progress.check()?;
     let analysis = degenerate_points::find(surface, DEGENERATE_GRID)?;
     progress.set(0.1);
+    progress.check()?;
     let mut warnings = Vec::new();
     let step = settings.point_step.min(settings.cutter.radius);
     let whole = whole_domain(surface);
@@ -112,6 +114,7 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
         }
     };
     progress.set(0.2);
+    progress.check()?;
     let mut kinds = Vec::new();
     if regions.len() > 1 {
         kinds.push(Candidate::Partitioned);
@@ -127,26 +130,39 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
         Candidate::IsoCurves(FeedDirection::V),
     ]);
     let whole_list = [whole.clone()];
+    let checks = CheckOnly(progress);
     let built = crate::parallel::map_chunks(&kinds, 1, |kind| -> Result<Vec<Pass>> {
+        checks.check()?;
         match kind[0] {
-            Candidate::Partitioned => cover_regions(surface, &settings, &regions, &analysis, step),
+            Candidate::Partitioned => {
+                cover_regions(surface, &settings, &regions, &analysis, step, &checks)
+            }
             Candidate::MeanFeed => match mean_feed_line(surface, &settings) {
-                Some(line) => cover(surface, &settings, &whole, &line),
+                Some(line) => cover(surface, &settings, &whole, &line, &checks),
                 None => Ok(Vec::new()),
             },
             Candidate::WholeField => {
-                cover_regions(surface, &settings, &whole_list, &analysis, step)
+                cover_regions(surface, &settings, &whole_list, &analysis, step, &checks)
             }
             Candidate::EdgeOffset(feed, far) => cover(
                 surface,
                 &settings,
                 &whole,
                 &boundary_start(surface, &settings, feed, far),
+                &checks,
             ),
-            Candidate::IsoCurves(feed) => plan_passes(surface, &settings, feed, &NoProgress),
+            Candidate::IsoCurves(feed) => plan_passes(surface, &settings, feed, &checks),
         }
     });
+    // A stop ends the job, not just the candidate it hit.
+    if let Some(stop) = built.iter().find_map(|b| match b {
+        Err(e @ crate::error::Error::Stopped { .. }) => Some(e.clone()),
+        _ => None,
+    }) {
+        return Err(stop);
+    }
     progress.set(0.95);
+    progress.check()?;
     let bound = super::lower_bound::job_path_length_lower_bound(job, surface, &settings.cutter)?;
     let mut plans: Vec<(Candidate, PlanResult, f64)> = Vec::new();
     let mut first_error = None;
@@ -245,11 +261,13 @@ fn cover_regions(
     regions: &[Region],
     analysis: &Analysis,
     step: f64,
+    progress: &dyn Progress,
 ) -> Result<Vec<Pass>> {
     let mut passes = Vec::new();
     for region in regions {
+        progress.check()?;
         let initial = initial_pass(surface, settings, region, analysis, step)?;
-        passes.extend(cover(surface, settings, region, &initial)?);
+        passes.extend(cover(surface, settings, region, &initial, progress)?);
     }
     Ok(passes)
 }

@@ -14,6 +14,7 @@ use super::regions::Region;
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Pass};
 use crate::geometry::NurbsSurface;
+use crate::planners::Progress;
 use nalgebra::{Vector2, Vector3};
 
 mod corners;
@@ -95,11 +96,13 @@ pub fn boundary_start(
 /// Covers `region` with passes offset from `initial` (a uv polyline in the
 /// travel direction of the first pass), to both sides. Passes are returned
 /// in machining order (outermost of one side first) with `region` set.
+/// `progress` is checked once per pass.
 pub fn cover(
     surface: &NurbsSurface,
     s: &PassSettings,
     region: &Region,
     initial: &[Vector2<f64>],
+    progress: &dyn Progress,
 ) -> Result<Vec<Pass>> {
     let mut initial = initial.to_vec();
     extend_ends(surface, s, region, &mut initial);
@@ -122,6 +125,7 @@ pub fn cover(
             .collect();
         let mut queue = vec![(start, 0usize)];
         while let Some((front, front_id)) = queue.pop() {
+            progress.check()?;
             for run in offset_front(surface, s, region, &coverage, front_id, &front)? {
                 total += 1;
                 if total > MAX_PASSES {
@@ -177,10 +181,12 @@ pub fn cover(
         Ok(pass)
     };
     for run in sides[0].iter().rev() {
+        progress.check()?;
         passes.push(to_pass(run)?);
     }
     passes.push(to_pass(&first)?);
     for run in &sides[1] {
+        progress.check()?;
         passes.push(to_pass(run)?);
     }
     // Corners the offsetting leaves between pass ends, region boundaries
@@ -190,6 +196,7 @@ pub fn cover(
         reached.add_points(id, &strip_of(pass));
     }
     for uv in uncut_samples(surface, s, region, &reached) {
+        progress.check()?;
         if reached.covered(surface.point(uv.x, uv.y), usize::MAX) {
             continue;
         }
