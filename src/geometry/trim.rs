@@ -37,6 +37,17 @@ pub const DEFAULT_TOLERANCE_MM: f64 = 1e-3;
 /// domain's diagonal in (u, v): ends closer than this are joined.
 pub const JOIN_GAP: f64 = 1e-6;
 
+/// Subcells per direction of a grid cell the trim boundary crosses, in
+/// [`Trim::cell_nodes`].
+pub const BOUNDARY_SUBCELLS: usize = 16;
+
+/// Gauss-Legendre nodes and weights on [0, 1], 3 points.
+const GAUSS3: [(f64, f64); 3] = [
+    (0.112_701_665_379_258_3, 5.0 / 18.0),
+    (0.5, 8.0 / 18.0),
+    (0.887_298_334_620_741_7, 5.0 / 18.0),
+];
+
 /// Bands of the inside test per loop vertex (square root), at most.
 const MAX_BANDS: usize = 1024;
 
@@ -438,6 +449,79 @@ impl Trim {
     /// Area of the trimmed domain in (u, v) (outer minus holes).
     pub fn uv_area(&self) -> f64 {
         signed_area(&self.outer) + self.holes.iter().map(|h| signed_area(h)).sum::<f64>()
+    }
+
+    /// Quadrature nodes of the grid cell [u, u + du] x [v, v + dv] over
+    /// the face: (u, v, weight in (u, v) area). A cell whose 4 x 4 probe
+    /// points all lie on the face gets the 3 x 3 Gauss-Legendre rule; one
+    /// with none gets nothing; a cell the boundary crosses gets the
+    /// midpoint rule on [`BOUNDARY_SUBCELLS`]² subcells, each kept if its
+    /// centre is on the face (an area error of about one subcell per
+    /// subcell the boundary crosses).
+    pub fn cell_nodes(
+        &self,
+        (u, v): (f64, f64),
+        (du, dv): (f64, f64),
+        out: &mut Vec<(f64, f64, f64)>,
+    ) {
+        let probes = (0..4)
+            .flat_map(|a| (0..4).map(move |b| (a, b)))
+            .filter(|&(a, b)| {
+                self.contains(
+                    u + (a as f64 + 0.5) / 4.0 * du,
+                    v + (b as f64 + 0.5) / 4.0 * dv,
+                )
+            })
+            .count();
+        if probes == 16 {
+            for &(a, wa) in &GAUSS3 {
+                for &(b, wb) in &GAUSS3 {
+                    out.push((u + a * du, v + b * dv, wa * wb * du * dv));
+                }
+            }
+        } else if probes > 0 || self.meets_cell((u, v), (du, dv)) {
+            let n = BOUNDARY_SUBCELLS;
+            let (su, sv) = (du / n as f64, dv / n as f64);
+            for a in 0..n {
+                for b in 0..n {
+                    let (x, y) = (u + (a as f64 + 0.5) * su, v + (b as f64 + 0.5) * sv);
+                    if self.contains(x, y) {
+                        out.push((x, y, su * sv));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Whether a loop vertex lies in the cell (a small loop between probes).
+    fn meets_cell(&self, (u, v): (f64, f64), (du, dv): (f64, f64)) -> bool {
+        self.loops()
+            .flatten()
+            .any(|p| p[0] >= u && p[0] <= u + du && p[1] >= v && p[1] <= v + dv)
+    }
+
+    /// Area of the face on `surface`, mm²: the area element integrated
+    /// with [`Self::cell_nodes`] over a `cells` x `cells` grid of the domain.
+    pub fn face_area(&self, surface: &NurbsSurface, cells: usize) -> f64 {
+        let ((u0, u1), (v0, v1)) = surface.domain();
+        let (du, dv) = ((u1 - u0) / cells as f64, (v1 - v0) / cells as f64);
+        let mut nodes = Vec::new();
+        let mut total = 0.0;
+        for i in 0..cells {
+            for j in 0..cells {
+                nodes.clear();
+                self.cell_nodes(
+                    (u0 + i as f64 * du, v0 + j as f64 * dv),
+                    (du, dv),
+                    &mut nodes,
+                );
+                for &(u, v, w) in &nodes {
+                    let d = surface.first_derivs(u, v);
+                    total += w * d.su.cross(&d.sv).norm();
+                }
+            }
+        }
+        total
     }
 
     /// All loops, outer first.
