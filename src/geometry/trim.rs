@@ -78,6 +78,8 @@ impl PartialEq for Trim {
 struct Bands {
     v0: f64,
     height: f64,
+    /// Points this close to a loop (in (u, v)) are on the face.
+    on_loop: f64,
     /// Edge (a, b) lists per band.
     edges: Vec<Vec<(Point2, Point2)>>,
 }
@@ -85,11 +87,14 @@ struct Bands {
 impl Bands {
     fn new(loops: &[&[Point2]]) -> Self {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let (mut left, mut right) = (f64::INFINITY, f64::NEG_INFINITY);
         let mut count = 0;
         for l in loops {
             for p in l.iter() {
                 lo = lo.min(p[1]);
                 hi = hi.max(p[1]);
+                left = left.min(p[0]);
+                right = right.max(p[0]);
             }
             count += l.len();
         }
@@ -111,6 +116,7 @@ impl Bands {
         Self {
             v0: lo,
             height,
+            on_loop: 1e-9 * (right - left).hypot(hi - lo),
             edges,
         }
     }
@@ -121,15 +127,24 @@ impl Bands {
 
     /// Even-odd crossing count of the ray from `p` towards +u: inside the
     /// outer loop and outside every hole (the holes lie inside the outer loop
-    /// and apart, so the parity over all loops is the answer).
+    /// and apart, so the parity over all loops is the answer). The face is
+    /// closed: a point on a loop (within `on_loop`) is on it, so a pass
+    /// along an outer loop on the domain's edge is kept whole.
     fn contains(&self, p: Point2) -> bool {
         let n = self.edges.len();
         let top = self.v0 + self.height * n as f64;
-        if !(p[1] >= self.v0 && p[1] <= top) {
+        if !(p[1] >= self.v0 - self.on_loop && p[1] <= top + self.on_loop) {
             return false;
         }
+        let edges = &self.edges[Self::band(self.v0, self.height, n, p[1])];
+        if edges
+            .iter()
+            .any(|&(a, b)| segment_dist2(p, a, b) <= self.on_loop * self.on_loop)
+        {
+            return true;
+        }
         let mut inside = false;
-        for (a, b) in &self.edges[Self::band(self.v0, self.height, n, p[1])] {
+        for (a, b) in edges {
             if (a[1] > p[1]) != (b[1] > p[1]) {
                 let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
                 if p[0] < x {
@@ -149,6 +164,18 @@ impl Bands {
         );
         self.edges[b0..=b1].iter().flatten()
     }
+}
+
+/// Squared distance from `p` to the segment [a, b].
+fn segment_dist2(p: Point2, a: Point2, b: Point2) -> f64 {
+    let ab = [b[0] - a[0], b[1] - a[1]];
+    let len2 = ab[0] * ab[0] + ab[1] * ab[1];
+    let t = if len2 > 0.0 {
+        (((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    dist2(p, [a[0] + t * ab[0], a[1] + t * ab[1]])
 }
 
 fn dist2(a: Point2, b: Point2) -> f64 {
@@ -695,6 +722,42 @@ mod tests {
                 let q = [i as f64 / 199.0, j as f64 / 199.0 + 1e-7];
                 assert_eq!(t.contains(q[0], q[1]), p.contains(q), "{q:?}");
             }
+        }
+    }
+
+    #[test]
+    fn the_face_is_closed_its_loops_belong_to_it() {
+        let s = unit_plane();
+        let square = TrimCurve::Polyline(vec![
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [0.0, 1.0],
+            [0.0, 0.0],
+        ]);
+        let t = Trim::new(
+            &s,
+            vec![square],
+            vec![vec![circle([0.5, 0.5], 0.2, false)]],
+            None,
+        )
+        .unwrap();
+        for k in 0..=100 {
+            let f = k as f64 / 100.0;
+            for p in [[f, 0.0], [f, 1.0], [0.0, f], [1.0, f]] {
+                assert!(t.contains(p[0], p[1]), "{p:?} on the outer loop");
+            }
+        }
+        for p in &t.holes[0] {
+            assert!(t.contains(p[0], p[1]), "{p:?} on the hole's loop");
+        }
+        for p in [
+            [1.0 + 1e-6, 0.5],
+            [0.5, -1e-6],
+            [0.5, 0.5],
+            [0.5, 0.7 - 1e-3],
+        ] {
+            assert!(!t.contains(p[0], p[1]), "{p:?} off the face");
         }
     }
 
