@@ -307,3 +307,97 @@ fn bad_trims_are_clear_errors() {
         "{e}"
     );
 }
+
+/// The inside test against the exact disc: every point of a fine grid
+/// farther than the sampling tolerance from the hole's circle is on the
+/// face exactly when it is outside the disc.
+#[test]
+fn the_inside_test_agrees_with_the_exact_disc() {
+    let job = job(Strategy::IsoParametric, true);
+    let s = job.surface().unwrap();
+    let tol = s.trim().unwrap().tolerance_mm;
+    let n = 400;
+    let mut checked = 0;
+    for i in 0..=n {
+        for j in 0..=n {
+            let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+            let d = (SIZE * u - CENTRE[0]).hypot(SIZE * v - CENTRE[1]);
+            if (d - HOLE_R).abs() <= tol {
+                continue;
+            }
+            assert_eq!(s.in_face(u, v), d > HOLE_R, "({u}, {v}) at {d} mm");
+            checked += 1;
+        }
+    }
+    assert!(checked > 160_000);
+}
+
+/// tensor_regions reports its regions' areas on the face: they sum to the
+/// face's area, not the plane's.
+#[test]
+fn regions_count_the_face_area() {
+    let r = plan_only(&job(Strategy::TensorRegions, true));
+    let sum: f64 = r.regions.as_ref().unwrap().iter().map(|g| g.area_mm2).sum();
+    let exact = SIZE * SIZE - std::f64::consts::PI * HOLE_R * HOLE_R;
+    eprintln!("regions' area {sum:.3} mm², face {exact:.3}");
+    assert!((sum - exact).abs() <= 1e-3 * exact, "{sum} vs {exact}");
+}
+
+/// A curved face with a curved outer loop and a hole: the concave cylinder
+/// sample trimmed to a disc of radius 0.45 with a hole of radius 0.15 (in
+/// (u, v)). Every flat-end strategy holds h on the face by the simulator
+/// and leaves none of it uncovered.
+#[test]
+fn a_trimmed_concave_cylinder_holds_h_on_the_face() {
+    use toolpath_planner::formats::Shape;
+    use toolpath_planner::geometry::trim::circle;
+    use toolpath_planner::geometry::Trim;
+    let base = toolpath_planner::samples::job("concave_cylinder").unwrap();
+    let s = base.surface().unwrap().clone();
+    let ((u0, u1), (v0, v1)) = s.domain();
+    let at = |f: f64, g: f64| [u0 + f * (u1 - u0), v0 + g * (v1 - v0)];
+    assert_eq!((u1 - u0, v1 - v0), (1.0, 1.0));
+    let trim = Trim::new(
+        &s,
+        vec![circle(at(0.5, 0.5), 0.45, true)],
+        vec![vec![circle(at(0.5, 0.5), 0.15, false)]],
+        None,
+    )
+    .unwrap();
+    let h = base.scallop.unwrap();
+    for strategy in [
+        Strategy::IsoParametric,
+        Strategy::IsoScallop,
+        Strategy::TensorRegions,
+    ] {
+        let mut job = base.clone();
+        job.strategy = strategy;
+        job.shape = Shape::Surface(s.clone().with_trim(trim.clone()));
+        let r = pipeline::run(&job, &NoProgress, RunOptions::default()).unwrap();
+        let st = &r.stats;
+        let scallop = st.max_scallop_mm.unwrap();
+        let uncovered = st.extra["uncovered_area_mm2"];
+        eprintln!(
+            "trimmed concave_cylinder {}: {:.1} mm, scallop {scallop:.5} (h {h}), gouge {:.5}, uncovered {uncovered}, machined {:.1} mm², repair {:?}",
+            strategy.name(),
+            st.path_length_mm,
+            st.max_gouge_mm.unwrap(),
+            st.extra["machined_area_mm2"],
+            st.extra.get("repair_length_mm")
+        );
+        assert!(scallop <= h, "{}: scallop {scallop}", strategy.name());
+        assert_eq!(uncovered, 0.0, "{}", strategy.name());
+        assert_eq!(r.within_scallop, Some(true), "{}", strategy.name());
+        for p in &r.passes {
+            for q in &p.points {
+                let far = trim.distance_mm(&s, q.uv);
+                assert!(
+                    s.in_face(q.uv[0], q.uv[1]) || far <= 4.0 * 2.5 + 2.0,
+                    "{}: contact {:?} {far} mm off the face",
+                    strategy.name(),
+                    q.uv
+                );
+            }
+        }
+    }
+}

@@ -551,6 +551,19 @@ impl Trim {
         total
     }
 
+    /// The intervals of the line v = const on the face, sorted by u: the
+    /// loop crossings of the line, paired (even-odd).
+    pub fn intervals_at_v(&self, v: f64) -> Vec<(f64, f64)> {
+        let mut xs: Vec<f64> = self
+            .bands
+            .edges_between(v, v)
+            .filter(|(a, b)| (a[1] > v) != (b[1] > v))
+            .map(|(a, b)| a[0] + (v - a[1]) / (b[1] - a[1]) * (b[0] - a[0]))
+            .collect();
+        xs.sort_by(f64::total_cmp);
+        xs.chunks_exact(2).map(|p| (p[0], p[1])).collect()
+    }
+
     /// All loops, outer first.
     pub fn loops(&self) -> impl Iterator<Item = &Vec<Point2>> {
         std::iter::once(&self.outer).chain(self.holes.iter())
