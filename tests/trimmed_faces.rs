@@ -401,3 +401,40 @@ fn a_trimmed_concave_cylinder_holds_h_on_the_face() {
         }
     }
 }
+
+/// The belt's removal simulation judges the face only: the trimmed plan
+/// grinds every node on the face, within the job's h, while the same plan
+/// on the whole plane leaves the hole's middle unground.
+#[test]
+fn the_removal_simulation_judges_the_face_only() {
+    use toolpath_planner::simulation::removal::simulate_job;
+    for strategy in [Strategy::BeltIsoParametric, Strategy::BeltIsoPlanar] {
+        let job = job(strategy, true);
+        let r = plan_only(&job);
+        let on_face = simulate_job(&job, &r).unwrap().stats;
+        let whole = simulate_job(&self::job(strategy, false), &r).unwrap().stats;
+        let h = job.scallop.unwrap();
+        eprintln!(
+            "{}: face {} nodes, ground {:.5}, scallop {:.5} (h {h}); whole plane {} nodes, ground {:.5}",
+            strategy.name(),
+            on_face.nodes,
+            on_face.ground_fraction,
+            on_face.max_scallop_mm,
+            whole.nodes,
+            whole.ground_fraction
+        );
+        assert_eq!(on_face.ground_fraction, 1.0, "{}", strategy.name());
+        assert!(on_face.max_scallop_mm <= h, "{}", strategy.name());
+        let share = 1.0 - std::f64::consts::PI * HOLE_R * HOLE_R / (SIZE * SIZE);
+        let face_share = on_face.nodes as f64 / whole.nodes as f64;
+        assert!((face_share - share).abs() < 0.01, "{face_share} vs {share}");
+        let step = max_step(&r.passes);
+        let unground = std::f64::consts::PI * (HOLE_R - 2.0 * reach(&job) - step).powi(2);
+        assert!(
+            whole.ground_fraction <= 1.0 - unground / (SIZE * SIZE),
+            "{}: {}",
+            strategy.name(),
+            whole.ground_fraction
+        );
+    }
+}
