@@ -438,3 +438,49 @@ fn the_removal_simulation_judges_the_face_only() {
         );
     }
 }
+
+/// The trimmed sample (`toolpath sample trimmed_saddle`): its job plans
+/// within h on the face with nothing uncovered, its machined area is the
+/// face's, and every contact is on the face or within a run-out of it.
+#[test]
+fn the_trimmed_saddle_sample_holds_h_on_its_face() {
+    let job = toolpath_planner::samples::job("trimmed_saddle").unwrap();
+    let s = job.surface().unwrap();
+    let trim = s.trim().unwrap();
+    let r = pipeline::run(&job, &NoProgress, RunOptions::default()).unwrap();
+    let st = &r.stats;
+    let h = job.scallop.unwrap();
+    let scallop = st.max_scallop_mm.unwrap();
+    let machined = st.extra["machined_area_mm2"];
+    let area = trim.face_area(s, 64);
+    eprintln!(
+        "trimmed_saddle: {:.1} mm (lower bound {:.1}), scallop {scallop:.5} (h {h}), gouge {:.5}, machined {machined:.1} of {area:.1} mm², {} passes",
+        st.path_length_mm,
+        st.path_length_lower_bound_mm.unwrap(),
+        st.max_gouge_mm.unwrap(),
+        st.passes
+    );
+    assert!(scallop <= h, "scallop {scallop}");
+    assert_eq!(st.extra["uncovered_area_mm2"], 0.0);
+    assert_eq!(r.within_scallop, Some(true));
+    assert!(
+        (machined - area).abs() <= 0.01 * area,
+        "{machined} vs {area}"
+    );
+    assert!(st.path_length_mm >= st.path_length_lower_bound_mm.unwrap());
+    let reach = reach(&job);
+    for p in &r.passes {
+        for w in p.points.windows(2) {
+            for q in [&w[0], &w[1]] {
+                let off = trim.distance_mm(s, q.uv);
+                assert!(
+                    s.in_face(q.uv[0], q.uv[1])
+                        || off <= reach + seg_len(w[0].cc, w[1].cc) + 1e-9
+                        || off <= 4.0 * reach,
+                    "contact {:?} {off} mm off the face",
+                    q.uv
+                );
+            }
+        }
+    }
+}
