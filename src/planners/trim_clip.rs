@@ -132,3 +132,110 @@ fn pieces(surface: &NurbsSurface, trim: &Trim, pass: &Pass, reach: f64) -> Vec<(
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::PathPoint;
+    use crate::geometry::trim::circle;
+
+    /// The plane z = 0 over [0, 100]² with a hole of radius 20 mm at its
+    /// centre (u, v in [0, 1]).
+    fn holed_plane() -> NurbsSurface {
+        let k = vec![0.0, 0.0, 1.0, 1.0];
+        let s = NurbsSurface::new(
+            1,
+            1,
+            k.clone(),
+            k,
+            &[
+                vec![[0.0, 0.0, 0.0], [0.0, 100.0, 0.0]],
+                vec![[100.0, 0.0, 0.0], [100.0, 100.0, 0.0]],
+            ],
+            None,
+        )
+        .unwrap();
+        let square = crate::geometry::TrimCurve::Polyline(vec![
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [0.0, 1.0],
+            [0.0, 0.0],
+        ]);
+        let trim = Trim::new(
+            &s,
+            vec![square],
+            vec![vec![circle([0.5, 0.5], 0.2, false)]],
+            Some(1e-4),
+        )
+        .unwrap();
+        s.with_trim(trim)
+    }
+
+    /// A pass along x at height y (mm), a point every 1 mm from x = 0 to 100.
+    fn pass_at(y: f64) -> Pass {
+        Pass {
+            region: 0,
+            points: (0..=100)
+                .map(|i| {
+                    let x = i as f64;
+                    PathPoint {
+                        cc: [x, y, 0.0],
+                        cl: [x, y, 0.0],
+                        axis: [0.0, 0.0, 1.0],
+                        uv: [x / 100.0, y / 100.0],
+                        ..Default::default()
+                    }
+                })
+                .collect(),
+            min_strip_width: None,
+        }
+    }
+
+    #[test]
+    fn a_pass_across_the_hole_is_split_where_its_contacts_clear_the_face() {
+        let s = holed_plane();
+        let out = clip_passes(&s, &[pass_at(50.0)], 4.5);
+        // Off the face for 30 < x < 70; the run-out stops at the first
+        // contact at least 4.5 mm from the hole's edge (x = 35, 5 mm from
+        // it), the run-in starts at the last such contact before the face
+        // (x = 65).
+        let ends: Vec<(f64, f64)> = out
+            .iter()
+            .map(|p| (p.points[0].cc[0], p.points.last().unwrap().cc[0]))
+            .collect();
+        assert_eq!(ends, vec![(0.0, 35.0), (65.0, 100.0)]);
+    }
+
+    #[test]
+    fn a_graze_within_reach_keeps_the_pass_whole() {
+        let s = holed_plane();
+        // At y = 69 the pass crosses 1 mm of the hole's depth: every contact
+        // stays within 5 mm of the face, so the pass is not split.
+        let out = clip_passes(&s, &[pass_at(69.0)], 5.0);
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].points.len(), 101);
+        // With a reach of 0.5 mm the middle of the chord is clear: split.
+        let out = clip_passes(&s, &[pass_at(69.0)], 0.5);
+        assert_eq!(out.len(), 2);
+    }
+
+    #[test]
+    fn a_pass_off_the_face_is_dropped_and_untrimmed_surfaces_are_untouched() {
+        let s = holed_plane();
+        let mut inside = pass_at(50.0);
+        inside.points.retain(|p| (p.cc[0] - 50.0).abs() < 10.0);
+        assert!(clip_passes(&s, &[inside.clone()], 5.0).is_empty());
+        let whole = NurbsSurface::clone(&s);
+        let plain = NurbsSurface::new(
+            whole.degree_u(),
+            whole.degree_v(),
+            whole.knots_u().to_vec(),
+            whole.knots_v().to_vec(),
+            &whole.control_grid(),
+            None,
+        )
+        .unwrap();
+        assert_eq!(clip_passes(&plain, &[inside.clone()], 5.0), vec![inside]);
+    }
+}
