@@ -346,7 +346,16 @@ impl Outputs {
             frame_id: self.frame_id.clone(),
         }
     }
-    fn status(&self, job_id: &str, state: u8, progress: f32, message: String) {
+    fn status(&self, job_id: &str, state: u8, progress: f32, mut message: String) {
+        if let (true, Some(r)) = (state >= msgs::JobStatus::SUCCEEDED, &self.recorder) {
+            if let Some(failed) = r.new_failures(RECORDING_SYNC_TIMEOUT) {
+                message = if message.is_empty() {
+                    failed
+                } else {
+                    format!("{message}; {failed}")
+                };
+            }
+        }
         match state {
             msgs::JobStatus::FAILED | msgs::JobStatus::REJECTED => {
                 log::warn!(
@@ -373,6 +382,10 @@ impl Outputs {
         }
     }
 }
+
+/// How long a job's final status waits for the recorder to write the job's
+/// messages, so that a write error is reported in that status.
+const RECORDING_SYNC_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(2);
 
 /// What the node knows about a shape id.
 #[derive(Clone)]
@@ -1040,12 +1053,12 @@ fn shut_down(
         Some(Err(e)) => Some(e.to_string()),
         None => None,
     };
-    let (errors, first) = r.failures();
-    if errors == 0 && finished.is_none() {
+    let failures = r.failures();
+    if failures.errors == 0 && finished.is_none() {
         return Ok(());
     }
-    let mut why = format!("recording failed: {errors} write error(s)");
-    if let Some(first) = first {
+    let mut why = format!("recording failed: {} write error(s)", failures.errors);
+    if let Some(first) = failures.first {
         why += &format!(", the first: {first}");
     }
     if let Some(finished) = finished {
