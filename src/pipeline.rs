@@ -324,7 +324,8 @@ fn map_islands(report: &ScallopReport, h: f64, radius: f64) -> Vec<MapIsland> {
     let flagged: Vec<bool> = map
         .residual
         .iter()
-        .map(|r| r.is_none_or(|r| r > threshold))
+        .enumerate()
+        .map(|(k, r)| map.on_face(k) && r.is_none_or(|r| r > threshold))
         .collect();
     let reach = ((0.5 * radius / report.resolution_mm.max(1e-9)).round() as i64).max(1);
     let mut seen = vec![false; flagged.len()];
@@ -576,6 +577,7 @@ mod tests {
             uv: Vec::new(),
             xyz: Vec::new(),
             residual: Vec::new(),
+            off_face: Vec::new(),
         };
         for i in 0..nu {
             for j in 0..nv {

@@ -463,3 +463,58 @@ fn bad_cli_arguments_and_surface_files() {
         "{stderr}"
     );
 }
+
+#[test]
+fn bad_trims() {
+    let job = sample_job("plane");
+    let square = json!({"polyline": [[0.1, 0.1], [0.9, 0.1], [0.9, 0.9], [0.1, 0.9], [0.1, 0.1]]});
+    let trimmed = |trim: Value| with(job.clone(), "/surface/trim", trim);
+    // A valid trim is accepted by the binary (plans, exit 0).
+    let dir = tempfile::tempdir().unwrap();
+    let ok = trimmed(
+        json!({"outer": [square], "holes": [[{"polyline": [[0.4, 0.4], [0.6, 0.4], [0.5, 0.6], [0.4, 0.4]]}]]}),
+    );
+    std::fs::write(dir.path().join("job.json"), ok.to_string()).unwrap();
+    let (code, stderr) = run(
+        &["plan", "job.json", "-o", "out.json", "--no-verify"],
+        dir.path(),
+    );
+    assert_eq!(code, Some(0), "{stderr}");
+
+    rejects(
+        &trimmed(json!({"outer": [{"polyline": [[0.1, 0.1], [0.9, 0.1], [0.9, 0.9]]}]})),
+        &["trim.outer", "not closed"],
+    );
+    rejects(
+        &trimmed(
+            json!({"outer": [{"polyline": [[0.1, 0.1], [0.9, 0.9], [0.9, 0.1], [0.1, 0.6], [0.1, 0.1]]}]}),
+        ),
+        &["trim.outer", "intersects itself"],
+    );
+    rejects(
+        &trimmed(
+            json!({"outer": [square], "holes": [[{"polyline": [[0.05, 0.4], [0.6, 0.4], [0.5, 0.6], [0.05, 0.4]]}]]}),
+        ),
+        &["trim"],
+    );
+    rejects(
+        &trimmed(
+            json!({"outer": [{"polyline": [[-0.5, 0.1], [0.9, 0.1], [0.9, 0.9], [-0.5, 0.1]]}]}),
+        ),
+        &["trim.outer", "domain"],
+    );
+    rejects(
+        &trimmed(
+            json!({"outer": [{"bspline": {"degree": 2, "knots": [0, 0, 1, 1], "control_points": [[0.1, 0.1], [0.5, 0.9], [0.9, 0.1]]}}]}),
+        ),
+        &["trim.outer[0].bspline.knots"],
+    );
+    rejects(
+        &trimmed(json!({"outer": [square], "tolerance": -1.0})),
+        &["trim.tolerance"],
+    );
+    rejects(
+        &trimmed(json!({"outer": [square], "colour": 1})),
+        &["colour"],
+    );
+}

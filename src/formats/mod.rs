@@ -7,7 +7,7 @@ pub mod shape;
 
 pub use job::{FeedDirection, GrindingParams, Job, JobFile, Machine, Strategy};
 pub use result::{Pass, PathPoint, PlanResult, Stats};
-pub use shape::{PocketFile, Shape, SurfaceFile};
+pub use shape::{PocketFile, Shape, SurfaceFile, TrimFile};
 
 use crate::error::{Error, Result};
 use serde::de::DeserializeOwned;

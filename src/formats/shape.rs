@@ -1,7 +1,7 @@
 //! Surface and pocket files (docs/formats.md).
 
 use crate::error::{Error, Result};
-use crate::geometry::{NurbsSurface, Pocket};
+use crate::geometry::{NurbsSurface, Pocket, Trim, TrimCurve};
 use serde::{Deserialize, Serialize};
 
 /// `{"kind": "nurbs", ...}` as in the file format. Control points `[i][j]`, i along u.
@@ -18,6 +18,91 @@ pub struct SurfaceFile {
     pub control_points: Vec<Vec<[f64; 3]>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub weights: Option<Vec<Vec<f64>>>,
+    /// The trimmed face: loops of pcurves in (u, v).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trim: Option<TrimFile>,
+}
+
+/// `"trim": {"outer": [curve, ...], "holes": [[curve, ...], ...], "tolerance": mm}`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrimFile {
+    /// Sampling tolerance of the pcurves on the surface, mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<f64>,
+    pub outer: Vec<TrimCurveFile>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub holes: Vec<Vec<TrimCurveFile>>,
+}
+
+/// One pcurve of a loop: `{"polyline": [[u, v], ...]}` or `{"bspline": {...}}`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum TrimCurveFile {
+    Polyline(Vec<[f64; 2]>),
+    Bspline(BsplineCurveFile),
+}
+
+/// A 2-D B-spline pcurve (rational with `weights`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BsplineCurveFile {
+    pub degree: usize,
+    pub knots: Vec<f64>,
+    pub control_points: Vec<[f64; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weights: Option<Vec<f64>>,
+}
+
+impl TrimCurveFile {
+    fn to_curve(&self) -> TrimCurve {
+        match self {
+            TrimCurveFile::Polyline(p) => TrimCurve::Polyline(p.clone()),
+            TrimCurveFile::Bspline(b) => TrimCurve::Bspline {
+                degree: b.degree,
+                knots: b.knots.clone(),
+                control_points: b.control_points.clone(),
+                weights: b.weights.clone(),
+            },
+        }
+    }
+    fn from_curve(c: &TrimCurve) -> Self {
+        match c {
+            TrimCurve::Polyline(p) => TrimCurveFile::Polyline(p.clone()),
+            TrimCurve::Bspline {
+                degree,
+                knots,
+                control_points,
+                weights,
+            } => TrimCurveFile::Bspline(BsplineCurveFile {
+                degree: *degree,
+                knots: knots.clone(),
+                control_points: control_points.clone(),
+                weights: weights.clone(),
+            }),
+        }
+    }
+}
+
+impl TrimFile {
+    pub fn from_trim(t: &Trim) -> Self {
+        let curves = |l: &[TrimCurve]| l.iter().map(TrimCurveFile::from_curve).collect();
+        Self {
+            tolerance: Some(t.tolerance_mm),
+            outer: curves(&t.outer_curves),
+            holes: t.hole_curves.iter().map(|h| curves(h)).collect(),
+        }
+    }
+    /// Samples and validates the loops on `surface` (errors under `trim`).
+    pub fn to_trim(&self, surface: &NurbsSurface) -> Result<Trim> {
+        let curves = |l: &[TrimCurveFile]| l.iter().map(TrimCurveFile::to_curve).collect();
+        Trim::new(
+            surface,
+            curves(&self.outer),
+            self.holes.iter().map(|h| curves(h)).collect(),
+            self.tolerance,
+        )
+    }
 }
 
 /// `{"kind": "pocket", "outer": [...], "holes": [...]}`.
@@ -88,17 +173,25 @@ impl SurfaceFile {
             knots_v: s.knots_v().to_vec(),
             control_points: s.control_grid(),
             weights: s.weight_grid(),
+            trim: s.trim().map(TrimFile::from_trim),
         }
     }
     pub fn to_surface(&self) -> Result<NurbsSurface> {
-        NurbsSurface::new(
+        let surface = NurbsSurface::new(
             self.degree_u,
             self.degree_v,
             self.knots_u.clone(),
             self.knots_v.clone(),
             &self.control_points,
             self.weights.as_deref(),
-        )
+        )?;
+        match &self.trim {
+            Some(t) => {
+                let trim = t.to_trim(&surface)?;
+                Ok(surface.with_trim(trim))
+            }
+            None => Ok(surface),
+        }
     }
 }
 

@@ -11,7 +11,9 @@ pub mod numeric;
 pub mod nurbs;
 pub mod plane_intersection;
 pub mod pocket;
+pub mod trim;
 
 pub use differential::LocalGeometry;
 pub use nurbs::{NurbsSurface, SurfaceDerivs};
 pub use pocket::Pocket;
+pub use trim::{Trim, TrimCurve};

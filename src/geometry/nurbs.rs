@@ -37,6 +37,9 @@ pub struct NurbsSurface {
     count_v: usize,
     homogeneous: Vec<[f64; 4]>,
     rational: bool,
+    /// The trimmed face, where only part of the domain is the surface
+    /// (`None`: the whole domain).
+    trim: Option<std::sync::Arc<super::trim::Trim>>,
 }
 
 fn check_knots(name: &str, degree: usize, count: usize, knots: &[f64]) -> Result<()> {
@@ -207,7 +210,29 @@ impl NurbsSurface {
             count_v,
             homogeneous,
             rational,
+            trim: None,
         })
+    }
+
+    /// The surface trimmed to a face ([`Trim::new`](super::trim::Trim::new)
+    /// builds one for this surface).
+    pub fn with_trim(mut self, trim: super::trim::Trim) -> Self {
+        self.trim = Some(std::sync::Arc::new(trim));
+        self
+    }
+
+    /// The face's trim, `None` for the whole domain.
+    pub fn trim(&self) -> Option<&super::trim::Trim> {
+        self.trim.as_deref()
+    }
+
+    /// Is (u, v) on the face: inside the trim, or anywhere in the domain
+    /// of an untrimmed surface? The one inside test every layer uses.
+    pub fn in_face(&self, u: f64, v: f64) -> bool {
+        match &self.trim {
+            Some(t) => t.contains(u, v),
+            None => true,
+        }
     }
 
     pub fn degree_u(&self) -> usize {

@@ -14,6 +14,7 @@ pub mod pocket;
 pub mod strip_width;
 #[cfg(test)]
 pub mod test_surfaces;
+pub mod trim_clip;
 
 use crate::error::Result;
 use crate::formats::{Job, PlanResult};
@@ -57,7 +58,11 @@ impl Progress for CheckOnly<'_> {
 pub fn plan_candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>> {
     match job.strategy {
         crate::formats::Strategy::TensorRegions => {
-            strip_width::tensor_regions::candidates(job, progress)
+            let mut candidates = strip_width::tensor_regions::candidates(job, progress)?;
+            for c in &mut candidates {
+                trim_clip::clip_result(job, c)?;
+            }
+            Ok(candidates)
         }
         _ => Ok(vec![plan(job, progress)?]),
     }
@@ -65,7 +70,14 @@ pub fn plan_candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanRes
 
 /// Plans a job with its strategy. Fills passes and the strategy's own fields;
 /// the common statistics are filled by [`crate::pipeline`].
+/// On a trimmed face the passes are clipped to it ([`trim_clip`]).
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+    let mut result = plan_untrimmed(job, progress)?;
+    trim_clip::clip_result(job, &mut result)?;
+    Ok(result)
+}
+
+fn plan_untrimmed(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     use crate::formats::Strategy::*;
     match job.strategy {
         TensorRegions => strip_width::tensor_regions::plan(job, progress),

@@ -35,6 +35,10 @@ pub const SAMPLES: &[SampleInfo] = &[
         description: "blended-wing-like mould 200 x 150 mm with one trisector umbilic inside (tensor_regions)",
     },
     SampleInfo {
+        name: "trimmed_saddle",
+        description: "monkey saddle trimmed to a round face with an off-centre round hole (tensor_regions)",
+    },
+    SampleInfo {
         name: "die_saddle",
         description: "shallow hyperbolic paraboloid die 600 x 400 mm, radii 1198 / 19000 mm (mpec, torus D63R6)",
     },
@@ -86,6 +90,7 @@ pub fn surface(name: &str) -> Result<NurbsSurface> {
         "plane" => plane(),
         "concave_cylinder" => concave_cylinder(),
         "monkey_saddle" => monkey_saddle(),
+        "trimmed_saddle" => trimmed_saddle(),
         "wing_mould" => wing_mould(),
         "die_saddle" => die_saddle(),
         "sine_wave" => sine_wave(),
@@ -153,7 +158,9 @@ pub fn random_job(params: &random::RandomSurface) -> Result<Job> {
 pub fn job(name: &str) -> Result<Job> {
     let shape = shape(name)?;
     let file = match name {
-        "plane" | "concave_cylinder" | "monkey_saddle" | "wing_mould" => flat_end_job(name),
+        "plane" | "concave_cylinder" | "monkey_saddle" | "trimmed_saddle" | "wing_mould" => {
+            flat_end_job(name)
+        }
         "die_saddle" => JobFile {
             tolerance: Some(0.01),
             feed_direction: Some(FeedDirection::U),

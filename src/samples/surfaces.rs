@@ -82,6 +82,29 @@ pub fn monkey_saddle() -> NurbsSurface {
     ))
 }
 
+/// The monkey saddle trimmed to a freeform face: an outer loop that is a
+/// circle of radius 0.47 in (u, v) about the domain's centre and an
+/// off-centre round hole of radius 0.1, both exact rational circles
+/// (docs/formats.md, "Trimmed surfaces"). The umbilic stays on the face.
+pub fn trimmed_saddle() -> NurbsSurface {
+    use crate::geometry::trim::{circle, Trim};
+    let s = monkey_saddle();
+    let ((u0, u1), (v0, v1)) = s.domain();
+    let at = |f: f64, g: f64| [u0 + f * (u1 - u0), v0 + g * (v1 - v0)];
+    let (w, h) = (u1 - u0, v1 - v0);
+    debug_assert!(
+        (w - h).abs() <= 1e-12 * w,
+        "a square domain keeps the circles round"
+    );
+    let trim = Trim::new(
+        &s,
+        vec![circle(at(0.5, 0.5), 0.47 * w, true)],
+        vec![vec![circle(at(0.64, 0.4), 0.1 * w, false)]],
+        None,
+    );
+    built(trim.map(|t| s.clone().with_trim(t)))
+}
+
 /// Where the wing mould's umbilic is (x, y), mm.
 pub const WING_UMBILIC: [f64; 2] = [82.0, 86.0];
 

@@ -53,6 +53,7 @@ pub fn hamann_depth(params: &GrindingParams, wheel_radius: f64, kappa_feed: f64)
 /// Statistics of a simulation run (all depths in mm).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct RemovalStats {
+    /// Nodes on the face (all of them on an untrimmed surface).
     pub nodes: usize,
     /// Nodes some wheel position passed over.
     pub ground_nodes: usize,
@@ -209,7 +210,30 @@ pub fn simulate_on_grid(
         let pos = wheel_positions(surface, pass, pi, &wheel, params)?;
         grind_pass(&grid, &pos, &wheel, &mut fields);
     }
-    let stats = removal_stats(&mut fields, params, resolution)?;
+    // Off a trimmed face nothing is judged: those nodes count as neither
+    // ground nor part of the surface.
+    let mut face_nodes = n_nodes;
+    if surface.trim().is_some() {
+        for i in 0..nu {
+            let u = if i + 1 == nu {
+                u1
+            } else {
+                u0 + grid.du * i as f64
+            };
+            for j in 0..nv {
+                let v = if j + 1 == nv {
+                    v1
+                } else {
+                    v0 + grid.dv * j as f64
+                };
+                if !surface.in_face(u, v) {
+                    fields.clearance[i * nv + j] = f64::INFINITY;
+                    face_nodes -= 1;
+                }
+            }
+        }
+    }
+    let stats = removal_stats(&mut fields, face_nodes, params, resolution)?;
     Ok(Simulation {
         nu,
         nv,
@@ -416,12 +440,13 @@ fn grind_pass(grid: &HeightField, pos: &[Position], wheel: &Wheel, fields: &mut 
 /// clamps the ground ones at 0.
 fn removal_stats(
     fields: &mut Fields,
+    face_nodes: usize,
     params: &GrindingParams,
     resolution: f64,
 ) -> Result<RemovalStats> {
     let n_nodes = fields.depth.len();
     let mut stats = RemovalStats {
-        nodes: n_nodes,
+        nodes: face_nodes,
         resolution_mm: resolution,
         hamann_q_mm2: params.c_a * params.k_a * params.k_t * params.belt_speed * params.force
             / params.feed_speed,
@@ -464,7 +489,7 @@ fn removal_stats(
         / ground as f64;
     let std = var.sqrt();
     stats.ground_nodes = ground;
-    stats.ground_fraction = ground as f64 / n_nodes as f64;
+    stats.ground_fraction = ground as f64 / face_nodes.max(1) as f64;
     stats.mean_mm = mean;
     stats.min_mm = lo;
     stats.max_mm = hi;

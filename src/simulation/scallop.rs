@@ -69,6 +69,17 @@ pub struct ResidualMap {
     pub uv: Vec<[f64; 2]>,
     pub xyz: Vec<[f64; 3]>,
     pub residual: Vec<Option<f64>>,
+    /// Samples off a trimmed face (in a hole or outside the outer loop):
+    /// not machined, not counted. Empty for an untrimmed surface.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub off_face: Vec<bool>,
+}
+
+impl ResidualMap {
+    /// Whether sample `k` lies on the face (always, untrimmed).
+    pub fn on_face(&self, k: usize) -> bool {
+        !self.off_face.get(k).copied().unwrap_or(false)
+    }
 }
 
 /// What the simulator found.
@@ -966,9 +977,24 @@ impl<'a> Simulator<'a> {
         let dv = (v1 - v0) / nv as f64;
 
         let stop = std::sync::OnceLock::new();
-        let (uv, xyz, frames) = self.sample_grid((u0, v0), (du, dv), (nu, nv), (progress, &stop));
+        let (uv, xyz, mut frames) =
+            self.sample_grid((u0, v0), (du, dv), (nu, nv), (progress, &stop));
         if let Some(e) = stop.into_inner() {
             return Err(e);
+        }
+        // Off a trimmed face nothing is machined or counted: those samples
+        // get no frame, so no residual and no area.
+        let off_face: Vec<bool> = match self.surface.trim() {
+            Some(_) => uv
+                .iter()
+                .map(|p| !self.surface.in_face(p[0], p[1]))
+                .collect(),
+            None => Vec::new(),
+        };
+        for (f, off) in frames.iter_mut().zip(&off_face) {
+            if *off {
+                *f = None;
+            }
         }
         let stop = std::sync::OnceLock::new();
         let residual = self.residuals(&frames, method, (progress, &stop));
@@ -991,6 +1017,7 @@ impl<'a> Simulator<'a> {
             uv,
             xyz,
             residual,
+            off_face,
         };
         progress.check()?;
         let max_res = self.refine(&map, 1.0, du, dv, method);
@@ -1110,7 +1137,14 @@ impl<'a> Simulator<'a> {
     ) -> Option<f64> {
         const STARTS: usize = 24;
         let (nu, nv) = (map.nu, map.nv);
-        let value = |k: usize| map.residual.get(k).copied().flatten().map(|r| sign * r);
+        let value = |k: usize| {
+            map.residual
+                .get(k)
+                .copied()
+                .flatten()
+                .filter(|_| map.on_face(k))
+                .map(|r| sign * r)
+        };
         let mut extrema: Vec<(f64, usize)> = Vec::new();
         for i in 0..nu {
             for j in 0..nv {
@@ -1186,6 +1220,9 @@ impl<'a> Simulator<'a> {
                 (-1.0, -1.0),
             ] {
                 let (uu, vv) = self.surface.clamp_uv(u + a * su, v + b * sv);
+                if !self.surface.in_face(uu, vv) {
+                    continue;
+                }
                 let Some((p, n, _)) = self.sample(uu, vv) else {
                     continue;
                 };

@@ -96,6 +96,39 @@ fn compute(surface: &NurbsSurface, cutter: &LeadCutter, h: f64, cells: usize) ->
     let ((u0, u1), (v0, v1)) = surface.domain();
     let (du, dv) = ((u1 - u0) / cells as f64, (v1 - v0) / cells as f64);
     let rows: Vec<usize> = (0..cells).collect();
+    if let Some(trim) = surface.trim() {
+        // A trimmed face: the same integral over the face only (the
+        // boundary cells by their subcells on the face).
+        let terms = crate::parallel::map_chunks(&rows, 1, |rows| {
+            let mut terms = Vec::new();
+            let mut nodes = Vec::new();
+            for &i in rows {
+                for j in 0..cells {
+                    nodes.clear();
+                    let corner = (u0 + i as f64 * du, v0 + j as f64 * dv);
+                    trim.cell_nodes(corner, (du, dv), &mut nodes);
+                    for &(u, v, weight) in &nodes {
+                        let Some(g) = LocalGeometry::at(surface, u, v) else {
+                            continue;
+                        };
+                        match max_strip_width(cutter, h, &g) {
+                            Ok((w, _)) => terms.push(Ok(weight * g.area_element() / w)),
+                            Err(WidthError::Gouge { depth }) => {
+                                terms.push(Err(gouge_error(cutter, [u, v], g.k_max, depth)));
+                                return terms;
+                            }
+                        }
+                    }
+                }
+            }
+            terms
+        });
+        let mut total = 0.0;
+        for term in terms.into_iter().flatten() {
+            total += term?;
+        }
+        return Ok(total);
+    }
     let terms = crate::parallel::map_chunks(&rows, 1, |rows| {
         let mut terms = Vec::with_capacity(rows.len() * cells * 9);
         for &i in rows {

@@ -45,7 +45,11 @@ pub fn repair_passes(job: &Job, islands: &[Island], region: usize) -> Result<Vec
     for island in islands {
         out.extend(island_passes(surface, &s, island, region));
     }
-    Ok(out)
+    // On a trimmed face, repair passes keep to it like the plan's own.
+    let reach = crate::planners::trim_clip::reach(job.tool()?);
+    Ok(crate::planners::trim_clip::clip_passes(
+        surface, &out, reach,
+    ))
 }
 
 fn island_passes(

@@ -209,7 +209,15 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
             used.iter()
                 .map(|r| RegionOut {
                     id: r.id,
-                    area_mm2: r.area_mm2,
+                    // On a trimmed face, the region's part on it.
+                    area_mm2: match surface.trim() {
+                        Some(_) => super::regions::partition::polygon_face_area(
+                            surface,
+                            &r.boundary_uv,
+                            48,
+                        ),
+                        None => r.area_mm2,
+                    },
                     boundary_uv: r.boundary_uv.iter().map(|p| [p.x, p.y]).collect(),
                 })
                 .collect(),

@@ -177,6 +177,21 @@ const GAUSS3: [(f64, f64); 3] = [
 /// Surface area of a parameter-space polygon: scanlines in v at Gauss
 /// points, each crossing interval integrated in u with Gauss points.
 pub fn polygon_area(surface: &NurbsSurface, poly: &[Vector2<f64>], strips: usize) -> f64 {
+    integrate_polygon(surface, poly, strips, false)
+}
+
+/// [`polygon_area`] of the part on a trimmed face (each scanline's
+/// intervals cut to the face's): the region's area a result reports.
+pub fn polygon_face_area(surface: &NurbsSurface, poly: &[Vector2<f64>], strips: usize) -> f64 {
+    integrate_polygon(surface, poly, strips, surface.trim().is_some())
+}
+
+fn integrate_polygon(
+    surface: &NurbsSurface,
+    poly: &[Vector2<f64>],
+    strips: usize,
+    face_only: bool,
+) -> f64 {
     let (vmin, vmax) = poly
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
@@ -202,9 +217,26 @@ pub fn polygon_area(surface: &NurbsSurface, poly: &[Vector2<f64>], strips: usize
                 }
             }
             xs.sort_by(f64::total_cmp);
-            let mut row = 0.0;
+            // On a trimmed face, each interval is cut to the face's own
+            // intervals on the scanline, so the rule integrates a smooth
+            // integrand.
+            let face = match (face_only, surface.trim()) {
+                (true, Some(trim)) => Some(trim.intervals_at_v(v)),
+                _ => None,
+            };
+            let mut intervals = Vec::new();
             for pair in xs.chunks_exact(2) {
-                let (ua, ub) = (pair[0], pair[1]);
+                match &face {
+                    Some(face) => intervals.extend(
+                        face.iter()
+                            .map(|&(fa, fb)| (pair[0].max(fa), pair[1].min(fb)))
+                            .filter(|(a, b)| a < b),
+                    ),
+                    None => intervals.push((pair[0], pair[1])),
+                }
+            }
+            let mut row = 0.0;
+            for (ua, ub) in intervals {
                 let sub = 8;
                 let du = (ub - ua) / sub as f64;
                 for m in 0..sub {
