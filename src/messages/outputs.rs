@@ -63,10 +63,12 @@ pub fn job_outputs(
 }
 
 /// The final state of a job that ends with `e`: REJECTED when its input is
-/// bad (the client must change it), FAILED otherwise.
+/// bad (the client must change it), CANCELED when its client stopped it,
+/// FAILED otherwise.
 pub fn final_state(e: &Error) -> u8 {
     match e {
         Error::Invalid { .. } => JobStatus::REJECTED,
+        Error::Stopped { canceled: true, .. } => JobStatus::CANCELED,
         _ => JobStatus::FAILED,
     }
 }
@@ -132,6 +134,12 @@ mod tests {
             final_state(&Error::planning("no passes")),
             JobStatus::FAILED
         );
+        assert_eq!(final_state(&Error::canceled("by its client")), JobStatus::CANCELED);
+        let time_limit = Error::Stopped {
+            message: "time budget spent".into(),
+            canceled: false,
+        };
+        assert_eq!(final_state(&time_limit), JobStatus::FAILED);
     }
 
     #[test]
