@@ -673,8 +673,12 @@ mod tests {
     fn fields_of(text: &str) -> Vec<String> {
         text.lines()
             .map(|l| l.split('#').next().unwrap().trim())
-            .filter(|l| !l.is_empty() && !l.contains('='))
-            .map(|l| l.split_whitespace().nth(1).unwrap().to_string())
+            .filter(|l| !l.is_empty())
+            // A constant has `=` after its type (`uint8 FAILED=3`); a bounded
+            // sequence has one inside it (`Surface[<=1] surface`).
+            .filter_map(|l| l.split_once(char::is_whitespace))
+            .filter(|(_, rest)| !rest.contains('='))
+            .map(|(_, rest)| rest.split_whitespace().next().unwrap().to_string())
             .collect()
     }
 

@@ -134,7 +134,10 @@ mod tests {
             final_state(&Error::planning("no passes")),
             JobStatus::FAILED
         );
-        assert_eq!(final_state(&Error::canceled("by its client")), JobStatus::CANCELED);
+        assert_eq!(
+            final_state(&Error::canceled("by its client")),
+            JobStatus::CANCELED
+        );
         let time_limit = Error::Stopped {
             message: "time budget spent".into(),
             canceled: false,

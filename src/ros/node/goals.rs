@@ -70,15 +70,13 @@ impl NodeQueue {
         let mut st = self.shared.lock();
         match st.admit(&goal.job) {
             Admission::New => {}
-            Admission::Resent | Admission::Conflict(_) => {
-                return Err(Error::invalid(
-                    "job.job_id",
-                    format!(
-                        "\"{}\" is already queued or running: one job_id, one plan (use a new job_id)",
-                        goal.job.job_id
-                    ),
-                ))
-            }
+            Admission::Resent | Admission::Conflict(_) => return Err(Error::invalid(
+                "job.job_id",
+                format!(
+                    "\"{}\" is already queued or running: one job_id, one plan (use a new job_id)",
+                    goal.job.job_id
+                ),
+            )),
         }
         st.active.insert(goal.job.job_id.clone(), goal.job.clone());
         Ok(shape)
@@ -123,11 +121,10 @@ impl GoalQueue for NodeQueue {
     fn cancel(&self, link: &Arc<GoalLink>) {
         link.cancel();
         let mut st = self.shared.lock();
-        let queued = st.queue.iter().position(|p| {
-            p.goal
-                .as_ref()
-                .is_some_and(|g| Arc::ptr_eq(g, link))
-        });
+        let queued = st
+            .queue
+            .iter()
+            .position(|p| p.goal.as_ref().is_some_and(|g| Arc::ptr_eq(g, link)));
         if let Some(p) = queued.and_then(|k| st.queue.remove(k)) {
             st.active.remove(&p.msg.job_id);
             drop(st);
