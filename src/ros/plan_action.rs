@@ -14,15 +14,16 @@
 //! This module is the DDS side; [`GoalQueue`] is how it hands jobs to the
 //! node's queue, and [`GoalLink`] how the worker reports back.
 
-use super::execute::server_qos;
+use super::execute::{client_qos, server_qos};
 use super::node::{topic_name, RosNode};
 use crate::error::{Error, Result};
 use crate::messages::plan_toolpath::{Feedback, Goal, GoalResult, NAME, PACKAGE};
 use crate::messages::{self as msgs, final_state, topics};
+use ros2_client::action::ActionClient;
 use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus, GoalId};
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::ros2::QosProfile;
-use ros2_client::{ActionTypeName, Server, ServiceMapping, ServiceTypeName};
+use ros2_client::{ActionTypeName, Client, Server, ServiceMapping, ServiceTypeName};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -57,6 +58,39 @@ pub fn service_qos() -> QosProfile {
         .reliability_reliable(WhenFull::Wait(Duration::from_secs(1)))
         .durability(Durability::Volatile)
         .history(History::KeepLast { depth: 10 })
+}
+
+/// A client of the node's PlanToolpath action.
+pub type PlanToolpathClient = ActionClient<Goal, GoalResult, Feedback>;
+
+/// A client of the action `plan_toolpath` of a node in `ros`'s namespace.
+pub fn action_client(ros: &mut RosNode) -> Result<PlanToolpathClient> {
+    let name = topic_name(&ros.namespace, ACTION)?;
+    ros.node
+        .create_action_client(SERVICE_MAPPING, &name, &action_type(), client_qos())
+        .map_err(|e| {
+            Error::planning(format!(
+                "ROS 2: cannot create action client {ACTION}: {e:?}"
+            ))
+        })
+}
+
+/// A client of the service `plan_toolpath` of a node in `ros`'s namespace.
+pub fn service_client(ros: &mut RosNode) -> Result<Client<Goal, GoalResult>> {
+    let name = topic_name(&ros.namespace, SERVICE)?;
+    ros.node
+        .create_client(
+            SERVICE_MAPPING,
+            &name,
+            &service_type(),
+            service_qos(),
+            service_qos(),
+        )
+        .map_err(|e| {
+            Error::planning(format!(
+                "ROS 2: cannot create service client {SERVICE}: {e:?}"
+            ))
+        })
 }
 
 /// What the worker reports to a goal's task.

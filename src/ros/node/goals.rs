@@ -70,13 +70,15 @@ impl NodeQueue {
         let mut st = self.shared.lock();
         match st.admit(&goal.job) {
             Admission::New => {}
-            Admission::Resent | Admission::Conflict(_) => return Err(Error::invalid(
-                "job.job_id",
-                format!(
+            Admission::Resent | Admission::Conflict(_) => {
+                return Err(Error::invalid(
+                    "job.job_id",
+                    format!(
                     "\"{}\" is already queued or running: one job_id, one plan (use a new job_id)",
                     goal.job.job_id
                 ),
-            )),
+                ))
+            }
         }
         st.active.insert(goal.job.job_id.clone(), goal.job.clone());
         Ok(shape)
