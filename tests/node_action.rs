@@ -104,6 +104,9 @@ fn action_and_service_plan_cancel_and_refuse_with_reasons() {
         let toolpaths = ros
             .subscription::<msgs::Toolpath>(topics::TOOLPATH, qos::results())
             .unwrap();
+        let segments = ros
+            .subscription::<msgs::ToolPoseSegments>(topics::TOOL_POSE_SEGMENTS, qos::results())
+            .unwrap();
         let found = async {
             jobs.wait_for_subscription(&ros.node).await;
             action.goal_client().wait_for_service(&ros.node).await;
@@ -162,6 +165,23 @@ fn action_and_service_plan_cancel_and_refuse_with_reasons() {
         assert_eq!(r.stats.passes as usize, r.toolpath.passes.len());
         assert!(r.toolpath.passes.len() >= 2);
         assert_eq!(plan_bytes(&r.toolpath), plan_bytes(&by_topic));
+        // Its poses on tool_pose_segments: one PoseArray per pass, with as
+        // many poses as the pass has points, the toolpath's stamp.
+        let mut seg_stream = Box::pin(segments.async_stream());
+        let seg = loop {
+            let (s, _) = tokio::time::timeout(WAIT, seg_stream.next())
+                .await
+                .expect("no tool_pose_segments of job by_action")
+                .unwrap()
+                .unwrap();
+            if s.job_id == "by_action" {
+                break s;
+            }
+        };
+        assert_eq!(seg.header, r.toolpath.header);
+        let lens: Vec<usize> = seg.segments.iter().map(|s| s.poses.len()).collect();
+        let pass_lens: Vec<usize> = r.toolpath.passes.iter().map(|p| p.points.len()).collect();
+        assert_eq!(lens, pass_lens);
 
         // Two goals for one worker: the second, canceled while it waits,
         // ends CANCELED and is never planned; the first runs through.

@@ -464,8 +464,18 @@ fn quat(m: &Matrix3<f64>) -> msgs::Quaternion {
 /// z along the tool axis, x along the feed (or the next point) where known.
 /// Belt: at the wheel centre, the wheel frame (x wheel axis, z contact normal).
 pub fn pose_array(job: &Job, result: &PlanResult, header: msgs::Header) -> msgs::PoseArray {
-    let mut poses = Vec::new();
+    let poses = pose_segments(job, result, header.clone())
+        .into_iter()
+        .flat_map(|s| s.poses)
+        .collect();
+    msgs::PoseArray { header, poses }
+}
+
+/// The poses of [`pose_array`], one PoseArray per pass (each with `header`).
+pub fn pose_segments(job: &Job, result: &PlanResult, header: msgs::Header) -> Vec<msgs::PoseArray> {
+    let mut segments = Vec::new();
     for pass in machines::tool_poses(result) {
+        let mut poses = Vec::with_capacity(pass.len());
         for (k, t) in pass.iter().enumerate() {
             let m = match job.machine {
                 Machine::Belt6 => machines::belt6::wheel_frame(t.axis, t.normal).ok(),
@@ -504,8 +514,12 @@ pub fn pose_array(job: &Job, result: &PlanResult, header: msgs::Header) -> msgs:
                 orientation: m.map(|m| quat(&m)).unwrap_or_default(),
             });
         }
+        segments.push(msgs::PoseArray {
+            header: header.clone(),
+            poses,
+        });
     }
-    msgs::PoseArray { header, poses }
+    segments
 }
 
 /// The joint trajectory as a ROS message: metres and radians (REP 103). Its

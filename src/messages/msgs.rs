@@ -125,6 +125,10 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
     ),
     ("toolpath_msgs/Tool", include_str!("../../msg/msg/Tool.msg")),
     (
+        "toolpath_msgs/ToolPoseSegments",
+        include_str!("../../msg/msg/ToolPoseSegments.msg"),
+    ),
+    (
         "toolpath_msgs/Toolpath",
         include_str!("../../msg/msg/Toolpath.msg"),
     ),
@@ -557,6 +561,15 @@ pub struct Job {
 }
 ros_message!(Job, "toolpath_msgs", "Job");
 
+/// The tool poses of one job, one PoseArray per pass.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ToolPoseSegments {
+    pub header: Header,
+    pub job_id: String,
+    pub segments: Vec<PoseArray>,
+}
+ros_message!(ToolPoseSegments, "toolpath_msgs", "ToolPoseSegments");
+
 /// Belt-grinding removal model; zero in a field = its default.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct GrindingParams {
@@ -710,6 +723,7 @@ mod tests {
         check::<Pocket>();
         check::<Job>();
         check::<GrindingParams>();
+        check::<ToolPoseSegments>();
         check::<JobStatus>();
         check::<ToolpathPoint>();
         check::<ToolpathPass>();

@@ -106,7 +106,8 @@ pub mod qos {
             .durability(Durability::Volatile)
             .history(History::KeepLast { depth: 10 })
     }
-    /// Results (toolpath, tool_poses, trajectories, markers): transient-local, depth 10.
+    /// Results (toolpath, tool_poses, tool_pose_segments, trajectories,
+    /// markers): transient-local, depth 10.
     pub fn results() -> QosProfile {
         reliable(Durability::TransientLocal, History::KeepLast { depth: 10 })
     }
@@ -245,6 +246,7 @@ struct Outputs {
     status: Mutex<Publisher<msgs::JobStatus>>,
     toolpath: Mutex<Publisher<msgs::Toolpath>>,
     poses: Mutex<Publisher<msgs::PoseArray>>,
+    segments: Mutex<Publisher<msgs::ToolPoseSegments>>,
     mill5: Mutex<Publisher<msgs::JointTrajectory>>,
     belt6: Mutex<Publisher<msgs::JointTrajectory>>,
     markers: Mutex<Publisher<msgs::MarkerArray>>,
@@ -669,6 +671,7 @@ fn plan_and_publish(
     let JobOutputs {
         toolpath,
         poses,
+        segments,
         machine,
         trajectory,
         markers,
@@ -685,6 +688,7 @@ fn plan_and_publish(
         planning.as_secs_f64() * 1e3
     );
     outputs.publish(&outputs.poses, topics::TOOL_POSES, poses);
+    outputs.publish(&outputs.segments, topics::TOOL_POSE_SEGMENTS, segments);
     let publisher = match machine {
         Machine::Mill5 => &outputs.mill5,
         Machine::Belt6 => &outputs.belt6,
@@ -910,6 +914,7 @@ fn start_outputs(
         status: Mutex::new(ros.publisher(topics::JOB_STATUS, qos::status())?),
         toolpath: Mutex::new(ros.publisher(topics::TOOLPATH, qos::results())?),
         poses: Mutex::new(ros.publisher(topics::TOOL_POSES, qos::results())?),
+        segments: Mutex::new(ros.publisher(topics::TOOL_POSE_SEGMENTS, qos::results())?),
         mill5: Mutex::new(ros.publisher(topics::MILL5_TRAJECTORY, qos::results())?),
         belt6: Mutex::new(ros.publisher(topics::BELT6_TRAJECTORY, qos::results())?),
         markers: Mutex::new(ros.publisher(topics::MARKERS, qos::results())?),
@@ -1127,7 +1132,7 @@ pub async fn run(config: NodeConfig) -> Result<()> {
     let timeout = Duration::from_secs_f64(settings.surface_timeout_s);
     let queue = goals::NodeQueue {
         shared: Arc::clone(&shared),
-        outputs: Arc::clone(&outputs),
+        outputs: Arc::downgrade(&outputs),
         machines: config.machines(),
     };
     super::plan_action::serve(&mut ros, Arc::new(queue))?;

@@ -9,16 +9,24 @@ use crate::machines::Machines;
 use crate::messages::plan_toolpath::Goal;
 use crate::messages::{self as msgs, convert, final_state, topics};
 use crate::ros::plan_action::{GoalLink, GoalQueue};
-use std::sync::Arc;
+use std::sync::{Arc, Weak};
 use std::time::Instant;
 
 pub(super) struct NodeQueue {
     pub shared: Arc<Shared>,
-    pub outputs: Arc<Outputs>,
+    /// Weak: the action's tasks live as long as the runtime, and the node's
+    /// shutdown drops the outputs to close the iceoryx2 channel.
+    pub outputs: Weak<Outputs>,
     pub machines: Machines,
 }
 
 impl NodeQueue {
+    fn outputs(&self) -> Result<Arc<Outputs>> {
+        self.outputs
+            .upgrade()
+            .ok_or_else(|| Error::planning("the node is shutting down"))
+    }
+
     /// The shape a goal's job plans on: the one inline, else one received.
     fn shape_of(&self, goal: &Goal) -> Result<Arc<Shape>> {
         let id = &goal.job.surface_id;
@@ -88,7 +96,8 @@ impl NodeQueue {
 impl GoalQueue for NodeQueue {
     fn submit(&self, goal: Goal, link: &Arc<GoalLink>) -> Result<()> {
         let job_id = goal.job.job_id.clone();
-        if let Some(rec) = &self.outputs.recorder {
+        let outputs = self.outputs()?;
+        if let Some(rec) = &outputs.recorder {
             rec.record(topics::JOB, &goal.job);
             for s in &goal.surface {
                 rec.record(topics::SURFACE, s);
@@ -100,14 +109,12 @@ impl GoalQueue for NodeQueue {
         let shape = match self.admit(&goal) {
             Ok(s) => s,
             Err(e) => {
-                self.outputs
-                    .status(&job_id, final_state(&e), 0.0, e.to_string());
+                outputs.status(&job_id, final_state(&e), 0.0, e.to_string());
                 return Err(e);
             }
         };
         // ACCEPTED before the job is queued, so a worker's statuses follow it.
-        self.outputs
-            .status(&job_id, msgs::JobStatus::ACCEPTED, 0.0, String::new());
+        outputs.status(&job_id, msgs::JobStatus::ACCEPTED, 0.0, String::new());
         let now = Instant::now();
         self.shared.lock().queue.push_back(Pending {
             msg: goal.job,
@@ -135,16 +142,17 @@ impl GoalQueue for NodeQueue {
                 link.job_id
             ))
             .to_string();
-            self.outputs
-                .status(&link.job_id, msgs::JobStatus::CANCELED, 0.0, why.clone());
+            if let Ok(outputs) = self.outputs() {
+                outputs.status(&link.job_id, msgs::JobStatus::CANCELED, 0.0, why.clone());
+            }
             link.finish(msgs::JobStatus::CANCELED, why);
             return;
         }
         drop(st);
         // Planning stops at its next progress check; an execution is
         // canceled at the controller.
-        if link.is_executing() {
-            self.outputs.cancels.cancel(&link.job_id);
+        if let (true, Ok(outputs)) = (link.is_executing(), self.outputs()) {
+            outputs.cancels.cancel(&link.job_id);
         }
     }
 }
