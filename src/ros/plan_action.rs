@@ -461,3 +461,35 @@ pub fn serve(ros: &mut RosNode, queue: Arc<dyn GoalQueue>) -> Result<()> {
     ));
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_canceled_goal_stops_progress_checks_and_ends_canceled() {
+        let (link, mut events) = GoalLink::new("j1");
+        assert!(link.check().is_ok());
+        link.feedback("planning", 0.25);
+        link.cancel();
+        let e = link.check().unwrap_err();
+        assert!(matches!(e, Error::Stopped { canceled: true, .. }), "{e:?}");
+        assert_eq!(final_state(&e), msgs::JobStatus::CANCELED);
+        assert_eq!(
+            e.to_string(),
+            "canceled: job j1: its PlanToolpath goal was canceled by the client"
+        );
+        // The end is reported once: a second finish is dropped.
+        link.finish(msgs::JobStatus::CANCELED, e.to_string());
+        link.finish(msgs::JobStatus::SUCCEEDED, String::new());
+        assert!(matches!(
+            events.try_recv(),
+            Ok(GoalEvent::Feedback(Feedback { ref stage, progress })) if stage == "planning" && progress == 0.25
+        ));
+        assert!(matches!(
+            events.try_recv(),
+            Ok(GoalEvent::Done(msgs::JobStatus::CANCELED, _))
+        ));
+        assert!(events.try_recv().is_err());
+    }
+}
