@@ -190,7 +190,7 @@ fn hostile_jobs_fail_with_a_reason_and_the_node_keeps_serving() {
                 "canceled while planning",
                 message(&wing, "wing_shape", "canceled"),
                 true,
-                msgs::JobStatus::FAILED,
+                msgs::JobStatus::CANCELED,
                 vec!["canceled on topic cancel while planning".into()],
             ),
         ];

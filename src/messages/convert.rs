@@ -3,6 +3,7 @@
 //! become Toolpath, PoseArray, JointTrajectory and MarkerArray messages.
 
 use crate::error::{Error, Result};
+use crate::formats::job::{GrindingParams, DEFAULT_TOOL_CATALOGUE};
 use crate::formats::{FeedDirection, Job, JobFile, Machine, PlanResult, Shape, Strategy};
 use crate::geometry::{NurbsSurface, Pocket};
 use crate::machines::{self, JointTrajectory};
@@ -203,14 +204,35 @@ pub fn job_file_from_msg(m: &msgs::Job) -> Result<JobFile> {
         scallop: opt_nonzero(m.scallop),
         tolerance: opt_nonzero(m.tolerance),
         lead_angle_deg: opt_nonzero(m.lead_angle_deg),
-        side_tilt_deg: None,
+        side_tilt_deg: opt_nonzero(m.side_tilt_deg),
         feed_direction,
         feed_rate: opt_nonzero(m.feed_rate),
-        tool_catalogue: None,
-        section_normal: None,
-        simulation_resolution: None,
-        grinding: None,
+        tool_catalogue: (!m.tool_catalogue.is_empty()).then(|| m.tool_catalogue.clone()),
+        section_normal: {
+            let n = m.section_normal.to_array();
+            (n != [0.0; 3]).then_some(n)
+        },
+        simulation_resolution: opt_nonzero(m.simulation_resolution),
+        grinding: grinding_from_msg(&m.grinding),
         time_limit_s: None,
+    })
+}
+
+/// The grinding parameters of a job message: `None` when every field is zero
+/// (not given), else each zero field takes its default.
+fn grinding_from_msg(g: &msgs::GrindingParams) -> Option<GrindingParams> {
+    if *g == msgs::GrindingParams::default() {
+        return None;
+    }
+    let d = GrindingParams::default();
+    let or = |x: f64, default: f64| if x == 0.0 { default } else { x };
+    Some(GrindingParams {
+        c_a: or(g.c_a, d.c_a),
+        k_a: or(g.k_a, d.k_a),
+        k_t: or(g.k_t, d.k_t),
+        belt_speed: or(g.belt_speed, d.belt_speed),
+        force: or(g.force, d.force),
+        feed_speed: or(g.feed_speed, d.feed_speed),
     })
 }
 
@@ -253,6 +275,28 @@ pub fn job_to_msg(job: &Job, surface_id: &str, header: msgs::Header) -> msgs::Jo
             Some(FeedDirection::U) => "u".into(),
             Some(FeedDirection::V) => "v".into(),
             None => String::new(),
+        },
+        side_tilt_deg: job.side_tilt_deg.unwrap_or(0.0),
+        // The standard catalogue is the default: sent as "not given".
+        tool_catalogue: if job.tool_catalogue == DEFAULT_TOOL_CATALOGUE {
+            Vec::new()
+        } else {
+            job.tool_catalogue.clone()
+        },
+        section_normal: vec3(job.section_normal),
+        simulation_resolution: job.simulation_resolution.unwrap_or(0.0),
+        grinding: if job.grinding == GrindingParams::default() {
+            msgs::GrindingParams::default()
+        } else {
+            let g = job.grinding;
+            msgs::GrindingParams {
+                c_a: g.c_a,
+                k_a: g.k_a,
+                k_t: g.k_t,
+                belt_speed: g.belt_speed,
+                force: g.force,
+                feed_speed: g.feed_speed,
+            }
         },
     }
 }
@@ -421,8 +465,18 @@ fn quat(m: &Matrix3<f64>) -> msgs::Quaternion {
 /// z along the tool axis, x along the feed (or the next point) where known.
 /// Belt: at the wheel centre, the wheel frame (x wheel axis, z contact normal).
 pub fn pose_array(job: &Job, result: &PlanResult, header: msgs::Header) -> msgs::PoseArray {
-    let mut poses = Vec::new();
+    let poses = pose_segments(job, result, header.clone())
+        .into_iter()
+        .flat_map(|s| s.poses)
+        .collect();
+    msgs::PoseArray { header, poses }
+}
+
+/// The poses of [`pose_array`], one PoseArray per pass (each with `header`).
+pub fn pose_segments(job: &Job, result: &PlanResult, header: msgs::Header) -> Vec<msgs::PoseArray> {
+    let mut segments = Vec::new();
     for pass in machines::tool_poses(result) {
+        let mut poses = Vec::with_capacity(pass.len());
         for (k, t) in pass.iter().enumerate() {
             let m = match job.machine {
                 Machine::Belt6 => machines::belt6::wheel_frame(t.axis, t.normal).ok(),
@@ -461,8 +515,12 @@ pub fn pose_array(job: &Job, result: &PlanResult, header: msgs::Header) -> msgs:
                 orientation: m.map(|m| quat(&m)).unwrap_or_default(),
             });
         }
+        segments.push(msgs::PoseArray {
+            header: header.clone(),
+            poses,
+        });
     }
-    msgs::PoseArray { header, poses }
+    segments
 }
 
 /// The joint trajectory as a ROS message: metres and radians (REP 103). Its
@@ -795,5 +853,60 @@ mod tests {
         let m = job_to_msg(&job, "plane", msgs::Header::default());
         let back = Job::new(job_file_from_msg(&m).unwrap(), job.shape.clone()).unwrap();
         assert_eq!(back, job);
+    }
+
+    /// Every field of the JSON job format survives the message: a job file
+    /// giving every optional field, read as the CLI reads it, equals the job
+    /// made from its message.
+    #[test]
+    fn every_job_file_field_round_trips_through_the_message() {
+        let mut file: JobFile = serde_json::from_value(serde_json::json!({
+            "job_id": "all",
+            "surface": serde_json::Value::Null,
+            "strategy": "belt_iso_planar",
+            "tool": {"kind": "belt", "width": 12.0, "wheel_radius": 40.0},
+            "machine": "belt6",
+            "scallop": 0.07,
+            "tolerance": 0.02,
+            "lead_angle_deg": 3.5,
+            "side_tilt_deg": -2.25,
+            "feed_direction": "v",
+            "feed_rate": 1800.0,
+            "tool_catalogue": [6.0, 3.0, 10.0],
+            "section_normal": [0.0, 0.6, 0.8],
+            "simulation_resolution": 0.4,
+            "grinding": {"c_a": 0.003, "k_a": 1.1, "k_t": 0.9, "belt_speed": 25.0,
+                         "force": 15.0, "feed_speed": 12.0}
+        }))
+        .unwrap();
+        let shape = Shape::Surface(crate::samples::surfaces::plane());
+        file.surface = serde_json::Value::Null;
+        let job = Job::new(file, shape.clone()).unwrap();
+        let m = job_to_msg(&job, "plane", msgs::Header::default());
+        assert_eq!(m.tool_catalogue, [3.0, 6.0, 10.0]);
+        assert_eq!(m.section_normal.to_array(), [0.0, 0.6, 0.8]);
+        assert_eq!((m.grinding.c_a, m.grinding.feed_speed), (0.003, 12.0));
+        assert_eq!(m.side_tilt_deg, -2.25);
+        assert_eq!(m.simulation_resolution, 0.4);
+        let back = job_from_msg(&m, &shape).unwrap();
+        assert_eq!(back, job);
+        // Zero grinding fields take their defaults, one by one.
+        let mut m = m;
+        m.grinding.force = 0.0;
+        let back = job_from_msg(&m, &shape).unwrap();
+        assert_eq!(back.grinding.force, GrindingParams::default().force);
+        assert_eq!(back.grinding.c_a, 0.003);
+        // Bad values are refused with the job file's reasons.
+        m.tool_catalogue = vec![3.0, 500.0];
+        assert_eq!(
+            prevalidate_job(&m).unwrap_err().to_string(),
+            "invalid input: tool_catalogue[1]: 500 mm is outside the valid range 0.1..100 mm of end-mill diameters"
+        );
+        m.tool_catalogue.clear();
+        m.grinding.k_a = -1.0;
+        assert_eq!(
+            prevalidate_job(&m).unwrap_err().to_string(),
+            "invalid input: grinding.k_a: must be positive, got -1"
+        );
     }
 }

@@ -12,6 +12,7 @@ pub mod convert;
 pub mod follow_joint_trajectory;
 mod msgs;
 pub mod outputs;
+pub mod plan_toolpath;
 pub mod topics;
 
 pub use msgs::*;

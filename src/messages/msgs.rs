@@ -102,6 +102,10 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
     ),
     ("std_msgs/Header", include_str!("defs/std_msgs/Header.msg")),
     ("std_msgs/String", include_str!("defs/std_msgs/String.msg")),
+    (
+        "toolpath_msgs/GrindingParams",
+        include_str!("../../msg/msg/GrindingParams.msg"),
+    ),
     ("toolpath_msgs/Job", include_str!("../../msg/msg/Job.msg")),
     (
         "toolpath_msgs/JobStatus",
@@ -120,6 +124,10 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
         include_str!("../../msg/msg/Surface.msg"),
     ),
     ("toolpath_msgs/Tool", include_str!("../../msg/msg/Tool.msg")),
+    (
+        "toolpath_msgs/ToolPoseSegments",
+        include_str!("../../msg/msg/ToolPoseSegments.msg"),
+    ),
     (
         "toolpath_msgs/Toolpath",
         include_str!("../../msg/msg/Toolpath.msg"),
@@ -545,8 +553,34 @@ pub struct Job {
     pub lead_angle_deg: f64,
     pub feed_rate: f64,
     pub feed_direction: String,
+    pub side_tilt_deg: f64,
+    pub tool_catalogue: Vec<f64>,
+    pub section_normal: Vector3,
+    pub simulation_resolution: f64,
+    pub grinding: GrindingParams,
 }
 ros_message!(Job, "toolpath_msgs", "Job");
+
+/// The tool poses of one job, one PoseArray per pass.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ToolPoseSegments {
+    pub header: Header,
+    pub job_id: String,
+    pub segments: Vec<PoseArray>,
+}
+ros_message!(ToolPoseSegments, "toolpath_msgs", "ToolPoseSegments");
+
+/// Belt-grinding removal model; zero in a field = its default.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GrindingParams {
+    pub c_a: f64,
+    pub k_a: f64,
+    pub k_t: f64,
+    pub belt_speed: f64,
+    pub force: f64,
+    pub feed_speed: f64,
+}
+ros_message!(GrindingParams, "toolpath_msgs", "GrindingParams");
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct JobStatus {
@@ -564,6 +598,7 @@ impl JobStatus {
     pub const SUCCEEDED: u8 = 2;
     pub const FAILED: u8 = 3;
     pub const REJECTED: u8 = 4;
+    pub const CANCELED: u8 = 5;
 
     /// Name of a state constant, for tables and logs.
     pub fn state_name(state: u8) -> &'static str {
@@ -573,6 +608,7 @@ impl JobStatus {
             Self::SUCCEEDED => "SUCCEEDED",
             Self::FAILED => "FAILED",
             Self::REJECTED => "REJECTED",
+            Self::CANCELED => "CANCELED",
             _ => "UNKNOWN",
         }
     }
@@ -644,12 +680,18 @@ mod tests {
 
     /// The field names of a definition, in order (constants skipped).
     fn fields(full_name: &str) -> Vec<String> {
-        definition(full_name)
-            .unwrap()
-            .lines()
+        fields_of(definition(full_name).unwrap())
+    }
+
+    fn fields_of(text: &str) -> Vec<String> {
+        text.lines()
             .map(|l| l.split('#').next().unwrap().trim())
-            .filter(|l| !l.is_empty() && !l.contains('='))
-            .map(|l| l.split_whitespace().nth(1).unwrap().to_string())
+            .filter(|l| !l.is_empty())
+            // A constant has `=` after its type (`uint8 FAILED=3`); a bounded
+            // sequence has one inside it (`Surface[<=1] surface`).
+            .filter_map(|l| l.split_once(char::is_whitespace))
+            .filter(|(_, rest)| !rest.contains('='))
+            .map(|(_, rest)| rest.split_whitespace().next().unwrap().to_string())
             .collect()
     }
 
@@ -680,6 +722,8 @@ mod tests {
         check::<PocketLoop>();
         check::<Pocket>();
         check::<Job>();
+        check::<GrindingParams>();
+        check::<ToolPoseSegments>();
         check::<JobStatus>();
         check::<ToolpathPoint>();
         check::<ToolpathPass>();
@@ -708,6 +752,38 @@ mod tests {
         check::<fjt::StringMsg>();
         check::<MeshFile>();
         check::<UVCoordinate>();
+    }
+
+    #[test]
+    fn plan_toolpath_structs_follow_the_action_and_service_files() {
+        use super::super::plan_toolpath::{self as pt, Feedback, Goal, GoalResult};
+        let action = pt::sections(pt::ACTION_DEFINITION);
+        let service = pt::sections(pt::SERVICE_DEFINITION);
+        assert_eq!((action.len(), service.len()), (3, 2));
+        let goal = struct_fields(&Goal::default());
+        let result = struct_fields(&GoalResult::default());
+        assert_eq!(goal, ["job", "surface", "pocket"]);
+        assert_eq!(goal, fields_of(&action[0]));
+        assert_eq!(result, fields_of(&action[1]));
+        assert_eq!(struct_fields(&Feedback::default()), fields_of(&action[2]));
+        assert_eq!(goal, fields_of(&service[0]));
+        assert_eq!(result, fields_of(&service[1]));
+        // Every type the action names is known (for schemas and clients).
+        for section in action.iter().chain(&service) {
+            for line in section.lines() {
+                let line = line.split('#').next().unwrap().trim();
+                let Some(ty) = line.split_whitespace().next() else {
+                    continue;
+                };
+                let base = ty.split('[').next().unwrap();
+                if !PRIMITIVES.contains(&base) {
+                    assert!(
+                        definition(&format!("toolpath_msgs/{base}")).is_some(),
+                        "{base}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

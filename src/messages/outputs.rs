@@ -3,7 +3,7 @@
 //! replay compares them with a recording.
 
 use super::{convert, topics};
-use super::{Header, JobStatus, MarkerArray, PoseArray, Toolpath};
+use super::{Header, JobStatus, MarkerArray, PoseArray, ToolPoseSegments, Toolpath};
 use crate::error::Error;
 use crate::formats::{Job, Machine, PlanResult};
 use crate::machines::JointTrajectory;
@@ -16,6 +16,8 @@ use crate::machines::JointTrajectory;
 pub struct JobOutputs {
     pub toolpath: Toolpath,
     pub poses: PoseArray,
+    /// The same poses, one PoseArray per pass.
+    pub segments: ToolPoseSegments,
     /// The machine the trajectory drives: it goes out on that machine's topic.
     pub machine: Machine,
     pub trajectory: super::JointTrajectory,
@@ -56,6 +58,11 @@ pub fn job_outputs(
             header.clone(),
         ),
         poses: convert::pose_array(job, result, header.clone()),
+        segments: ToolPoseSegments {
+            header: header.clone(),
+            job_id: job.job_id.clone(),
+            segments: convert::pose_segments(job, result, header.clone()),
+        },
         machine: job.machine,
         trajectory: convert::joint_trajectory_msg(trajectory, header.clone()),
         markers: convert::markers(result, header.clone()),
@@ -63,10 +70,12 @@ pub fn job_outputs(
 }
 
 /// The final state of a job that ends with `e`: REJECTED when its input is
-/// bad (the client must change it), FAILED otherwise.
+/// bad (the client must change it), CANCELED when its client stopped it,
+/// FAILED otherwise.
 pub fn final_state(e: &Error) -> u8 {
     match e {
         Error::Invalid { .. } => JobStatus::REJECTED,
+        Error::Stopped { canceled: true, .. } => JobStatus::CANCELED,
         _ => JobStatus::FAILED,
     }
 }
@@ -110,6 +119,19 @@ mod tests {
         // One pose per point of every pass, one trajectory point per timed sample.
         let points: usize = result.passes.iter().map(|p| p.points.len()).sum();
         assert_eq!(out.poses.poses.len(), points);
+        // Segments: one per pass with that pass's points, the poses of
+        // tool_poses in order, every one with the job's header.
+        let seg = &out.segments;
+        assert_eq!(
+            (&seg.header, seg.job_id.as_str()),
+            (&header, job.job_id.as_str())
+        );
+        let lens: Vec<usize> = seg.segments.iter().map(|s| s.poses.len()).collect();
+        let pass_lens: Vec<usize> = result.passes.iter().map(|p| p.points.len()).collect();
+        assert_eq!(lens, pass_lens);
+        assert!(seg.segments.iter().all(|s| s.header == header));
+        let joined: Vec<_> = seg.segments.iter().flat_map(|s| s.poses.clone()).collect();
+        assert_eq!(joined, out.poses.poses);
         assert_eq!(out.trajectory.points.len(), trajectory.timed.times.len());
         assert_eq!(out.trajectory_topic(), topics::MILL5_TRAJECTORY);
         assert_eq!(
@@ -133,6 +155,15 @@ mod tests {
             final_state(&Error::planning("no passes")),
             JobStatus::FAILED
         );
+        assert_eq!(
+            final_state(&Error::canceled("by its client")),
+            JobStatus::CANCELED
+        );
+        let time_limit = Error::Stopped {
+            message: "time budget spent".into(),
+            canceled: false,
+        };
+        assert_eq!(final_state(&time_limit), JobStatus::FAILED);
     }
 
     #[test]

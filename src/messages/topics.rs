@@ -17,6 +17,8 @@ pub const CANCEL: &str = "cancel";
 pub const TOOLPATH: &str = "toolpath";
 /// Output: tool poses (m, REP 103).
 pub const TOOL_POSES: &str = "tool_poses";
+/// Output: tool poses, one PoseArray per pass (m, REP 103).
+pub const TOOL_POSE_SEGMENTS: &str = "tool_pose_segments";
 /// Output: the 5-axis mill's joint trajectory.
 pub const MILL5_TRAJECTORY: &str = "mill5/joint_trajectory";
 /// Output: the 6-axis belt grinder's joint trajectory.

@@ -14,10 +14,13 @@ pub struct RmwTime {
     pub nsec: u64,
 }
 
-/// What rclcpp reports for "no deadline / lifespan / lease" (RMW_DURATION_INFINITE).
+/// "No deadline / lifespan / lease" as rosbag2 writes it: rmw's
+/// RMW_DURATION_INFINITE, i64::MAX nanoseconds split into seconds and
+/// nanoseconds. rosbag2 turns the older per-vendor values back into this one
+/// on playback, so a bag that carries it replays with any RMW.
 pub const INFINITE: RmwTime = RmwTime {
-    sec: 9_223_372_036_854_775_807,
-    nsec: 4_294_967_295,
+    sec: 9_223_372_036,
+    nsec: 854_775_807,
 };
 
 /// One offered QoS profile as rosbag2 writes it.
@@ -163,5 +166,21 @@ impl BagMetadata {
             ));
         }
         Ok(m)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn infinite_durations_are_rmw_duration_infinite() {
+        // RMW_DURATION_INFINITE is i64::MAX nanoseconds.
+        let ns = INFINITE.sec as i128 * 1_000_000_000 + INFINITE.nsec as i128;
+        assert_eq!(ns, i64::MAX as i128);
+        const { assert!(INFINITE.nsec < 1_000_000_000) };
+        let yaml = qos_yaml(Qos::reliable_transient_local(10));
+        assert_eq!(yaml.matches("sec: 9223372036\n").count(), 3, "{yaml}");
+        assert_eq!(yaml.matches("nsec: 854775807\n").count(), 3, "{yaml}");
     }
 }

@@ -52,6 +52,7 @@ pub fn topic_specs_in(namespace: &str) -> Vec<TopicSpec> {
         spec::<msgs::Job>(&t(topics::JOB), Qos::reliable_volatile(100)),
         spec::<msgs::Toolpath>(&t(topics::TOOLPATH), results),
         spec::<msgs::PoseArray>(&t(topics::TOOL_POSES), results),
+        spec::<msgs::ToolPoseSegments>(&t(topics::TOOL_POSE_SEGMENTS), results),
         spec::<msgs::JointTrajectory>(&t(topics::MILL5_TRAJECTORY), results),
         spec::<msgs::JointTrajectory>(&t(topics::BELT6_TRAJECTORY), results),
         spec::<msgs::JobStatus>(&t(topics::JOB_STATUS), Qos::reliable_transient_local(1000)),
@@ -206,6 +207,7 @@ pub fn record_job_into(
         Ok(out) => {
             w.write(&root(topics::TOOLPATH), t(w), &out.toolpath)?;
             w.write(&root(topics::TOOL_POSES), t(w), &out.poses)?;
+            w.write(&root(topics::TOOL_POSE_SEGMENTS), t(w), &out.segments)?;
             w.write(&root(out.trajectory_topic()), t(w), &out.trajectory)?;
             w.write(&root(topics::MARKERS), t(w), &out.markers)?;
             status(
@@ -268,6 +270,8 @@ pub struct Recorded {
     pub jobs: Vec<msgs::Job>,
     pub toolpaths: Vec<msgs::Toolpath>,
     pub poses: Vec<msgs::PoseArray>,
+    /// Empty in bags recorded before the topic existed.
+    pub segments: Vec<msgs::ToolPoseSegments>,
     pub statuses: Vec<msgs::JobStatus>,
     pub mill5: Vec<msgs::JointTrajectory>,
     pub belt6: Vec<msgs::JointTrajectory>,
@@ -360,6 +364,7 @@ impl Recorded {
             jobs,
             toolpaths: decode_all(&bag, topics::TOOLPATH)?,
             poses: decode_all(&bag, topics::TOOL_POSES)?,
+            segments: decode_all(&bag, topics::TOOL_POSE_SEGMENTS)?,
             statuses: decode_all(&bag, topics::JOB_STATUS)?,
             mill5: decode_all(&bag, topics::MILL5_TRAJECTORY)?,
             belt6: decode_all(&bag, topics::BELT6_TRAJECTORY)?,
@@ -485,10 +490,55 @@ pub fn replay(path: &Path, machines: &Machines) -> Result<ReplayReport> {
             strategy: job_msg.strategy.clone(),
             machine: job_msg.machine.clone(),
             points: new.toolpath.map_or(0, point_count),
-            differences: compare_outputs(&rec.outputs(&job_msg.job_id), &new),
+            differences: {
+                let recorded = rec.outputs(&job_msg.job_id);
+                let mut d = compare_outputs(&recorded, &new);
+                if let (Some(t), Ok(out)) = (recorded.toolpath, &planned) {
+                    compare_segments(&rec.segments, t, &out.segments, &mut d);
+                }
+                d
+            },
         });
     }
     Ok(report)
+}
+
+/// The recorded segments of toolpath `t` (same job, same stamp) against the
+/// new ones: as many passes of as many poses, at the same places (poses
+/// themselves are compared on tool_poses). Nothing when none were recorded.
+fn compare_segments(
+    recorded: &[msgs::ToolPoseSegments],
+    t: &msgs::Toolpath,
+    new: &msgs::ToolPoseSegments,
+    d: &mut Vec<String>,
+) {
+    let Some(rec) = recorded
+        .iter()
+        .rev()
+        .find(|s| s.job_id == t.job_id && same_stamp(&s.header, &t.header))
+    else {
+        return;
+    };
+    let lens = |s: &msgs::ToolPoseSegments| -> Vec<usize> {
+        s.segments.iter().map(|p| p.poses.len()).collect()
+    };
+    if lens(rec) != lens(new) {
+        d.push(format!(
+            "tool_pose_segments: recorded {} segments of {:?} poses, now {} of {:?}",
+            rec.segments.len(),
+            lens(rec),
+            new.segments.len(),
+            lens(new)
+        ));
+        return;
+    }
+    for (k, (a, b)) in rec.segments.iter().zip(&new.segments).enumerate() {
+        let before = d.len();
+        compare_poses(a, b, d);
+        for line in &mut d[before..] {
+            *line = format!("tool_pose_segments[{k}]: {line}");
+        }
+    }
 }
 
 /// Number of points of a toolpath message (all passes).

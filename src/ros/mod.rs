@@ -9,6 +9,7 @@ pub mod execute;
 pub mod fake_controller;
 pub mod joint_states;
 pub mod node;
+pub mod plan_action;
 pub mod recorder;
 pub mod republish;
 

@@ -11,6 +11,7 @@
 use super::config::{IpcSettings, NodeConfig};
 use super::execute::{self, Cancels, Execution, Report};
 use super::joint_states::JointStates;
+use super::plan_action::GoalLink;
 use super::recorder::Recorder;
 use crate::error::{Error, Result};
 use crate::formats::job::DEFAULT_FEED_RATE;
@@ -30,6 +31,8 @@ use std::collections::{BTreeMap, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
+
+mod goals;
 
 /// Start of the per-job timing line the node logs at debug level.
 pub const TIMING_TAG: &str = "timing:";
@@ -103,7 +106,8 @@ pub mod qos {
             .durability(Durability::Volatile)
             .history(History::KeepLast { depth: 10 })
     }
-    /// Results (toolpath, tool_poses, trajectories, markers): transient-local, depth 10.
+    /// Results (toolpath, tool_poses, tool_pose_segments, trajectories,
+    /// markers): transient-local, depth 10.
     pub fn results() -> QosProfile {
         reliable(Durability::TransientLocal, History::KeepLast { depth: 10 })
     }
@@ -242,6 +246,7 @@ struct Outputs {
     status: Mutex<Publisher<msgs::JobStatus>>,
     toolpath: Mutex<Publisher<msgs::Toolpath>>,
     poses: Mutex<Publisher<msgs::PoseArray>>,
+    segments: Mutex<Publisher<msgs::ToolPoseSegments>>,
     mill5: Mutex<Publisher<msgs::JointTrajectory>>,
     belt6: Mutex<Publisher<msgs::JointTrajectory>>,
     markers: Mutex<Publisher<msgs::MarkerArray>>,
@@ -402,6 +407,8 @@ struct Pending {
     /// else the first to arrive after; a later re-publish of the same id does
     /// not change it.
     shape: Option<ShapeEntry>,
+    /// The PlanToolpath goal (or service request) the job serves, if any.
+    goal: Option<Arc<GoalLink>>,
 }
 
 /// Shapes the node keeps by id. Beyond this the least recently received
@@ -549,12 +556,14 @@ fn next_work(shared: &Shared) -> Option<Work> {
     }
 }
 
-/// RUNNING statuses from planner progress, at most every 100 ms or 10 %;
-/// its check stops a job canceled on the `cancel` topic.
+/// RUNNING statuses (and goal feedback) from planner progress, at most
+/// every 100 ms or 10 %; its check stops a job canceled on the `cancel`
+/// topic or whose goal was canceled.
 struct StatusProgress<'a> {
     outputs: &'a Outputs,
     job_id: &'a str,
     last: Mutex<(Instant, f32)>,
+    goal: Option<&'a GoalLink>,
 }
 
 impl Progress for StatusProgress<'_> {
@@ -575,6 +584,9 @@ impl Progress for StatusProgress<'_> {
             *last = (Instant::now(), f);
             self.outputs
                 .status(self.job_id, msgs::JobStatus::RUNNING, f, String::new());
+            if let Some(g) = self.goal {
+                g.feedback("planning", f);
+            }
         }
     }
 
@@ -582,7 +594,7 @@ impl Progress for StatusProgress<'_> {
         if self.outputs.cancels.requested(self.job_id) {
             return Err(Error::canceled("canceled on topic cancel while planning"));
         }
-        Ok(())
+        self.goal.map_or(Ok(()), GoalLink::check)
     }
 }
 
@@ -629,9 +641,17 @@ fn plan_and_publish(
         outputs,
         job_id: &job.job_id,
         last: Mutex::new((Instant::now(), 0.0)),
+        goal: p.goal.as_deref(),
     };
+    if let Some(g) = &p.goal {
+        g.feedback("planning", 0.0);
+    }
+    progress.check()?;
     let planning_started = Instant::now();
     let result = pipeline::run(&job, &progress, options)?;
+    // A cancel during planning ends the job here at the latest: nothing is
+    // published.
+    progress.check()?;
     pipeline::refuse_gouge(&job, &result)?;
     let planning = planning_started.elapsed();
     let start = start_pose(joints, job.machine, machines)?;
@@ -668,10 +688,14 @@ fn plan_and_publish(
     let JobOutputs {
         toolpath,
         poses,
+        segments,
         machine,
         trajectory,
         markers,
     } = out;
+    if let Some(g) = &p.goal {
+        g.keep_toolpath(&toolpath);
+    }
     outputs.publish(&outputs.toolpath, topics::TOOLPATH, toolpath);
     // `toolpath bench-node` reads this line (target: debug, this module).
     log::debug!(
@@ -681,6 +705,7 @@ fn plan_and_publish(
         planning.as_secs_f64() * 1e3
     );
     outputs.publish(&outputs.poses, topics::TOOL_POSES, poses);
+    outputs.publish(&outputs.segments, topics::TOOL_POSE_SEGMENTS, segments);
     let publisher = match machine {
         Machine::Mill5 => &outputs.mill5,
         Machine::Belt6 => &outputs.belt6,
@@ -698,7 +723,7 @@ fn plan_and_publish(
     }
     match (executor, chunks) {
         (Some(queue), Some(chunks)) => {
-            let executed = execute_job(queue, outputs, &job.job_id, chunks)?;
+            let executed = execute_job(queue, outputs, &job.job_id, chunks, p.goal.clone())?;
             Ok(format!("{summary}; {executed}"))
         }
         _ => Ok(summary),
@@ -712,11 +737,19 @@ fn execute_job(
     outputs: &Arc<Outputs>,
     job_id: &str,
     chunks: Vec<msgs::JointTrajectory>,
+    goal: Option<Arc<GoalLink>>,
 ) -> Result<String> {
     let (reply, outcome) = std::sync::mpsc::channel();
     let (o, id) = (Arc::clone(outputs), job_id.to_string());
-    let report: Arc<Report<'static>> =
-        Arc::new(move |f: f32, text: String| o.status(&id, msgs::JobStatus::RUNNING, f, text));
+    if let Some(g) = &goal {
+        g.set_executing();
+    }
+    let report: Arc<Report<'static>> = Arc::new(move |f: f32, text: String| {
+        if let Some(g) = &goal {
+            g.feedback(&text, f);
+        }
+        o.status(&id, msgs::JobStatus::RUNNING, f, text)
+    });
     let e = Execution {
         job_id: job_id.to_string(),
         chunks,
@@ -738,6 +771,9 @@ fn worker(
     timeout_s: f64,
 ) {
     while let Some(work) = next_work(&shared) {
+        let goal = match &work {
+            Work::Reject(p, _) | Work::TimedOut(p) | Work::Plan(p, _) => p.goal.clone(),
+        };
         let (job_id, state, progress, message) = match work {
             Work::Reject(p, why) => (p.msg.job_id, msgs::JobStatus::REJECTED, 0.0, why),
             Work::TimedOut(p) => {
@@ -767,7 +803,7 @@ fn worker(
                 (p.msg.job_id, state, progress, message)
             }
         };
-        outputs.status(&job_id, state, progress, message);
+        outputs.status(&job_id, state, progress, message.clone());
         // A later job under this id starts uncanceled.
         outputs.cancels.forget(&job_id);
         let idle = {
@@ -775,6 +811,9 @@ fn worker(
             st.active.remove(&job_id);
             st.queue.is_empty()
         };
+        if let Some(g) = goal {
+            g.finish(state, message);
+        }
         if idle {
             release_free_memory();
         }
@@ -794,6 +833,18 @@ fn release_free_memory() {
     }
 }
 
+/// The checks of a job message that need no shape: its fields, and its feed
+/// rate on its machine.
+fn check_job(msg: &msgs::Job, machines: &Machines) -> Result<()> {
+    let file = convert::prevalidate_job(msg)?;
+    let machine = file.machine.unwrap_or(file.strategy.default_machine());
+    crate::machines::check_feed_rate(
+        machine,
+        file.feed_rate.unwrap_or(DEFAULT_FEED_RATE),
+        machines,
+    )
+}
+
 /// Handles a received job message: REJECTED at once when the message itself is
 /// bad, else ACCEPTED and queued.
 fn receive_job(
@@ -803,15 +854,7 @@ fn receive_job(
     msg: msgs::Job,
     timeout: Duration,
 ) {
-    let checked = convert::prevalidate_job(&msg).and_then(|file| {
-        let machine = file.machine.unwrap_or(file.strategy.default_machine());
-        crate::machines::check_feed_rate(
-            machine,
-            file.feed_rate.unwrap_or(DEFAULT_FEED_RATE),
-            machines,
-        )
-    });
-    if let Err(e) = checked {
+    if let Err(e) = check_job(&msg, machines) {
         outputs.status(&msg.job_id, final_state(&e), 0.0, e.to_string());
         return;
     }
@@ -843,6 +886,7 @@ fn receive_job(
         received: now,
         deadline: now + timeout,
         shape,
+        goal: None,
     });
     drop(st);
     shared.wake.notify_all();
@@ -911,6 +955,7 @@ fn start_outputs(
         status: Mutex::new(ros.publisher(topics::JOB_STATUS, qos::status())?),
         toolpath: Mutex::new(ros.publisher(topics::TOOLPATH, qos::results())?),
         poses: Mutex::new(ros.publisher(topics::TOOL_POSES, qos::results())?),
+        segments: Mutex::new(ros.publisher(topics::TOOL_POSE_SEGMENTS, qos::results())?),
         mill5: Mutex::new(ros.publisher(topics::MILL5_TRAJECTORY, qos::results())?),
         belt6: Mutex::new(ros.publisher(topics::BELT6_TRAJECTORY, qos::results())?),
         markers: Mutex::new(ros.publisher(topics::MARKERS, qos::results())?),
@@ -1127,8 +1172,14 @@ pub async fn run(config: NodeConfig) -> Result<()> {
         joints: JointStates::default(),
     });
     let workers = start_workers(&config, &shared, &outputs)?;
-    announce_ready(&ros, &config, domain, &outputs);
     let timeout = Duration::from_secs_f64(settings.surface_timeout_s);
+    let queue = goals::NodeQueue {
+        shared: Arc::clone(&shared),
+        outputs: Arc::downgrade(&outputs),
+        machines: config.machines(),
+    };
+    super::plan_action::serve(&mut ros, Arc::new(queue))?;
+    announce_ready(&ros, &config, domain, &outputs);
     let received =
         receive_until_signal(inputs, &shared, &outputs, &config.machines(), timeout).await;
     // Executions are canceled at the controller; workers finish their
@@ -1182,6 +1233,7 @@ mod tests {
             received: now,
             deadline: now,
             shape: None,
+            goal: None,
         }
     }
 

@@ -87,7 +87,8 @@ impl DataFrag {
     2 + // fragmentsInSubmessage
     2 + // fragmentSize
     4 + // sampleSize
-    self.inline_qos.as_ref().map(|q| q.len_serialized() ).unwrap_or(0) + // QoS ParameterList
+    // toolpath_planner patch: an empty list is not written (see write_to).
+    self.inline_qos.as_ref().filter(|q| !q.parameters.is_empty()).map(|q| q.len_serialized() ).unwrap_or(0) + // QoS ParameterList
     self.serialized_payload.len()
   }
 
@@ -301,8 +302,12 @@ impl<C: Context> Writable<C> for DataFrag {
     writer.write_value(&self.fragments_in_submessage)?;
     writer.write_value(&self.fragment_size)?;
     writer.write_value(&self.data_size)?;
-    if self.inline_qos.is_some() && !self.inline_qos.as_ref().unwrap().parameters.is_empty() {
-      writer.write_value(&self.inline_qos)?;
+    // toolpath_planner patch: write the ParameterList itself. Writing the
+    // Option put speedy's one-byte Some tag before it, one byte more than
+    // octetsToNextHeader says, and readers dropped every fragmented sample
+    // with inline QoS (service replies and action results over 64 KB).
+    if let Some(q) = self.inline_qos.as_ref().filter(|q| !q.parameters.is_empty()) {
+      writer.write_value(q)?;
     }
     writer.write_bytes(&self.serialized_payload)?;
     Ok(())
