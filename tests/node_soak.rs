@@ -1,7 +1,7 @@
 //! The node's memory levels off over long job streams: 2000 small jobs and
 //! 100 wing_mould jobs through one `toolpath node`, the resident set size
-//! sampled after each round of a burst; the second half of each stream must
-//! not raise the peak by more than a small margin.
+//! sampled after each round of a burst; the second half of each stream may
+//! raise the peak by a small margin only.
 //!
 //! Bounded in count and time (a few minutes in all); the node runs on
 //! loopback, on a domain of its own, and is killed by pid.
@@ -83,13 +83,17 @@ fn stream(node: &NodeProcess, d: u16, load: &BurstLoad, n: usize, rounds: usize)
 
 /// The largest RSS over the second half of the stream is at most `margin_mib`
 /// above the largest over the first half. Single samples vary by tens of MiB
-/// with what the allocator could hand back when the queue emptied, so the
-/// halves are compared by their peaks; a leak of 20 KiB per small job or
-/// 0.6 MiB per wing_mould job already fails.
+/// (alternating between rounds) with what the allocator could hand back when
+/// the queue emptied, and the first rounds fill the outputs' QoS histories, so
+/// the halves are compared by their peaks, each over several rounds.
 fn assert_levels_off(what: &str, rss: &[f64], margin_mib: f64) {
     let peak = |s: &[f64]| s.iter().copied().fold(0.0, f64::max);
     let (first, second) = rss.split_at(rss.len() / 2);
-    eprintln!("{what}: RSS after each round, MiB: {rss:.1?}");
+    eprintln!(
+        "{what}: RSS after each round, MiB: {rss:.1?}; peaks {:.1} and {:.1}",
+        peak(first),
+        peak(second)
+    );
     assert!(
         peak(second) <= peak(first) + margin_mib,
         "{what}: the RSS peak grew from {:.1} MiB in the first half to {:.1} MiB in the \
@@ -108,8 +112,9 @@ fn memory_levels_off_over_small_and_large_job_streams() {
     let (node, line) = NodeProcess::spawn(&config, d);
     assert!(line.starts_with("ready"), "node did not start: {line:?}");
 
-    let small = stream(&node, d, &BurstLoad::small().unwrap(), 250, 8);
-    assert_levels_off("2000 small jobs", &small, 20.0);
+    // Before the leak was fixed: +200 MiB over the second 1000 small jobs.
+    let small = stream(&node, d, &BurstLoad::small().unwrap(), 125, 16);
+    assert_levels_off("2000 small jobs", &small, 25.0);
 
     let large = stream(&node, d, &wing_mould_load(), 10, 10);
     assert_levels_off("100 wing_mould jobs", &large, 30.0);

@@ -820,6 +820,19 @@ fn worker(
     }
 }
 
+/// Large blocks (toolpaths, messages, simulator grids) are mapped on their
+/// own and unmapped when freed. glibc otherwise raises its mmap threshold to
+/// the largest block freed so far (up to 32 MiB), after which such blocks come
+/// from the arenas and stay in the resident set when freed.
+fn large_blocks_back_to_the_system() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: mallopt only sets an allocator parameter; called before the
+    // workers start.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 256 * 1024);
+    }
+}
+
 /// Hands the allocator's free memory back to the system. glibc keeps what
 /// a job freed in its per-thread arenas, so without this the resident set
 /// of a node serving a long job stream creeps up (docs/results.md, "Node
@@ -1150,6 +1163,7 @@ fn shut_down(
 /// once every topic exists (tests and the demo wait for it).
 pub async fn run(config: NodeConfig) -> Result<()> {
     config.validate()?;
+    large_blocks_back_to_the_system();
     let domain = config.domain_id()?;
     let settings = &config.node;
     let mut ros = RosNode::new(
