@@ -11,7 +11,10 @@
 use super::config::{IpcSettings, NodeConfig};
 use super::execute::{self, Cancels, Execution, Report};
 use super::joint_states::JointStates;
+use super::parameters::{self, LiveConfig, Resolved};
 use super::recorder::Recorder;
+use super::ros_args::Remaps;
+use super::shape_readers::ShapeReaders;
 use crate::error::{Error, Result};
 use crate::formats::job::DEFAULT_FEED_RATE;
 use crate::formats::{Machine, PlanResult, Shape};
@@ -72,12 +75,19 @@ pub mod qos {
             depth: JOB_READER_DEPTH,
         })
     }
-    /// The node's readers of `surface` and `pocket`: the documented keep-last
-    /// 100 (not KEEP_ALL, which RustDDS caps at 64, see [`JOB_READER_DEPTH`]);
-    /// a transient-local writer of depth 100 offers no more to a late joiner,
+    /// The node's readers of `surface` and `pocket`: keep-last 100 (not
+    /// KEEP_ALL, which RustDDS caps at 64, see [`JOB_READER_DEPTH`]); a
+    /// transient-local writer of depth 100 offers no more to a late joiner,
     /// and read samples stay in the cache up to the depth, which for large
-    /// surfaces is memory.
+    /// surfaces is memory. This one is volatile: it matches ROS's default
+    /// publisher (reliable, volatile, keep-last 10) and transient-local ones.
     pub fn shapes_reader() -> QosProfile {
+        reliable(Durability::Volatile, History::KeepLast { depth: 100 })
+    }
+    /// The second reader of `surface` and `pocket`: transient-local, so a
+    /// transient-local publisher that published before the node started
+    /// hands it its history (see `shape_readers`).
+    pub fn shapes_history_reader() -> QosProfile {
         shapes()
     }
     /// A client's reader of `job_status` that must see every status of a
@@ -167,6 +177,8 @@ pub fn check_on_this_host(ips: &[std::net::IpAddr]) -> Result<()> {
 pub struct RosNode {
     pub node: Node,
     pub namespace: String,
+    /// Topic remapping rules (`--ros-args -r from:=to`).
+    remaps: Remaps,
     _context: Context,
 }
 
@@ -176,6 +188,19 @@ impl RosNode {
         namespace: &str,
         domain_id: u16,
         interfaces: Option<Vec<std::net::IpAddr>>,
+    ) -> Result<Self> {
+        let options = NodeOptions::new().enable_rosout(false);
+        Self::with_options(name, namespace, domain_id, interfaces, options, &[])
+    }
+
+    /// A node with `options` (parameters, rosout) and topic `remaps`.
+    pub fn with_options(
+        name: &str,
+        namespace: &str,
+        domain_id: u16,
+        interfaces: Option<Vec<std::net::IpAddr>>,
+        options: NodeOptions,
+        remaps: &[(String, String)],
     ) -> Result<Self> {
         let mut builder = rustdds::DomainParticipantBuilder::new(domain_id);
         if let Some(ips) = interfaces {
@@ -190,7 +215,7 @@ impl RosNode {
         let node_name = NodeName::new(namespace, name)
             .map_err(|e| Error::invalid("node.name", format!("\"{namespace}\" \"{name}\": {e}")))?;
         let mut node = context
-            .new_node(node_name, NodeOptions::new().enable_rosout(false))
+            .new_node(node_name, options)
             .map_err(|e| ros_err("cannot create the node", e))?;
         let spinner = node
             .spinner()
@@ -203,12 +228,22 @@ impl RosNode {
         Ok(Self {
             node,
             namespace: namespace.to_string(),
+            remaps: Remaps::new(remaps, namespace, name),
             _context: context,
         })
     }
 
     fn topic<M: RosMessage>(&mut self, relative: &str, qos: &QosProfile) -> Result<rustdds::Topic> {
         let name = topic_name(&self.namespace, relative)?;
+        let name = match self.remaps.apply(&name.to_string()) {
+            same if same == name.to_string() => name,
+            remapped => Name::parse(&remapped).map_err(|e| {
+                Error::invalid(
+                    "--ros-args -r",
+                    format!("topic {relative} remapped to \"{remapped}\", which is not a valid name: {e}"),
+                )
+            })?,
+        };
         self.node
             .create_topic(&name, MessageTypeName::new(M::PACKAGE, M::NAME), qos)
             .map_err(|e| ros_err(&format!("cannot create topic {relative}"), e))
@@ -468,6 +503,8 @@ struct Shared {
     wake: Condvar,
     /// The latest `/joint_states`: where each trajectory starts.
     joints: JointStates,
+    /// The settings each job is planned with (parameters change them).
+    live: Arc<LiveConfig>,
 }
 
 impl Shared {
@@ -709,14 +746,14 @@ fn execute_job(
         .map_err(|_| Error::planning("the executor has stopped"))?
 }
 
-fn worker(
-    shared: Arc<Shared>,
-    outputs: Arc<Outputs>,
-    machines: Machines,
-    options: RunOptions,
-    timeout_s: f64,
-) {
+fn worker(shared: Arc<Shared>, outputs: Arc<Outputs>) {
     while let Some(work) = next_work(&shared) {
+        let config = shared.live.get();
+        let (machines, timeout_s) = (config.machines(), config.node.surface_timeout_s);
+        let options = RunOptions {
+            skip_verify: !config.node.verify,
+            no_timing: false,
+        };
         let (job_id, state, progress, message) = match work {
             Work::Reject(p, why) => (p.msg.job_id, msgs::JobStatus::REJECTED, 0.0, why),
             Work::TimedOut(p) => {
@@ -820,8 +857,8 @@ fn receive_shape(shared: &Shared, id: String, shape: Result<Shape>) {
 
 /// The node's readers of its inputs.
 struct Inputs {
-    surfaces: Subscription<msgs::Surface>,
-    pockets: Subscription<msgs::Pocket>,
+    surfaces: ShapeReaders<msgs::Surface>,
+    pockets: ShapeReaders<msgs::Pocket>,
     jobs: Subscription<msgs::Job>,
     joint_states: Subscription<msgs::JointState>,
     cancels: Subscription<msgs::follow_joint_trajectory::StringMsg>,
@@ -894,18 +931,12 @@ fn start_workers(
     shared: &Arc<Shared>,
     outputs: &Arc<Outputs>,
 ) -> Result<Vec<std::thread::JoinHandle<()>>> {
-    let settings = &config.node;
-    let options = RunOptions {
-        skip_verify: !settings.verify,
-        no_timing: false,
-    };
     let mut handles = Vec::new();
-    for k in 0..settings.worker_count() {
-        let (s, o, m) = (Arc::clone(shared), Arc::clone(outputs), config.machines());
-        let timeout_s = settings.surface_timeout_s;
+    for k in 0..config.node.worker_count() {
+        let (s, o) = (Arc::clone(shared), Arc::clone(outputs));
         let h = std::thread::Builder::new()
             .name(format!("planner-{k}"))
-            .spawn(move || worker(s, o, m, options, timeout_s))
+            .spawn(move || worker(s, o))
             .map_err(|e| Error::planning(format!("cannot start a planning thread: {e}")))?;
         handles.push(h);
     }
@@ -933,13 +964,7 @@ fn announce_ready(ros: &RosNode, config: &NodeConfig, domain: u16, outputs: &Out
 
 /// Receives shapes and jobs (recording each as it arrives) until SIGINT or
 /// SIGTERM. Never plans: jobs go to the workers' queue.
-async fn receive_until_signal(
-    inputs: Inputs,
-    shared: &Shared,
-    outputs: &Outputs,
-    machines: &Machines,
-    timeout: Duration,
-) -> Result<()> {
+async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs) -> Result<()> {
     let recorder = outputs.recorder.as_deref();
     let mut surface_stream = Box::pin(inputs.surfaces.async_stream());
     let mut pocket_stream = Box::pin(inputs.pockets.async_stream());
@@ -955,7 +980,9 @@ async fn receive_until_signal(
                     if let Some(rec) = recorder {
                         rec.record(topics::JOB, &msg);
                     }
-                    receive_job(shared, outputs, machines, msg, timeout)
+                    let config = shared.live.get();
+                    let timeout = Duration::from_secs_f64(config.node.surface_timeout_s);
+                    receive_job(shared, outputs, &config.machines(), msg, timeout)
                 }
                 Err(e) => log::error!("undecodable message on topic job: {e:?}"),
             },
@@ -1056,34 +1083,52 @@ fn shut_down(
 
 /// Runs the node until SIGINT/SIGTERM. Prints one line "ready ..." on stdout
 /// once every topic exists (tests and the demo wait for it).
-pub async fn run(config: NodeConfig) -> Result<()> {
+pub async fn run(resolved: Resolved) -> Result<()> {
+    let config = &resolved.config;
     config.validate()?;
     let domain = config.domain_id()?;
     let settings = &config.node;
-    let mut ros = RosNode::new(
+    let live = LiveConfig::new(config.clone());
+    let options =
+        parameters::node_options(config, &resolved.builtin, &live)?.enable_rosout(resolved.rosout);
+    let mut ros = RosNode::with_options(
         &settings.name,
         &settings.namespace,
         domain,
         config.interfaces()?,
+        options,
+        &resolved.remaps,
     )?;
+    super::logging::attach_rosout(
+        ros.node.logging_handle(),
+        super::logging::logger_name(&settings.namespace, &settings.name),
+    );
     let inputs = Inputs {
-        surfaces: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
-        pockets: ros.subscription(topics::POCKET, qos::shapes_reader())?,
+        surfaces: ShapeReaders {
+            volatile: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
+            transient_local: ros.subscription(topics::SURFACE, qos::shapes_history_reader())?,
+        },
+        pockets: ShapeReaders {
+            volatile: ros.subscription(topics::POCKET, qos::shapes_reader())?,
+            transient_local: ros.subscription(topics::POCKET, qos::shapes_history_reader())?,
+        },
         jobs: ros.subscription(topics::JOB, qos::job_reader())?,
         joint_states: ros.subscription(topics::JOINT_STATES, qos::joint_states())?,
         cancels: ros.subscription(topics::CANCEL, qos::job())?,
     };
-    let (outputs, ipc_thread) = start_outputs(&mut ros, &config)?;
+    let (outputs, ipc_thread) = start_outputs(&mut ros, config)?;
+    if let Some(r) = &outputs.recorder {
+        live.set_recorder(Arc::clone(r));
+    }
     let shared = Arc::new(Shared {
         state: Mutex::new(State::default()),
         wake: Condvar::new(),
         joints: JointStates::default(),
+        live,
     });
-    let workers = start_workers(&config, &shared, &outputs)?;
-    announce_ready(&ros, &config, domain, &outputs);
-    let timeout = Duration::from_secs_f64(settings.surface_timeout_s);
-    let received =
-        receive_until_signal(inputs, &shared, &outputs, &config.machines(), timeout).await;
+    let workers = start_workers(config, &shared, &outputs)?;
+    announce_ready(&ros, config, domain, &outputs);
+    let received = receive_until_signal(inputs, &shared, &outputs).await;
     // Executions are canceled at the controller; workers finish their
     // current job; the process exits after them.
     outputs.cancels.cancel_all();
