@@ -61,40 +61,76 @@ pub fn check(
     if n == 0 {
         return Err(Error::invalid("points", "is empty"));
     }
-    let joints = names.len();
-    let rows = |what: &str, rows: &[Vec<f64>], optional: bool| -> Result<Vec<Vec<f64>>> {
-        if optional && rows.is_empty() {
-            return Ok(Vec::new());
-        }
-        if rows.len() != n {
-            return Err(Error::invalid(
-                "points",
-                format!("{} points have {what}, {n} have times", rows.len()),
-            ));
-        }
-        rows.iter()
-            .enumerate()
-            .map(|(k, r)| {
-                if r.len() != joints {
-                    return Err(Error::invalid(
-                        format!("points[{k}].{what}"),
-                        format!("has {} values for {joints} joints", r.len()),
-                    ));
-                }
-                if let Some(j) = r.iter().position(|x| !x.is_finite()) {
-                    return Err(Error::invalid(
-                        format!("points[{k}].{what}[{j}]"),
-                        "is not a finite number",
-                    ));
-                }
-                Ok(cols.iter().map(|&c| r[c]).collect())
-            })
-            .collect()
+    let rows = |what: &str, rows: &[Vec<f64>], optional: bool| {
+        controller_columns(what, rows, optional, n, &cols)
     };
     let q = rows("positions", &p.positions, false)?;
     let v = rows("velocities", &p.velocities, false)?;
     let a = rows("accelerations", &p.accelerations, true)?;
-    let t = &p.times;
+    check_times(&p.times)?;
+    let joints = Joints {
+        names,
+        t: &p.times,
+        q: &q,
+        v: &v,
+        a: &a,
+    };
+    for (j, l) in limits.iter().enumerate() {
+        joints.check_points(j, l)?;
+        joints.check_segments(j, l, start.map(|s| s[j]))?;
+    }
+    Ok(Points {
+        joint_names: names.to_vec(),
+        times: p.times.clone(),
+        positions: q,
+        velocities: v,
+        accelerations: a,
+    })
+}
+
+/// One of the point lists (`what`) reordered to the controller's joint
+/// order `cols`: one row per time, every value finite. An `optional` list
+/// may be empty.
+fn controller_columns(
+    what: &str,
+    rows: &[Vec<f64>],
+    optional: bool,
+    n: usize,
+    cols: &[usize],
+) -> Result<Vec<Vec<f64>>> {
+    if optional && rows.is_empty() {
+        return Ok(Vec::new());
+    }
+    if rows.len() != n {
+        return Err(Error::invalid(
+            "points",
+            format!("{} points have {what}, {n} have times", rows.len()),
+        ));
+    }
+    let joints = cols.len();
+    rows.iter()
+        .enumerate()
+        .map(|(k, r)| {
+            if r.len() != joints {
+                return Err(Error::invalid(
+                    format!("points[{k}].{what}"),
+                    format!("has {} values for {joints} joints", r.len()),
+                ));
+            }
+            if let Some(j) = r.iter().position(|x| !x.is_finite()) {
+                return Err(Error::invalid(
+                    format!("points[{k}].{what}[{j}]"),
+                    "is not a finite number",
+                ));
+            }
+            Ok(cols.iter().map(|&c| r[c]).collect())
+        })
+        .collect()
+}
+
+/// JTC's timing rules: the first point after 0 (else it skips the move from
+/// the measured state), times strictly increasing.
+fn check_times(t: &[f64]) -> Result<()> {
     if !(t[0].is_finite() && t[0] > 0.0) {
         return Err(Error::invalid(
             "points[0].time_from_start",
@@ -104,7 +140,7 @@ pub fn check(
             ),
         ));
     }
-    for k in 1..n {
+    for k in 1..t.len() {
         if !(t[k].is_finite() && t[k] > t[k - 1]) {
             return Err(Error::invalid(
                 format!("points[{k}].time_from_start"),
@@ -116,16 +152,30 @@ pub fn check(
             ));
         }
     }
-    let slack = 1.0 + LIMIT_SLACK;
-    for (j, l) in limits.iter().enumerate() {
-        let name = &names[j];
-        if v[n - 1][j] != 0.0 || a.last().is_some_and(|r| r[j] != 0.0) {
+    Ok(())
+}
+
+/// A trajectory in the controller's joint order, checked joint by joint.
+struct Joints<'a> {
+    names: &'a [String],
+    t: &'a [f64],
+    q: &'a [Vec<f64>],
+    v: &'a [Vec<f64>],
+    a: &'a [Vec<f64>],
+}
+
+impl Joints<'_> {
+    /// Joint `j` at every point: at rest at the end, within its travel,
+    /// velocity and acceleration limits.
+    fn check_points(&self, j: usize, l: &JointLimit) -> Result<()> {
+        let (n, name, slack) = (self.t.len(), &self.names[j], 1.0 + LIMIT_SLACK);
+        if self.v[n - 1][j] != 0.0 || self.a.last().is_some_and(|r| r[j] != 0.0) {
             return Err(Error::invalid(
                 format!("points[{}]", n - 1),
                 format!("joint {name} is not at rest at the last point"),
             ));
         }
-        for (k, row) in q.iter().enumerate() {
+        for (k, row) in self.q.iter().enumerate() {
             if row[j] < l.min - 1e-6 || row[j] > l.max + 1e-6 {
                 let (x, lo, hi, unit) = shown(l, row[j]);
                 return Err(Error::invalid(
@@ -133,16 +183,18 @@ pub fn check(
                     format!("joint {name} at {x:.4} {unit} is outside its range {lo}..{hi} {unit}"),
                 ));
             }
-            if v[k][j].abs() > l.max_velocity * slack {
+            if self.v[k][j].abs() > l.max_velocity * slack {
                 return Err(Error::invalid(
                     format!("points[{k}].velocities"),
                     format!(
                         "joint {name} at {:.4} per s exceeds its velocity limit {:.4}",
-                        v[k][j], l.max_velocity
+                        self.v[k][j], l.max_velocity
                     ),
                 ));
             }
-            if a.get(k)
+            if self
+                .a
+                .get(k)
                 .is_some_and(|r| r[j].abs() > l.max_acceleration * slack)
             {
                 return Err(Error::invalid(
@@ -154,12 +206,19 @@ pub fn check(
                 ));
             }
         }
-        // Segments, the move from the start pose first (as segment -1).
-        let first = start.map(|s| (s[j], 0.0, 0.0));
+        Ok(())
+    }
+
+    /// Joint `j` between consecutive points, and from `start` (at rest, time
+    /// 0) to the first: finite-difference velocity and acceleration, the
+    /// turn of a rotary axis, and the peaks of the cubic JTC interpolates.
+    fn check_segments(&self, j: usize, l: &JointLimit, start: Option<f64>) -> Result<()> {
+        let (t, q, v) = (self.t, self.q, self.v);
+        let (name, slack) = (&self.names[j], 1.0 + LIMIT_SLACK);
+        let first = start.map(|s| (None, (s, 0.0, 0.0)));
         let segments = first
             .into_iter()
-            .map(|s| (None, s))
-            .chain((1..n).map(|k| (Some(k - 1), (q[k - 1][j], v[k - 1][j], t[k - 1]))));
+            .chain((1..t.len()).map(|k| (Some(k - 1), (q[k - 1][j], v[k - 1][j], t[k - 1]))));
         for (from, (q0, v0, t0)) in segments {
             let k = from.map_or(0, |f| f + 1);
             let dt = t[k] - t0;
@@ -210,14 +269,8 @@ pub fn check(
                 ));
             }
         }
+        Ok(())
     }
-    Ok(Points {
-        joint_names: names.to_vec(),
-        times: t.clone(),
-        positions: q,
-        velocities: v,
-        accelerations: a,
-    })
 }
 
 #[cfg(test)]

@@ -269,85 +269,24 @@ pub fn trajectory_from(
     machines: &Machines,
     start: Option<&[f64]>,
 ) -> Result<JointTrajectory> {
-    let passes = tool_poses(result);
     check_feed_rate(job.machine, job.feed_rate, machines)?;
     let (retract, machine_name) = match job.machine {
         Machine::Mill5 => (machines.mill5.retract_mm, "mill5"),
         Machine::Belt6 => (machines.belt6.retract_mm, "belt6"),
     };
     let feed = job.feed_rate / 60.0;
-    // Waypoints: (pose, origin, stop) and the segments between them.
-    let mut poses: Vec<ToolPose> = Vec::new();
-    let mut origins: Vec<Origin> = Vec::new();
-    let mut stops: Vec<bool> = Vec::new();
-    let mut rapid_before: Vec<bool> = Vec::new();
-    for (p, pass) in passes.iter().enumerate() {
-        let (Some(first), Some(last)) = (pass.first(), pass.last()) else {
-            continue;
-        };
-        let lift = |t: &ToolPose| match job.machine {
-            Machine::Mill5 => normalise(t.axis).unwrap_or([0.0, 0.0, 1.0]),
-            Machine::Belt6 => t.normal,
-        };
-        let approach = ToolPose {
-            tip: offset(first.tip, lift(first), retract),
-            ..*first
-        };
-        let leave = ToolPose {
-            tip: offset(last.tip, lift(last), retract),
-            ..*last
-        };
-        poses.push(approach);
-        origins.push(Origin::Approach(p));
-        stops.push(true);
-        rapid_before.push(true);
-        for (k, t) in pass.iter().enumerate() {
-            poses.push(*t);
-            origins.push(Origin::Point(p, k));
-            stops.push(false);
-            rapid_before.push(false);
-        }
-        poses.push(leave);
-        origins.push(Origin::Retract(p));
-        stops.push(true);
-        rapid_before.push(false);
-    }
-    let (joint_names, limits, mut q): (Vec<String>, Vec<JointLimit>, Vec<Vec<f64>>) = match job
-        .machine
-    {
-        Machine::Mill5 => {
-            let cfg = &machines.mill5;
-            let l = cfg.pivot_length_mm + job.tool_length();
-            let input: Vec<([f64; 3], [f64; 3])> = poses.iter().map(|t| (t.tip, t.axis)).collect();
-            let q = mill5::inverse_path(cfg, l, &input)?;
-            (
-                cfg.joint_names(),
-                cfg.limits(),
-                q.into_iter().map(|r| r.to_vec()).collect(),
-            )
-        }
-        Machine::Belt6 => {
-            let cfg = &machines.belt6;
-            let input: Vec<([f64; 3], [f64; 3], [f64; 3])> =
-                poses.iter().map(|t| (t.tip, t.axis, t.normal)).collect();
-            let q = belt6::inverse_path(cfg, &input)?;
-            (
-                cfg.joint_names(),
-                cfg.limits(),
-                q.into_iter().map(|r| r.to_vec()).collect(),
-            )
-        }
-    };
+    let w = Waypoints::of(job, &tool_poses(result), retract);
+    let (joint_names, limits, mut q) = joint_path(job, machines, &w.poses)?;
     let flip = (job.machine == Machine::Mill5).then_some((3, 4));
-    fit_limits(machine_name, &mut q, &limits, &origins, flip)?;
-    let segments: Vec<Segment> = (1..poses.len())
+    fit_limits(machine_name, &mut q, &limits, &w.origins, flip)?;
+    let segments: Vec<Segment> = (1..w.poses.len())
         .map(|k| Segment {
-            length: dist(poses[k - 1].tip, poses[k].tip),
-            max_speed: (!rapid_before[k]).then_some(feed),
+            length: dist(w.poses[k - 1].tip, w.poses[k].tip),
+            max_speed: (!w.rapid_before[k]).then_some(feed),
         })
         .collect();
     let rotary = limits.iter().map(|l| l.rotary).collect();
-    let mut timed = timing::parameterise(q, &segments, &stops, &limits);
+    let mut timed = timing::parameterise(q, &segments, &w.stops, &limits);
     let (controller, home) = match job.machine {
         Machine::Mill5 => (&machines.mill5.controller, machines.mill5.home()),
         Machine::Belt6 => (&machines.belt6.controller, machines.belt6.home()),
@@ -374,7 +313,8 @@ pub fn trajectory_from(
         None => 0.0,
     };
     timed.times.iter_mut().for_each(|t| *t += start_move_s);
-    let pass_starts = origins
+    let pass_starts = w
+        .origins
         .iter()
         .enumerate()
         .filter(|(_, o)| matches!(o, Origin::Approach(_)))
@@ -406,6 +346,91 @@ pub fn trajectory_from(
         })?;
     }
     Ok(trajectory)
+}
+
+/// The tool poses a trajectory visits: per pass an approach `retract` mm
+/// above its first point (a stop, reached by a rapid move), its points at
+/// feed, and a retract above its last point (a stop).
+struct Waypoints {
+    poses: Vec<ToolPose>,
+    origins: Vec<Origin>,
+    stops: Vec<bool>,
+    /// The segment ending at this waypoint is a rapid move.
+    rapid_before: Vec<bool>,
+}
+
+impl Waypoints {
+    fn of(job: &Job, passes: &[Vec<ToolPose>], retract: f64) -> Self {
+        let mut w = Waypoints {
+            poses: Vec::new(),
+            origins: Vec::new(),
+            stops: Vec::new(),
+            rapid_before: Vec::new(),
+        };
+        // The mill retracts along its tool axis, the belt along the surface normal.
+        let lift = |t: &ToolPose| match job.machine {
+            Machine::Mill5 => normalise(t.axis).unwrap_or([0.0, 0.0, 1.0]),
+            Machine::Belt6 => t.normal,
+        };
+        for (p, pass) in passes.iter().enumerate() {
+            let (Some(first), Some(last)) = (pass.first(), pass.last()) else {
+                continue;
+            };
+            let approach = ToolPose {
+                tip: offset(first.tip, lift(first), retract),
+                ..*first
+            };
+            let leave = ToolPose {
+                tip: offset(last.tip, lift(last), retract),
+                ..*last
+            };
+            w.push(approach, Origin::Approach(p), true, true);
+            for (k, t) in pass.iter().enumerate() {
+                w.push(*t, Origin::Point(p, k), false, false);
+            }
+            w.push(leave, Origin::Retract(p), true, false);
+        }
+        w
+    }
+
+    fn push(&mut self, pose: ToolPose, origin: Origin, stop: bool, rapid_before: bool) {
+        self.poses.push(pose);
+        self.origins.push(origin);
+        self.stops.push(stop);
+        self.rapid_before.push(rapid_before);
+    }
+}
+
+/// A machine's joint names, limits and joint positions (mm, rad) per pose.
+type JointPath = (Vec<String>, Vec<JointLimit>, Vec<Vec<f64>>);
+
+/// The machine's joint names, limits and the joint positions of `poses`
+/// by its inverse kinematics.
+fn joint_path(job: &Job, machines: &Machines, poses: &[ToolPose]) -> Result<JointPath> {
+    Ok(match job.machine {
+        Machine::Mill5 => {
+            let cfg = &machines.mill5;
+            let l = cfg.pivot_length_mm + job.tool_length();
+            let input: Vec<([f64; 3], [f64; 3])> = poses.iter().map(|t| (t.tip, t.axis)).collect();
+            let q = mill5::inverse_path(cfg, l, &input)?;
+            (
+                cfg.joint_names(),
+                cfg.limits(),
+                q.into_iter().map(|r| r.to_vec()).collect(),
+            )
+        }
+        Machine::Belt6 => {
+            let cfg = &machines.belt6;
+            let input: Vec<([f64; 3], [f64; 3], [f64; 3])> =
+                poses.iter().map(|t| (t.tip, t.axis, t.normal)).collect();
+            let q = belt6::inverse_path(cfg, &input)?;
+            (
+                cfg.joint_names(),
+                cfg.limits(),
+                q.into_iter().map(|r| r.to_vec()).collect(),
+            )
+        }
+    })
 }
 
 #[cfg(test)]

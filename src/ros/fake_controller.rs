@@ -12,7 +12,7 @@ use crate::machines::{jtc, JointLimit};
 use crate::messages::follow_joint_trajectory::{Feedback, Goal, GoalResult};
 use crate::messages::{self as msgs, convert, topics};
 use futures::FutureExt;
-use ros2_client::action::{AsyncActionServer, GoalEndStatus};
+use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus};
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::ros2::QosProfile;
 use ros2_client::{Publisher, ServiceMapping};
@@ -112,6 +112,65 @@ fn validate(o: &FakeOptions, goal: &Goal, at: &[f64]) -> std::result::Result<jtc
     Ok(points)
 }
 
+type Server = AsyncActionServer<Goal, GoalResult, Feedback>;
+type Executing = ExecutingGoalHandle<Goal>;
+
+/// "Executes" an accepted goal: follows its timing (`time_scale` wall
+/// seconds per trajectory second), moves `pose` and publishes feedback point
+/// by point; aborts at point `abort_at`, stops on a cancel of this goal.
+async fn follow(
+    server: &Server,
+    executing: &Executing,
+    goal: &Goal,
+    points: &jtc::Points,
+    pose: &Mutex<Vec<f64>>,
+    time_scale: f64,
+    abort_at: Option<usize>,
+) -> (GoalEndStatus, GoalResult, &'static str) {
+    let mut previous = 0.0;
+    for k in 0..points.times.len() {
+        if abort_at == Some(k) {
+            let result = GoalResult {
+                error_code: GoalResult::PATH_TOLERANCE_VIOLATED,
+                error_string: format!("told to abort at point {k}"),
+            };
+            return (GoalEndStatus::Aborted, result, "aborted");
+        }
+        let wait = (points.times[k] - previous) * time_scale;
+        previous = points.times[k];
+        let sleep = tokio::time::sleep(Duration::from_secs_f64(wait)).fuse();
+        futures::pin_mut!(sleep);
+        loop {
+            tokio::select! {
+                _ = &mut sleep => break,
+                c = server.receive_cancel_request() => {
+                    if let Ok(c) = c {
+                        if c.contains_goal(&executing.goal_id()) {
+                            let mine = std::iter::once(executing.goal_id());
+                            let _ = server.respond_to_cancel_requests(&c, mine).await;
+                            return (GoalEndStatus::Canceled, GoalResult::default(), "canceled");
+                        }
+                    }
+                }
+            }
+        }
+        *lock(pose) = points.positions[k].clone();
+        let desired = goal.trajectory.points[k].clone();
+        let fb = Feedback {
+            header: msgs::Header {
+                stamp: msgs::Time::now(),
+                frame_id: String::new(),
+            },
+            joint_names: goal.trajectory.joint_names.clone(),
+            actual: desired.clone(),
+            desired,
+            ..Default::default()
+        };
+        let _ = server.publish_feedback(executing.clone(), fb).await;
+    }
+    (GoalEndStatus::Succeeded, GoalResult::default(), "succeeded")
+}
+
 /// Starts the fake controller on `ros` (its action server and a
 /// `joint_states` publisher at 50 Hz).
 pub fn spawn(ros: &mut RosNode, options: FakeOptions) -> Result<FakeController> {
@@ -187,53 +246,16 @@ pub fn spawn(ros: &mut RosNode, options: FakeOptions) -> Result<FakeController> 
                 continue;
             };
             let abort_at = (now.abort_goal == Some(this)).then_some(points.times.len() / 2);
-            let mut end = (GoalEndStatus::Succeeded, GoalResult::default(), "succeeded");
-            let mut previous = 0.0;
-            'points: for k in 0..points.times.len() {
-                if abort_at == Some(k) {
-                    end = (
-                        GoalEndStatus::Aborted,
-                        GoalResult {
-                            error_code: GoalResult::PATH_TOLERANCE_VIOLATED,
-                            error_string: format!("told to abort at point {k}"),
-                        },
-                        "aborted",
-                    );
-                    break;
-                }
-                let wait = (points.times[k] - previous) * now.time_scale;
-                previous = points.times[k];
-                let sleep = tokio::time::sleep(Duration::from_secs_f64(wait)).fuse();
-                futures::pin_mut!(sleep);
-                loop {
-                    tokio::select! {
-                        _ = &mut sleep => break,
-                        c = server.receive_cancel_request() => {
-                            if let Ok(c) = c {
-                                if c.contains_goal(&executing.goal_id()) {
-                                    let mine = std::iter::once(executing.goal_id());
-                                    let _ = server.respond_to_cancel_requests(&c, mine).await;
-                                    end = (GoalEndStatus::Canceled, GoalResult::default(), "canceled");
-                                    break 'points;
-                                }
-                            }
-                        }
-                    }
-                }
-                *lock(&p) = points.positions[k].clone();
-                let desired = goal.trajectory.points[k].clone();
-                let fb = Feedback {
-                    header: msgs::Header {
-                        stamp: msgs::Time::now(),
-                        frame_id: String::new(),
-                    },
-                    joint_names: goal.trajectory.joint_names.clone(),
-                    actual: desired.clone(),
-                    desired,
-                    ..Default::default()
-                };
-                let _ = server.publish_feedback(executing.clone(), fb).await;
-            }
+            let end = follow(
+                &server,
+                &executing,
+                &goal,
+                &points,
+                &p,
+                now.time_scale,
+                abort_at,
+            )
+            .await;
             lock(&g).push(GoalRecord {
                 accepted: true,
                 outcome: end.2.to_string(),
