@@ -257,6 +257,7 @@ fn params_from_text(text: &str, fully_qualified: &str) -> Result<Vec<(String, Va
 
 /// The config after the ROS arguments, with what else the arguments say
 /// about the node.
+#[derive(Debug)]
 pub struct Resolved {
     pub config: NodeConfig,
     /// Values of ros2-client's own parameters (`use_sim_time`).
