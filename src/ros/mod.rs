@@ -4,9 +4,11 @@
 //! the launch-config file, `recorder` the bag of a run, `republish` the
 //! replay of a bag's inputs to a running node, `ros_args` the `--ros-args`
 //! block, `parameters` the config as ROS parameters, `logging` the log on
-//! stderr and `/rosout`, `shape_readers` the QoS-tolerant shape inputs.
+//! stderr and `/rosout`, `shape_readers` the QoS-tolerant shape inputs, `diagnostics` the
+//! node's health on `/diagnostics`.
 
 pub mod config;
+pub mod diagnostics;
 pub mod execute;
 pub mod fake_controller;
 pub mod joint_states;

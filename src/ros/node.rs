@@ -233,6 +233,12 @@ impl RosNode {
         })
     }
 
+    /// The fully qualified name of the node's topic `relative`, after remapping.
+    pub fn resolved(&self, relative: &str) -> String {
+        self.remaps
+            .apply(&topics::absolute(&self.namespace, relative))
+    }
+
     fn topic<M: RosMessage>(&mut self, relative: &str, qos: &QosProfile) -> Result<rustdds::Topic> {
         let name = topic_name(&self.namespace, relative)?;
         let name = match self.remaps.apply(&name.to_string()) {
@@ -505,6 +511,8 @@ struct Shared {
     joints: JointStates,
     /// The settings each job is planned with (parameters change them).
     live: Arc<LiveConfig>,
+    /// Busy workers and planning times, for `/diagnostics`.
+    activity: super::diagnostics::Activity,
 }
 
 impl Shared {
@@ -748,6 +756,7 @@ fn execute_job(
 
 fn worker(shared: Arc<Shared>, outputs: Arc<Outputs>) {
     while let Some(work) = next_work(&shared) {
+        let _busy = shared.activity.working();
         let config = shared.live.get();
         let (machines, timeout_s) = (config.machines(), config.node.surface_timeout_s);
         let options = RunOptions {
@@ -764,9 +773,11 @@ fn worker(shared: Arc<Shared>, outputs: Arc<Outputs>) {
                 (p.msg.job_id, msgs::JobStatus::FAILED, 0.0, why)
             }
             Work::Plan(p, shape) => {
+                let started = Instant::now();
                 let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                     plan_and_publish(&p, &shape, &outputs, &machines, &shared.joints, options)
                 }));
+                shared.activity.planned(started.elapsed());
                 let (state, progress, message) = match run {
                     Ok(Ok(summary)) => (msgs::JobStatus::SUCCEEDED, 1.0, summary),
                     Ok(Err(e)) => (final_state(&e), 0.0, e.to_string()),
@@ -962,6 +973,61 @@ fn announce_ready(ros: &RosNode, config: &NodeConfig, domain: u16, outputs: &Out
     let _ = std::io::stdout().flush();
 }
 
+/// The `/diagnostics` publishing loop of the node (see `diagnostics`): the
+/// queue, the workers, the recorder and the peers matched on each topic.
+fn diagnostics<'a>(
+    ros: &'a RosNode,
+    publisher: Publisher<crate::messages::diagnostics::DiagnosticArray>,
+    config: &NodeConfig,
+    shared: &'a Shared,
+    outputs: &'a Outputs,
+) -> impl std::future::Future<Output = ()> + 'a {
+    use super::diagnostics::{self as diag, RecorderState, Snapshot};
+    let inputs = [
+        topics::SURFACE,
+        topics::POCKET,
+        topics::JOB,
+        topics::JOINT_STATES,
+        topics::CANCEL,
+    ];
+    let outputs_topics = [
+        topics::JOB_STATUS,
+        topics::TOOLPATH,
+        topics::TOOL_POSES,
+        topics::MILL5_TRAJECTORY,
+        topics::BELT6_TRAJECTORY,
+        topics::MARKERS,
+    ];
+    let workers = config.node.worker_count();
+    let snapshot = move || {
+        let queued = shared.lock().queue.len();
+        let (activity_busy, planned, last_planning) = Snapshot::activity(&shared.activity);
+        let mut peers = Vec::new();
+        for t in inputs {
+            let fq = ros.resolved(t);
+            let n = ros.node.publisher_count(&fq);
+            peers.push((fq, "publishers", n));
+        }
+        for t in outputs_topics {
+            let fq = ros.resolved(t);
+            let n = ros.node.subscription_count(&fq);
+            peers.push((fq, "subscribers", n));
+        }
+        Snapshot {
+            queued,
+            workers,
+            activity_busy,
+            planned,
+            last_planning,
+            recorder: RecorderState::of(outputs.recorder.as_deref()),
+            peers,
+        }
+    };
+    let name = config.node.name.clone();
+    let fully_qualified = ros.node.fully_qualified_name();
+    diag::publish(publisher, name, fully_qualified, snapshot)
+}
+
 /// Receives shapes and jobs (recording each as it arrives) until SIGINT or
 /// SIGTERM. Never plans: jobs go to the workers' queue.
 async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs) -> Result<()> {
@@ -1125,10 +1191,16 @@ pub async fn run(resolved: Resolved) -> Result<()> {
         wake: Condvar::new(),
         joints: JointStates::default(),
         live,
+        activity: Default::default(),
     });
     let workers = start_workers(config, &shared, &outputs)?;
+    let diagnostics_publisher = super::diagnostics::publisher(&mut ros.node)?;
+    let diagnostics = diagnostics(&ros, diagnostics_publisher, config, &shared, &outputs);
     announce_ready(&ros, config, domain, &outputs);
-    let received = receive_until_signal(inputs, &shared, &outputs).await;
+    let received = tokio::select! {
+        r = receive_until_signal(inputs, &shared, &outputs) => r,
+        () = diagnostics => Ok(()),
+    };
     // Executions are canceled at the controller; workers finish their
     // current job; the process exits after them.
     outputs.cancels.cancel_all();

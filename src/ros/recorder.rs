@@ -126,6 +126,11 @@ impl Recorder {
             .store(paused, std::sync::atomic::Ordering::Relaxed);
     }
 
+    /// Whether recording is paused.
+    pub fn paused(&self) -> bool {
+        self.paused.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
     /// The bag directory.
     pub fn directory(&self) -> &Path {
         &self.directory

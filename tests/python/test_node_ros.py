@@ -56,6 +56,7 @@ def cell(tmp_path_factory):
             "-r", "__node:=" + NAME,
             "--params-file", str(params),
             "-p", "node.verify:=false",
+            "-p", "node.workers:=2",
             "-r", "job_status:=status",
         ]
     )
@@ -65,6 +66,13 @@ def cell(tmp_path_factory):
     from cyclonedds.topic import Topic
     from cyclonedds.util import duration
 
+    # /diagnostics with ROS's default subscription QoS (reliable, volatile, keep last 10).
+    diagnostics = DataReader(
+        peer._dp,
+        Topic(peer._dp, "rt/diagnostics", msgs.DiagnosticArray),
+        qos=Qos(Policy.Reliability.Reliable(duration(seconds=5)), Policy.Durability.Volatile,
+                Policy.History.KeepLast(10)),
+    )
     # /rosout as `ros2 topic echo /rosout` reads it (reliable, transient-local).
     rosout = DataReader(
         peer._dp,
@@ -80,7 +88,8 @@ def cell(tmp_path_factory):
     job_pub = peer.create_publisher(msgs.Job, "job", QoSProfile(keep_all=True))
     assert peer.spin_until(lambda: job_pub.get_subscription_count() > 0, 20), "job reader not matched"
     yield {"proc": proc, "peer": peer, "params": params_client, "rosout": rosout, "statuses": statuses,
-           "job_pub": job_pub, "logs": []}
+           "job_pub": job_pub, "logs": [],
+           "diagnostics": diagnostics}
     peer.destroy_node()
     proc.stop()
 
@@ -122,7 +131,7 @@ def test_values_come_from_the_params_file_and_p_rules(cell):
         "node.verify", "node.surface_timeout_s", "mill5.retract_mm", "node.name", "node.namespace",
         "mill5.workpiece_origin_mm", "node.interfaces", "node.workers", "no.such_parameter",
     )
-    assert got == [False, 7.5, 12.5, NAME, NS, [2500.0, 1000.0, 300.0], ["127.0.0.1"], 0, None]
+    assert got == [False, 7.5, 12.5, NAME, NS, [2500.0, 1000.0, 300.0], ["127.0.0.1"], 2, None]
 
 
 def test_bad_sets_are_refused_with_the_reason_and_change_nothing(cell):
@@ -138,7 +147,7 @@ def test_bad_sets_are_refused_with_the_reason_and_change_nothing(cell):
     ok, why = p.set("no.such_parameter", 1)
     assert not ok and why, why
     assert p.get("mill5.pivot_length_mm", "node.workers", "node.surface_timeout_s", "node.verify") == [
-        250.0, 0, 7.5, False]
+        250.0, 2, 7.5, False]
     assert cell["proc"].alive()
 
 
@@ -214,3 +223,31 @@ def test_bad_ros_args_stop_the_node_with_the_reason(args, reason):
     assert r.returncode == 2, (r.returncode, r.stderr)
     assert reason in r.stderr, r.stderr
     assert "ready" not in r.stdout
+
+
+def test_diagnostics_report_the_node_once_a_second(cell):
+    """Runs after jobs were planned above: the counts are of this node's life."""
+    reader = cell["diagnostics"]
+    reader.take(N=100)
+    got, deadline = [], time.monotonic() + 5.0
+    while len(got) < 3 and time.monotonic() < deadline:
+        got += reader.take(N=10)
+        time.sleep(0.05)
+    assert len(got) >= 3, "%d DiagnosticArray in 5 s" % len(got)
+    stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in got]
+    gaps = [b - a for a, b in zip(stamps, stamps[1:])]
+    assert all(0.8 < g < 1.2 for g in gaps), gaps
+    m = got[-1]
+    assert len(m.status) == 1
+    s = m.status[0]
+    assert (s.level, s.name, s.hardware_id, s.message) == (msgs.DiagnosticStatus.OK, "tp: planner", FQ, "idle")
+    v = {kv.key: kv.value for kv in s.values}
+    assert v["queued jobs"] == "0" and v["busy workers"] == "0" and v["workers"] == "2"
+    # orphan (timed out, not planned) and on_default_qos (planned) ran before.
+    assert int(v["jobs planned"]) >= 1, v
+    assert 0.0 < float(v["last planning time s"]) < 60.0, v
+    assert v["recorder"] == "off"
+    # This test's peer: one job writer, one reader of the remapped job_status.
+    assert v["matched publishers /cell_b/job"] == "1", v
+    assert v["matched subscribers /cell_b/status"] == "1", v
+    assert v["matched subscribers /cell_b/toolpath"] == "0", v
