@@ -385,8 +385,15 @@ impl Drop for SmallDisk {
     }
 }
 
+/// The final-status log lines of the node (`job ID: SUCCEEDED 1.00 MESSAGE`).
+fn final_status_lines(log: &str) -> Vec<&str> {
+    log.lines()
+        .filter(|l| l.contains(": SUCCEEDED ") || l.contains(": FAILED: "))
+        .collect()
+}
+
 #[test]
-fn a_full_disk_fails_the_recording_and_the_node_exit_code() {
+fn a_full_disk_is_reported_in_the_job_status_and_recording_resumes() {
     let tmp = tempfile::tempdir().unwrap();
     // Room for the bag's header, schemas and metadata.yaml, not for a job.
     let disk = SmallDisk::mount(&tmp.path().join("small"), "32k");
@@ -399,8 +406,9 @@ fn a_full_disk_fails_the_recording_and_the_node_exit_code() {
         ),
     )
     .unwrap();
-    let d = domain(3);
-    let log = std::fs::File::create(tmp.path().join("node.log")).unwrap();
+    let d = domain(5);
+    let log_path = tmp.path().join("node.log");
+    let log = std::fs::File::create(&log_path).unwrap();
     let mut child = Command::new(BIN)
         .args(["node", "--config", config.to_str().unwrap()])
         .env("ROS_DOMAIN_ID", d.to_string())
@@ -416,9 +424,30 @@ fn a_full_disk_fails_the_recording_and_the_node_exit_code() {
     .unwrap();
     let process = NodeProcess { child };
     assert!(line.starts_with("ready"), "{line:?}");
-    // The job itself is planned and published as usual.
+    // The job itself is planned and published as usual; its status says
+    // that its messages could not be recorded.
     let node = Node { process, domain: d };
     assert_same(&node.replay_publish(&golden("iso_parametric_plane")));
+    let stderr = std::fs::read_to_string(&log_path).unwrap();
+    let finals = final_status_lines(&stderr);
+    assert_eq!(finals.len(), 1, "{stderr}");
+    assert!(
+        finals[0].contains("SUCCEEDED") && finals[0].contains("recording failed"),
+        "{}",
+        finals[0]
+    );
+    // Space is freed: the next job is recorded in a new storage file.
+    let out = Command::new("mount")
+        .args(["-o", "remount,size=16m"])
+        .arg(&disk.0)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_same(&node.replay_publish(&golden("mpec_die_saddle")));
     let mut process = node.process;
     let pid = nix::unistd::Pid::from_raw(process.child.id() as i32);
     nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).unwrap();
@@ -433,11 +462,32 @@ fn a_full_disk_fails_the_recording_and_the_node_exit_code() {
         );
         std::thread::sleep(Duration::from_millis(20));
     };
-    let stderr = std::fs::read_to_string(tmp.path().join("node.log")).unwrap();
+    let stderr = std::fs::read_to_string(&log_path).unwrap();
+    let finals = final_status_lines(&stderr);
+    assert_eq!(finals.len(), 2, "{stderr}");
+    assert!(!finals[1].contains("recording failed"), "{}", finals[1]);
+    // The exit code still says that recording failed.
     assert_eq!(status.code(), Some(2), "{stderr}");
     let last = stderr.lines().last().unwrap_or_default();
     assert!(
         last.contains("recording failed") && last.contains("write error") && last.contains("full"),
         "{last}"
     );
+    // The bag lists both storage files; the second holds the second job.
+    let dir = disk.0.join("full");
+    let meta = BagMetadata::read(&dir.join("metadata.yaml")).unwrap();
+    assert_eq!(
+        meta.relative_file_paths,
+        ["full_0.mcap", "full_1.mcap"],
+        "{meta:?}"
+    );
+    let recorded = runs::Recorded::read(&dir).unwrap();
+    let second = runs::Recorded::read(&golden("mpec_die_saddle")).unwrap();
+    for job in &second.jobs {
+        let id = &job.job_id;
+        assert!(
+            recorded.outputs(id).toolpath.is_some(),
+            "job {id} not recorded"
+        );
+    }
 }

@@ -253,12 +253,46 @@ fn runtime() -> Result<tokio::runtime::Runtime> {
 /// bursts of `n` small jobs each, every burst published back to back and
 /// waited for until every job has a final status or `timeout` passes.
 pub fn burst(domain: u16, n: usize, rounds: usize, timeout: Duration) -> Result<Vec<BurstOutcome>> {
+    burst_of(domain, &BurstLoad::small()?, n, rounds, timeout, |_, _| {})
+}
+
+/// Makes the job with a given id on the burst's surface.
+pub type JobMaker = Box<dyn Fn(&str, &NurbsSurface) -> Result<Job>>;
+
+/// What a burst sends: one surface, published once, and a job per id.
+pub struct BurstLoad {
+    pub surface: NurbsSurface,
+    pub job: JobMaker,
+}
+
+impl BurstLoad {
+    /// The benchmark's small job: iso_parametric on the plane sample.
+    pub fn small() -> Result<Self> {
+        Ok(BurstLoad {
+            surface: crate::samples::surfaces::plane(),
+            job: Box::new(|id, s| bench_job(id, s.clone())),
+        })
+    }
+}
+
+/// [`burst`] with the jobs of `load`, calling `after_round(round, outcome)`
+/// after each round (the soak test samples the node's memory there).
+pub fn burst_of(
+    domain: u16,
+    load: &BurstLoad,
+    n: usize,
+    rounds: usize,
+    timeout: Duration,
+    mut after_round: impl FnMut(usize, &BurstOutcome),
+) -> Result<Vec<BurstOutcome>> {
     runtime()?.block_on(async {
-        let c = Client::connect(domain).await?;
+        let c = Client::connect(domain, &load.surface).await?;
         let mut statuses = Box::pin(c.status_sub.async_stream());
         let mut out = Vec::with_capacity(rounds);
         for round in 0..rounds {
-            out.push(burst_round(&c.job_pub, &mut statuses, round, n, timeout).await?);
+            let outcome = burst_round(&c.job_pub, &mut statuses, load, round, n, timeout).await?;
+            after_round(round, &outcome);
+            out.push(outcome);
         }
         Ok(out)
     })
@@ -367,8 +401,8 @@ struct Client {
 }
 
 impl Client {
-    /// Connects to the node on `domain` and publishes the burst surface.
-    async fn connect(domain: u16) -> Result<Self> {
+    /// Connects to the node on `domain` and publishes `burst_surface`.
+    async fn connect(domain: u16, burst_surface: &NurbsSurface) -> Result<Self> {
         let mut ros = RosNode::new(
             "toolpath_bench_node",
             "/",
@@ -396,9 +430,12 @@ impl Client {
         .map_err(|_| {
             Error::planning("the node's job subscription was not discovered within 30 s")
         })?;
-        let small = crate::samples::surfaces::plane();
         surface_pub
-            .publish(convert::surface_to_msg(BURST_SURFACE, &small, header()))
+            .publish(convert::surface_to_msg(
+                BURST_SURFACE,
+                burst_surface,
+                header(),
+            ))
             .map_err(send_error)?;
         Ok(Self {
             ros,
@@ -416,6 +453,7 @@ impl Client {
 async fn burst_round<S, E>(
     job_pub: &Publisher<msgs::Job>,
     statuses: &mut S,
+    load: &BurstLoad,
     round: usize,
     n: usize,
     timeout: Duration,
@@ -425,11 +463,10 @@ where
 {
     let prefix = format!("burst{round}_");
     let ids: Vec<String> = (0..n).map(|k| format!("{prefix}{k:04}")).collect();
-    let small = crate::samples::surfaces::plane();
     let mut finals: BTreeMap<String, Vec<u8>> = BTreeMap::new();
     let t0 = Instant::now();
     for id in &ids {
-        let job = bench_job(id, small.clone())?;
+        let job = (load.job)(id, &load.surface)?;
         job_pub
             .publish(convert::job_to_msg(&job, BURST_SURFACE, header()))
             .map_err(send_error)?;
@@ -480,7 +517,8 @@ async fn client(
     (burst, bursts): (usize, usize),
     timings: mpsc::Receiver<(String, Timing)>,
 ) -> Result<Figures> {
-    let c = Client::connect(domain).await?;
+    let load = BurstLoad::small()?;
+    let c = Client::connect(domain, &load.surface).await?;
     let mut statuses = Box::pin(c.status_sub.async_stream());
     let mut toolpaths = Box::pin(c.toolpath_sub.async_stream());
     let job_timeout = Duration::from_secs(300);
@@ -559,7 +597,15 @@ async fn client(
     drop(toolpaths);
     let burst_timeout = Duration::from_secs(600);
     for round in 0..if burst > 0 { bursts } else { 0 } {
-        let b = burst_round(&c.job_pub, &mut statuses, round, burst, burst_timeout).await?;
+        let b = burst_round(
+            &c.job_pub,
+            &mut statuses,
+            &load,
+            round,
+            burst,
+            burst_timeout,
+        )
+        .await?;
         let complete = b.lost() == 0;
         figures.bursts.push(b);
         if !complete {

@@ -94,12 +94,14 @@ pub fn read_bag(path: &Path) -> Result<Bag> {
         messages: Vec::new(),
         truncated: None,
     };
+    // A damaged file does not hide the files after it: a recorder that hit
+    // a write error goes on in a new file (a split).
+    let mut notes = Vec::new();
     for file in &files {
         read_mcap(file, &mut bag)?;
-        if bag.truncated.is_some() {
-            break;
-        }
+        notes.extend(bag.truncated.take());
     }
+    bag.truncated = (!notes.is_empty()).then(|| notes.join("; "));
     Ok(bag)
 }
 

@@ -53,19 +53,63 @@ struct Channel {
     count: u64,
 }
 
-/// Writes one rosbag2 bag. Messages go into chunks; each finished chunk is
-/// written straight to the file (no user-space buffer), so it survives the
-/// process being killed. [`BagWriter::finish`] writes the summary and
-/// metadata.yaml.
-pub struct BagWriter {
-    directory: PathBuf,
-    file_name: String,
-    writer: Option<mcap::Writer<File>>,
-    channels: BTreeMap<String, Channel>,
-    sequence: u32,
+/// One storage file of the bag and what was written to it.
+struct StorageFile {
+    name: String,
     first_time: Option<u64>,
     last_time: u64,
     messages: u64,
+}
+
+impl StorageFile {
+    fn new(name: String) -> Self {
+        StorageFile {
+            name,
+            first_time: None,
+            last_time: 0,
+            messages: 0,
+        }
+    }
+
+    fn count(&mut self, log_time_ns: u64) {
+        self.first_time = Some(self.first_time.map_or(log_time_ns, |t| t.min(log_time_ns)));
+        self.last_time = self.last_time.max(log_time_ns);
+        self.messages += 1;
+    }
+
+    fn information(&self) -> FileInformation {
+        let start = self.first_time.unwrap_or(0);
+        FileInformation {
+            path: self.name.clone(),
+            starting_time: StartingTime {
+                nanoseconds_since_epoch: start,
+            },
+            duration: Nanoseconds {
+                nanoseconds: self.last_time.saturating_sub(start),
+            },
+            message_count: self.messages,
+        }
+    }
+}
+
+/// Writes one rosbag2 bag. Messages go into chunks; each finished chunk is
+/// written straight to the file (no user-space buffer), so it survives the
+/// process being killed. [`BagWriter::finish`] writes the summary and
+/// metadata.yaml. After a write error, [`BagWriter::split`] goes on in a new
+/// storage file `<name>_<k>.mcap`, as rosbag2 splits a bag.
+pub struct BagWriter {
+    directory: PathBuf,
+    /// The bag's name: storage files are `<stem>_<k>.mcap`.
+    stem: String,
+    options: WriterOptions,
+    /// Storage files before the current one.
+    closed: Vec<StorageFile>,
+    current: StorageFile,
+    /// The current file's writer; `None` once finished, or while a split
+    /// could not open the next file.
+    writer: Option<mcap::Writer<File>>,
+    channels: BTreeMap<String, Channel>,
+    sequence: u32,
 }
 
 fn mcap_error(path: &Path, e: mcap::McapError) -> Error {
@@ -122,41 +166,58 @@ impl BagWriter {
             .to_string();
         let file_name = file_name.map_or_else(|| format!("{name}_0.mcap"), str::to_string);
         let path = directory.join(&file_name);
-        let file = File::create(&path).map_err(|e| Error::io(path.display().to_string(), e))?;
-        let writer = mcap::WriteOptions::new()
-            .profile("ros2")
-            .library(concat!("toolpath_planner ", env!("CARGO_PKG_VERSION")))
-            .chunk_size(Some(options.chunk_size.max(1)))
-            .compression(if options.compress {
-                Some(mcap::Compression::Zstd)
-            } else {
-                None
-            })
-            .compression_level(options.compression_level)
-            .compression_threads(0)
-            .create(file)
-            .map_err(|e| mcap_error(&path, e))?;
+        let writer = open_mcap(&path, options)?;
         Ok(BagWriter {
             directory: directory.to_path_buf(),
-            file_name,
+            stem: name,
+            options,
+            closed: Vec::new(),
+            current: StorageFile::new(file_name),
             writer: Some(writer),
             channels: BTreeMap::new(),
             sequence: 0,
-            first_time: None,
-            last_time: 0,
-            messages: 0,
         })
     }
 
     fn path(&self) -> PathBuf {
-        self.directory.join(&self.file_name)
+        self.directory.join(&self.current.name)
     }
 
     fn writer(&mut self) -> Result<&mut mcap::Writer<File>> {
         let path = self.path();
-        self.writer
-            .as_mut()
-            .ok_or_else(|| Error::io(path.display().to_string(), "the bag is already finished"))
+        self.writer.as_mut().ok_or_else(|| {
+            Error::io(
+                path.display().to_string(),
+                "no storage file is open (the bag is finished, or a new file could not be opened)",
+            )
+        })
+    }
+
+    /// Closes the current storage file as well as it still can (after a write
+    /// error its last chunk may be lost) and goes on in the next one,
+    /// `<name>_<k>.mcap`, with every topic added again. When the next file
+    /// cannot be opened the error is returned and a later call tries again.
+    pub fn split(&mut self) -> Result<()> {
+        if let Some(mut old) = self.writer.take() {
+            // Best effort: the summary of a file that failed may not fit.
+            let _ = old.finish();
+            let k = self.closed.len() + 1;
+            let next = StorageFile::new(format!("{}_{k}.mcap", self.stem));
+            self.closed.push(std::mem::replace(&mut self.current, next));
+        }
+        let path = self.path();
+        let mut w = open_mcap(&path, self.options)?;
+        for channel in self.channels.values_mut() {
+            channel.id = add_channel(&mut w, &channel.spec).map_err(|e| mcap_error(&path, e))?;
+        }
+        w.flush().map_err(|e| mcap_error(&path, e))?;
+        self.writer = Some(w);
+        Ok(())
+    }
+
+    /// The name of the storage file being written.
+    pub fn current_file(&self) -> &str {
+        &self.current.name
     }
 
     /// Adds a topic (schema + channel). Adding the same spec twice is a no-op;
@@ -176,19 +237,7 @@ impl BagWriter {
             ));
         }
         let path = self.path();
-        let w = self.writer()?;
-        let schema = w
-            .add_schema(&spec.type_name, "ros2msg", spec.definition.as_bytes())
-            .map_err(|e| mcap_error(&path, e))?;
-        let mut meta = BTreeMap::new();
-        meta.insert(
-            "offered_qos_profiles".to_string(),
-            metadata::qos_yaml(spec.qos),
-        );
-        meta.insert("topic_type_hash".to_string(), String::new());
-        let id = w
-            .add_channel(schema, &spec.topic, "cdr", &meta)
-            .map_err(|e| mcap_error(&path, e))?;
+        let id = add_channel(self.writer()?, spec).map_err(|e| mcap_error(&path, e))?;
         self.channels.insert(
             spec.topic.clone(),
             Channel {
@@ -203,25 +252,25 @@ impl BagWriter {
     /// Writes a serialised message (CDR with its 4-byte header) on `topic`
     /// at `log_time_ns` (nanoseconds since the epoch).
     pub fn write_raw(&mut self, topic: &str, log_time_ns: u64, data: &[u8]) -> Result<()> {
-        let Some(channel) = self.channels.get_mut(topic) else {
+        let Some(channel) = self.channels.get(topic) else {
             return Err(Error::invalid(topic, "topic not added to the bag"));
         };
-        channel.count += 1;
-        let id = channel.id;
-        self.sequence = self.sequence.wrapping_add(1);
         let header = mcap::records::MessageHeader {
-            channel_id: id,
-            sequence: self.sequence,
+            channel_id: channel.id,
+            sequence: self.sequence.wrapping_add(1),
             log_time: log_time_ns,
             publish_time: log_time_ns,
         };
-        self.first_time = Some(self.first_time.map_or(log_time_ns, |t| t.min(log_time_ns)));
-        self.last_time = self.last_time.max(log_time_ns);
-        self.messages += 1;
         let path = self.path();
         self.writer()?
             .write_to_known_channel(&header, data)
-            .map_err(|e| mcap_error(&path, e))
+            .map_err(|e| mcap_error(&path, e))?;
+        self.sequence = header.sequence;
+        if let Some(channel) = self.channels.get_mut(topic) {
+            channel.count += 1;
+        }
+        self.current.count(log_time_ns);
+        Ok(())
     }
 
     /// Serialises `msg` to CDR and writes it.
@@ -246,18 +295,25 @@ impl BagWriter {
 
     /// The rosbag2 metadata of what has been written so far.
     pub fn metadata(&self) -> BagMetadata {
-        let start = self.first_time.unwrap_or(0);
-        let duration = self.last_time.saturating_sub(start);
+        // A current file that could not be opened is not listed.
+        let files: Vec<&StorageFile> = self
+            .closed
+            .iter()
+            .chain((self.writer.is_some() || self.current.messages > 0).then_some(&self.current))
+            .collect();
+        let start = files.iter().filter_map(|f| f.first_time).min().unwrap_or(0);
+        let end = files.iter().map(|f| f.last_time).max().unwrap_or(0);
+        let messages: u64 = files.iter().map(|f| f.messages).sum();
         BagMetadata {
             version: metadata::VERSION,
             storage_identifier: "mcap".into(),
             duration: Nanoseconds {
-                nanoseconds: duration,
+                nanoseconds: end.saturating_sub(start),
             },
             starting_time: StartingTime {
                 nanoseconds_since_epoch: start,
             },
-            message_count: self.messages,
+            message_count: messages,
             topics_with_message_count: self
                 .channels
                 .values()
@@ -274,17 +330,8 @@ impl BagWriter {
                 .collect(),
             compression_format: String::new(),
             compression_mode: String::new(),
-            relative_file_paths: vec![self.file_name.clone()],
-            files: vec![FileInformation {
-                path: self.file_name.clone(),
-                starting_time: StartingTime {
-                    nanoseconds_since_epoch: start,
-                },
-                duration: Nanoseconds {
-                    nanoseconds: duration,
-                },
-                message_count: self.messages,
-            }],
+            relative_file_paths: files.iter().map(|f| f.name.clone()).collect(),
+            files: files.iter().map(|f| f.information()).collect(),
             custom_data: BTreeMap::new(),
             ros_distro: "jazzy".into(),
         }
@@ -294,10 +341,14 @@ impl BagWriter {
     pub fn finish(mut self) -> Result<BagSummary> {
         let meta = self.metadata();
         let path = self.path();
-        let mut w = self
-            .writer
-            .take()
-            .ok_or_else(|| Error::io(path.display().to_string(), "the bag is already finished"))?;
+        let Some(mut w) = self.writer.take() else {
+            // The files written so far stay readable through metadata.yaml.
+            write_yaml_atomically(&self.directory, &meta)?;
+            return Err(Error::io(
+                path.display().to_string(),
+                "the storage file could not be opened after a write error",
+            ));
+        };
         let mut record = BTreeMap::new();
         // The record holds the bare bagfile information, as rosbag2 does.
         record.insert(
@@ -317,7 +368,7 @@ impl BagWriter {
         Ok(BagSummary {
             directory: self.directory.clone(),
             mcap: path,
-            messages: self.messages,
+            messages: meta.message_count,
             chunks: summary.chunk_indexes.len(),
             file_bytes,
             uncompressed_bytes: summary
@@ -327,6 +378,36 @@ impl BagWriter {
                 .sum(),
         })
     }
+}
+
+/// Creates the storage file at `path` and its MCAP writer.
+fn open_mcap(path: &Path, options: WriterOptions) -> Result<mcap::Writer<File>> {
+    let file = File::create(path).map_err(|e| Error::io(path.display().to_string(), e))?;
+    mcap::WriteOptions::new()
+        .profile("ros2")
+        .library(concat!("toolpath_planner ", env!("CARGO_PKG_VERSION")))
+        .chunk_size(Some(options.chunk_size.max(1)))
+        .compression(if options.compress {
+            Some(mcap::Compression::Zstd)
+        } else {
+            None
+        })
+        .compression_level(options.compression_level)
+        .compression_threads(0)
+        .create(file)
+        .map_err(|e| mcap_error(path, e))
+}
+
+/// Adds `spec`'s schema and channel (with rosbag2's channel metadata).
+fn add_channel(w: &mut mcap::Writer<File>, spec: &TopicSpec) -> mcap::McapResult<u16> {
+    let schema = w.add_schema(&spec.type_name, "ros2msg", spec.definition.as_bytes())?;
+    let mut meta = BTreeMap::new();
+    meta.insert(
+        "offered_qos_profiles".to_string(),
+        metadata::qos_yaml(spec.qos),
+    );
+    meta.insert("topic_type_hash".to_string(), String::new());
+    w.add_channel(schema, &spec.topic, "cdr", &meta)
 }
 
 /// Writes `directory/metadata.yaml` through a temporary file and a rename.

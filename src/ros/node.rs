@@ -387,7 +387,16 @@ impl Outputs {
             frame_id: self.frame_id.clone(),
         }
     }
-    fn status(&self, job_id: &str, state: u8, progress: f32, message: String) {
+    fn status(&self, job_id: &str, state: u8, progress: f32, mut message: String) {
+        if let (true, Some(r)) = (state >= msgs::JobStatus::SUCCEEDED, &self.recorder) {
+            if let Some(failed) = r.new_failures(RECORDING_SYNC_TIMEOUT) {
+                message = if message.is_empty() {
+                    failed
+                } else {
+                    format!("{message}; {failed}")
+                };
+            }
+        }
         match state {
             msgs::JobStatus::FAILED | msgs::JobStatus::REJECTED => {
                 log::warn!(
@@ -414,6 +423,10 @@ impl Outputs {
         }
     }
 }
+
+/// How long a job's final status waits for the recorder to write the job's
+/// messages, so that a write error is reported in that status.
+const RECORDING_SYNC_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(2);
 
 /// What the node knows about a shape id.
 #[derive(Clone)]
@@ -795,7 +808,27 @@ fn worker(shared: Arc<Shared>, outputs: Arc<Outputs>) {
             }
         };
         outputs.status(&job_id, state, progress, message);
-        shared.lock().active.remove(&job_id);
+        let idle = {
+            let mut st = shared.lock();
+            st.active.remove(&job_id);
+            st.queue.is_empty()
+        };
+        if idle {
+            release_free_memory();
+        }
+    }
+}
+
+/// Hands the allocator's free memory back to the system. glibc keeps what
+/// a job freed in its per-thread arenas, so without this the resident set
+/// of a node serving a long job stream creeps up (docs/results.md, "Node
+/// memory"); trimming once the queue is empty costs nothing during a burst.
+fn release_free_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: malloc_trim only walks and shrinks the allocator's own free
+    // lists; it takes no pointers from us and is thread-safe in glibc.
+    unsafe {
+        libc::malloc_trim(0);
     }
 }
 
@@ -1133,12 +1166,12 @@ fn shut_down(
         Some(Err(e)) => Some(e.to_string()),
         None => None,
     };
-    let (errors, first) = r.failures();
-    if errors == 0 && finished.is_none() {
+    let failures = r.failures();
+    if failures.errors == 0 && finished.is_none() {
         return Ok(());
     }
-    let mut why = format!("recording failed: {errors} write error(s)");
-    if let Some(first) = first {
+    let mut why = format!("recording failed: {} write error(s)", failures.errors);
+    if let Some(first) = failures.first {
         why += &format!(", the first: {first}");
     }
     if let Some(finished) = finished {

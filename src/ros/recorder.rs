@@ -10,6 +10,12 @@
 //! (atomically) with each such chunk, and `toolpath bag reindex` adds the
 //! summary that the standard readers need. On a normal stop (SIGINT/SIGTERM)
 //! the summary and the final metadata.yaml are written.
+//!
+//! A write error (a full disk) is counted, stops writing into that storage
+//! file, and is reported in the final status of the job it hit; with the
+//! next job the recorder goes on in a new storage file (a split), so freeing
+//! space lets recording resume without a restart. The node's exit code still
+//! says that recording failed.
 
 use super::config::RecordingSettings;
 use crate::error::{Error, Result};
@@ -30,14 +36,32 @@ enum Entry {
     },
     /// A job is finished: close the chunk once nothing else is waiting.
     JobDone,
+    /// Write what is queued now and answer (a job's final status waits for
+    /// it, to report a write error that hit the job's messages).
+    Sync(mpsc::Sender<()>),
+}
+
+/// Write errors of a recording.
+#[derive(Clone, Debug, Default)]
+pub struct Failures {
+    /// Write errors so far.
+    pub errors: u64,
+    /// The first and the latest of them.
+    pub first: Option<String>,
+    pub last: Option<String>,
+    /// Messages not recorded because their storage file had failed.
+    pub dropped: u64,
+    /// The storage file failed and no new one is open yet.
+    pub broken: bool,
+    /// `errors` when a job's status last reported them.
+    reported: u64,
 }
 
 /// The recorder of one node run.
 pub struct Recorder {
     namespace: String,
     directory: PathBuf,
-    /// Write errors so far and the first of them.
-    failures: Arc<Mutex<(u64, Option<String>)>>,
+    failures: Arc<Mutex<Failures>>,
     tx: Mutex<Option<Sender<Entry>>>,
     thread: Mutex<Option<JoinHandle<Result<BagSummary>>>>,
     /// Messages are dropped while paused (the `recording.enabled` parameter).
@@ -102,7 +126,7 @@ impl Recorder {
         writer.flush()?;
         writer.write_metadata_yaml()?;
         let (tx, rx) = mpsc::channel();
-        let failures = Arc::new(Mutex::new((0, None)));
+        let failures = Arc::new(Mutex::new(Failures::default()));
         let thread = std::thread::Builder::new()
             .name("recorder".into())
             .spawn({
@@ -161,9 +185,29 @@ impl Recorder {
         self.send(Entry::JobDone);
     }
 
-    /// The number of write errors so far and the first of them.
-    pub fn failures(&self) -> (u64, Option<String>) {
+    /// The write errors so far.
+    pub fn failures(&self) -> Failures {
         lock(&self.failures).clone()
+    }
+
+    /// Waits (up to `timeout`) until what is queued is written, then returns
+    /// the write errors since the last call, as a sentence for a job status.
+    pub fn new_failures(&self, timeout: std::time::Duration) -> Option<String> {
+        let (tx, rx) = mpsc::channel();
+        self.send(Entry::Sync(tx));
+        // A writer that does not answer in time reports with a later job.
+        let _ = rx.recv_timeout(timeout);
+        let mut f = lock(&self.failures);
+        if f.errors == f.reported {
+            return None;
+        }
+        let new = f.errors - f.reported;
+        f.reported = f.errors;
+        Some(format!(
+            "recording failed: {new} write error(s), the last: {}; this job's messages may be \
+             missing from the bag (recording goes on in a new file with the next job)",
+            f.last.as_deref().unwrap_or("unknown")
+        ))
     }
 
     /// Writes what is queued, the summary and metadata.yaml. Idempotent.
@@ -185,27 +229,31 @@ impl Drop for Recorder {
 }
 
 /// Counts a write error and logs it.
-fn failed(failures: &Mutex<(u64, Option<String>)>, what: String) {
+fn failed(failures: &Mutex<Failures>, what: String) {
     log::error!("{what}");
     let mut f = lock(failures);
-    f.0 += 1;
-    f.1.get_or_insert(what);
+    f.errors += 1;
+    f.first.get_or_insert_with(|| what.clone());
+    f.last = Some(what);
+    f.broken = true;
 }
 
+/// The writer thread: writes entries in order. After a write error it drops
+/// the rest of the job's messages; the first message after the job's end
+/// tries a new storage file.
 fn write_loop(
     mut writer: BagWriter,
     rx: Receiver<Entry>,
-    failures: &Mutex<(u64, Option<String>)>,
+    failures: &Mutex<Failures>,
 ) -> Result<BagSummary> {
     let mut flush_due = false;
+    let mut retry_due = false;
     loop {
         let entry = if flush_due {
             match rx.try_recv() {
                 Ok(e) => Some(e),
                 Err(TryRecvError::Empty) => {
-                    if let Err(e) = writer.flush().and_then(|()| writer.write_metadata_yaml()) {
-                        failed(failures, format!("recording: {e}"));
-                    }
+                    flush(&mut writer, failures);
                     flush_due = false;
                     continue;
                 }
@@ -216,12 +264,26 @@ fn write_loop(
         };
         match entry {
             None => break,
-            Some(Entry::JobDone) => flush_due = true,
+            Some(Entry::JobDone) => {
+                retry_due = lock(failures).broken;
+                flush_due = true;
+            }
+            Some(Entry::Sync(done)) => {
+                flush(&mut writer, failures);
+                let _ = done.send(());
+            }
             Some(Entry::Message {
                 topic,
                 time_ns,
                 encode,
             }) => {
+                if lock(failures).broken && std::mem::take(&mut retry_due) {
+                    resume(&mut writer, failures);
+                }
+                if lock(failures).broken {
+                    lock(failures).dropped += 1;
+                    continue;
+                }
                 let written = encode().and_then(|data| writer.write_raw(&topic, time_ns, &data));
                 if let Err(e) = written {
                     failed(failures, format!("recording {topic}: {e}"));
@@ -230,6 +292,32 @@ fn write_loop(
         }
     }
     writer.finish()
+}
+
+/// Writes the current chunk and metadata.yaml (unless the file has failed).
+fn flush(writer: &mut BagWriter, failures: &Mutex<Failures>) {
+    if lock(failures).broken {
+        return;
+    }
+    if let Err(e) = writer.flush().and_then(|()| writer.write_metadata_yaml()) {
+        failed(failures, format!("recording: {e}"));
+    }
+}
+
+/// Goes on in a new storage file after a write error.
+fn resume(writer: &mut BagWriter, failures: &Mutex<Failures>) {
+    match writer.split().and_then(|()| writer.write_metadata_yaml()) {
+        Ok(()) => {
+            let mut f = lock(failures);
+            f.broken = false;
+            log::warn!(
+                "recording goes on in {} ({} message(s) were not recorded)",
+                writer.current_file(),
+                f.dropped
+            );
+        }
+        Err(e) => log::error!("recording: cannot go on in a new file yet: {e}"),
+    }
 }
 
 #[cfg(test)]

@@ -1665,12 +1665,16 @@ impl Writer {
     let first_keeper = if !self.like_stateless {
       // Regular stateful writer behavior
       // All readers have acked up to this point (SequenceNumber)
+      // toolpath_planner patch: with no matched reader nothing is owed to
+      // anyone, so everything counts as acknowledged and History depth
+      // bounds the buffer (upstream used zero here, which kept every sample
+      // of a reader-less writer up to the 8192-sample backstop).
       let acked_by_all_readers = self
         .readers
         .values()
         .map(RtpsReaderProxy::acked_up_to_before)
         .min()
-        .unwrap_or_else(SequenceNumber::zero);
+        .unwrap_or_else(|| self.send_buffer.last_change_sequence_number() + SequenceNumber::from(1));
       // If all readers have acked all up to before 5, and depth is 5, we need
       // to keep samples 0..4, i.e. from acked_up_to_before - depth .
       let depth_keeper = if let Some(depth) = depth {

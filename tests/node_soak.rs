@@ -1,0 +1,115 @@
+//! The node's memory levels off over long job streams: 2000 small jobs and
+//! 100 wing_mould jobs through one `toolpath node`, the resident set size
+//! sampled after each round of a burst; the second half of each stream must
+//! not raise the peak by more than a small margin.
+//!
+//! Bounded in count and time (a few minutes in all); the node runs on
+//! loopback, on a domain of its own, and is killed by pid.
+
+#[path = "common/node_process.rs"]
+mod node_process;
+
+use node_process::NodeProcess;
+use std::time::Duration;
+use toolpath_planner::cli::bench_node::{self, BurstLoad};
+use toolpath_planner::formats::{FeedDirection, Job, JobFile, Machine, Shape, Strategy};
+use toolpath_planner::samples::surfaces;
+use toolpath_planner::tools::Tool;
+
+fn domain() -> u16 {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    (1 + (nanos ^ std::process::id().wrapping_mul(7919)) % 230) as u16
+}
+
+/// Resident set size of `pid`, MiB (from /proc).
+fn rss_mib(pid: u32) -> f64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    let kib: f64 = status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .expect("VmRSS in /proc/PID/status");
+    kib / 1024.0
+}
+
+/// iso_parametric on wing_mould at h 0.05 mm: a large toolpath and trajectory.
+fn wing_mould_load() -> BurstLoad {
+    BurstLoad {
+        surface: surfaces::wing_mould(),
+        job: Box::new(|id, s| {
+            let file = JobFile {
+                job_id: id.into(),
+                surface: serde_json::Value::Null,
+                strategy: Strategy::IsoParametric,
+                tool: Some(Tool::FlatEnd {
+                    radius: 2.5,
+                    length: None,
+                }),
+                machine: Some(Machine::Mill5),
+                scallop: Some(0.05),
+                tolerance: None,
+                lead_angle_deg: Some(5.0),
+                side_tilt_deg: None,
+                feed_direction: Some(FeedDirection::U),
+                feed_rate: Some(2000.0),
+                tool_catalogue: None,
+                section_normal: None,
+                simulation_resolution: None,
+                grinding: None,
+            };
+            Job::new(file, Shape::Surface(s.clone()))
+        }),
+    }
+}
+
+/// Runs `rounds` bursts of `n` jobs of `load` and returns the RSS after each.
+fn stream(node: &NodeProcess, d: u16, load: &BurstLoad, n: usize, rounds: usize) -> Vec<f64> {
+    let pid = node.child.id();
+    let mut rss = Vec::new();
+    let outcomes = bench_node::burst_of(d, load, n, rounds, Duration::from_secs(600), |_, _| {
+        rss.push(rss_mib(pid))
+    })
+    .unwrap();
+    for o in &outcomes {
+        assert_eq!(o.lost(), 0, "jobs lost: {o:?}");
+        assert_eq!(o.states.get("SUCCEEDED"), Some(&n), "{o:?}");
+    }
+    rss
+}
+
+/// The largest RSS over the second half of the stream is at most `margin_mib`
+/// above the largest over the first half. Single samples vary by tens of MiB
+/// with what the allocator could hand back when the queue emptied, so the
+/// halves are compared by their peaks; a leak of 20 KiB per small job or
+/// 0.6 MiB per wing_mould job already fails.
+fn assert_levels_off(what: &str, rss: &[f64], margin_mib: f64) {
+    let peak = |s: &[f64]| s.iter().copied().fold(0.0, f64::max);
+    let (first, second) = rss.split_at(rss.len() / 2);
+    eprintln!("{what}: RSS after each round, MiB: {rss:.1?}");
+    assert!(
+        peak(second) <= peak(first) + margin_mib,
+        "{what}: the RSS peak grew from {:.1} MiB in the first half to {:.1} MiB in the \
+         second (more than {margin_mib} MiB): {rss:.1?}",
+        peak(first),
+        peak(second)
+    );
+}
+
+#[test]
+fn memory_levels_off_over_small_and_large_job_streams() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = tmp.path().join("soak.yaml");
+    std::fs::write(&config, bench_node::NODE_CONFIG).unwrap();
+    let d = domain();
+    let (node, line) = NodeProcess::spawn(&config, d);
+    assert!(line.starts_with("ready"), "node did not start: {line:?}");
+
+    let small = stream(&node, d, &BurstLoad::small().unwrap(), 250, 8);
+    assert_levels_off("2000 small jobs", &small, 20.0);
+
+    let large = stream(&node, d, &wing_mould_load(), 10, 10);
+    assert_levels_off("100 wing_mould jobs", &large, 30.0);
+}
