@@ -69,11 +69,13 @@ impl RecorderState {
         let Some(r) = recorder else {
             return Self::Off;
         };
-        match r.failures() {
-            (n, Some(why)) if n > 0 => Self::Failing(n, why),
-            (n, None) if n > 0 => Self::Failing(n, String::new()),
-            _ if r.paused() => Self::Paused,
-            _ => Self::Recording,
+        let f = r.failures();
+        if f.errors > 0 || f.broken {
+            Self::Failing(f.errors + f.dropped, f.last.unwrap_or_default())
+        } else if r.paused() {
+            Self::Paused
+        } else {
+            Self::Recording
         }
     }
 }
