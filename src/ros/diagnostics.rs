@@ -1,8 +1,9 @@
 //! The node's health on `/diagnostics` (diagnostic_msgs/DiagnosticArray)
 //! once a second, laid out as ROS's `diagnostic_updater` publishes it: one
 //! status named `<node name>: planner` whose values are the queue, the
-//! workers, the last planning time, the recorder and the peers matched on
-//! each of the node's topics. `rqt_robot_monitor` and the diagnostic
+//! workers, the last planning time, the recorder and the peers discovered on
+//! each of the node's topics (discovered, not matched: a peer with an
+//! incompatible QoS is counted too). `rqt_robot_monitor` and the diagnostic
 //! aggregator read it as any other node's.
 
 use super::recorder::Recorder;
@@ -90,7 +91,7 @@ pub struct Snapshot {
     pub last_planning: Option<Duration>,
     pub recorder: RecorderState,
     /// (fully qualified topic, "publishers" or "subscribers", how many other
-    /// endpoints are matched).
+    /// endpoints discovery knows on it).
     pub peers: Vec<(String, &'static str, usize)>,
 }
 
@@ -146,7 +147,7 @@ pub fn status(name: &str, fully_qualified: &str, s: &Snapshot) -> DiagnosticStat
         kv("recorder", recorder),
     ];
     for (topic, kind, n) in &s.peers {
-        values.push(kv(&format!("matched {kind} {topic}"), n.to_string()));
+        values.push(kv(&format!("discovered {kind} {topic}"), n.to_string()));
     }
     DiagnosticStatus {
         level,
@@ -248,7 +249,7 @@ mod tests {
                 ("jobs planned", "7"),
                 ("last planning time s", "1.234"),
                 ("recorder", "recording"),
-                ("matched publishers /cell_b/job", "1"),
+                ("discovered publishers /cell_b/job", "1"),
             ]
         );
     }

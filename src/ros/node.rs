@@ -1007,7 +1007,7 @@ fn announce_ready(ros: &RosNode, config: &NodeConfig, domain: u16, outputs: &Out
 }
 
 /// The `/diagnostics` publishing loop of the node (see `diagnostics`): the
-/// queue, the workers, the recorder and the peers matched on each topic.
+/// queue, the workers, the recorder and the peers discovered on each topic.
 fn diagnostics<'a>(
     ros: &'a RosNode,
     publisher: Publisher<crate::messages::diagnostics::DiagnosticArray>,

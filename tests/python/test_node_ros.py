@@ -248,6 +248,6 @@ def test_diagnostics_report_the_node_once_a_second(cell):
     assert 0.0 < float(v["last planning time s"]) < 60.0, v
     assert v["recorder"] == "off"
     # This test's peer: one job writer, one reader of the remapped job_status.
-    assert v["matched publishers /cell_b/job"] == "1", v
-    assert v["matched subscribers /cell_b/status"] == "1", v
-    assert v["matched subscribers /cell_b/toolpath"] == "0", v
+    assert v["discovered publishers /cell_b/job"] == "1", v
+    assert v["discovered subscribers /cell_b/status"] == "1", v
+    assert v["discovered subscribers /cell_b/toolpath"] == "0", v
