@@ -60,38 +60,43 @@ def cell(tmp_path_factory):
             "-r", "job_status:=status",
         ]
     )
-    peer = Node("ros_conventions_test", namespace=NS, domain_id=proc.domain_id)
-    from cyclonedds.core import Policy, Qos
-    from cyclonedds.sub import DataReader
-    from cyclonedds.topic import Topic
-    from cyclonedds.util import duration
+    # Stopped however the setup ends: a failed wait must not leave the node running.
+    peer = None
+    try:
+        peer = Node("ros_conventions_test", namespace=NS, domain_id=proc.domain_id)
+        from cyclonedds.core import Policy, Qos
+        from cyclonedds.sub import DataReader
+        from cyclonedds.topic import Topic
+        from cyclonedds.util import duration
 
-    # /diagnostics with ROS's default subscription QoS (reliable, volatile, keep last 10).
-    diagnostics = DataReader(
-        peer._dp,
-        Topic(peer._dp, "rt/diagnostics", msgs.DiagnosticArray),
-        qos=Qos(Policy.Reliability.Reliable(duration(seconds=5)), Policy.Durability.Volatile,
-                Policy.History.KeepLast(10)),
-    )
-    # /rosout as `ros2 topic echo /rosout` reads it (reliable, transient-local).
-    rosout = DataReader(
-        peer._dp,
-        Topic(peer._dp, "rt/rosout", rcl.Log),
-        qos=Qos(Policy.Reliability.Reliable(duration(seconds=5)), Policy.Durability.TransientLocal,
-                Policy.History.KeepLast(1000)),
-    )
-    params_client = rcl.ParameterClient(peer._dp, FQ)
-    params_client.wait()
-    statuses = {}
-    peer.create_subscription(msgs.JobStatus, "status", lambda m: statuses.setdefault(m.job_id, []).append(m),
-                             QOS_READ_ALL)
-    job_pub = peer.create_publisher(msgs.Job, "job", QoSProfile(keep_all=True))
-    assert peer.spin_until(lambda: job_pub.get_subscription_count() > 0, 20), "job reader not matched"
-    yield {"proc": proc, "peer": peer, "params": params_client, "rosout": rosout, "statuses": statuses,
-           "job_pub": job_pub, "logs": [],
-           "diagnostics": diagnostics}
-    peer.destroy_node()
-    proc.stop()
+        # /diagnostics with ROS's default subscription QoS (reliable, volatile, keep last 10).
+        diagnostics = DataReader(
+            peer._dp,
+            Topic(peer._dp, "rt/diagnostics", msgs.DiagnosticArray),
+            qos=Qos(Policy.Reliability.Reliable(duration(seconds=5)), Policy.Durability.Volatile,
+                    Policy.History.KeepLast(10)),
+        )
+        # /rosout as `ros2 topic echo /rosout` reads it (reliable, transient-local).
+        rosout = DataReader(
+            peer._dp,
+            Topic(peer._dp, "rt/rosout", rcl.Log),
+            qos=Qos(Policy.Reliability.Reliable(duration(seconds=5)), Policy.Durability.TransientLocal,
+                    Policy.History.KeepLast(1000)),
+        )
+        params_client = rcl.ParameterClient(peer._dp, FQ)
+        params_client.wait()
+        statuses = {}
+        peer.create_subscription(msgs.JobStatus, "status", lambda m: statuses.setdefault(m.job_id, []).append(m),
+                                 QOS_READ_ALL)
+        job_pub = peer.create_publisher(msgs.Job, "job", QoSProfile(keep_all=True))
+        assert peer.spin_until(lambda: job_pub.get_subscription_count() > 0, 20), "job reader not matched"
+        yield {"proc": proc, "peer": peer, "params": params_client, "rosout": rosout, "statuses": statuses,
+               "job_pub": job_pub, "logs": [],
+               "diagnostics": diagnostics}
+    finally:
+        if peer is not None:
+            peer.destroy_node()
+        proc.stop()
 
 
 def wait_final(cell, job_id, timeout=60.0):
