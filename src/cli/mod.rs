@@ -153,7 +153,9 @@ pub enum Command {
         #[arg(long, default_value_t = 5)]
         bursts: usize,
     },
-    /// Run the ROS 2 node.
+    /// Run the ROS 2 node. ROS arguments follow `--ros-args` (-p NAME:=VALUE,
+    /// --params-file FILE, -r FROM:=TO incl. __ns and __node, --log-level):
+    /// see docs/node.md.
     Node {
         /// Cell configuration (launch_configs/*.yaml).
         #[arg(long)]
@@ -272,7 +274,22 @@ pub fn run_guarded() -> i32 {
 
 /// Runs the CLI and returns the process exit code.
 pub fn run() -> i32 {
-    let cli = Cli::parse();
+    // The `--ros-args` block is ROS's, not clap's (see `ros::ros_args`).
+    let (own, ros) = match crate::ros::ros_args::split(std::env::args_os()) {
+        Ok(split) => split,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return e.exit_code();
+        }
+    };
+    let cli = Cli::parse_from(own);
+    if ros.is_some() && !matches!(cli.command, Command::Node { .. }) {
+        eprintln!(
+            "error: {} is only accepted by `toolpath node`",
+            crate::ros::ros_args::ROS_ARGS
+        );
+        return 2;
+    }
     let outcome: Result<(), Error> = match cli.command {
         Command::Plan {
             job,
@@ -326,7 +343,7 @@ pub fn run() -> i32 {
             _ => compare_suite::run(only.as_deref()),
         },
         Command::Simulate { job, result, map } => simulate::run(&job, &result, map.as_deref()),
-        Command::Node { config } => node::run(config.as_deref()),
+        Command::Node { config } => node::run(config.as_deref(), ros.as_deref()),
         Command::BenchNode {
             jobs,
             points,

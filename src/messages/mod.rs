@@ -9,6 +9,7 @@
 //! a live node carry the same bytes for the same job.
 
 pub mod convert;
+pub mod diagnostics;
 pub mod follow_joint_trajectory;
 mod msgs;
 pub mod outputs;

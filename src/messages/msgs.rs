@@ -61,6 +61,18 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
         include_str!("defs/control_msgs/JointTolerance.msg"),
     ),
     (
+        "diagnostic_msgs/DiagnosticArray",
+        include_str!("defs/diagnostic_msgs/DiagnosticArray.msg"),
+    ),
+    (
+        "diagnostic_msgs/DiagnosticStatus",
+        include_str!("defs/diagnostic_msgs/DiagnosticStatus.msg"),
+    ),
+    (
+        "diagnostic_msgs/KeyValue",
+        include_str!("defs/diagnostic_msgs/KeyValue.msg"),
+    ),
+    (
         "geometry_msgs/Point",
         include_str!("defs/geometry_msgs/Point.msg"),
     ),
@@ -752,6 +764,10 @@ mod tests {
         check::<fjt::StringMsg>();
         check::<MeshFile>();
         check::<UVCoordinate>();
+        use super::super::diagnostics as diag;
+        check::<diag::DiagnosticArray>();
+        check::<diag::DiagnosticStatus>();
+        check::<diag::KeyValue>();
     }
 
     #[test]

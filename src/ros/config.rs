@@ -343,7 +343,16 @@ mod tests {
         let mut n = 0;
         for entry in std::fs::read_dir(&dir).unwrap() {
             let p = entry.unwrap().path();
-            if p.extension().is_some_and(|e| e == "yaml") {
+            let name = p.file_name().unwrap().to_string_lossy().to_string();
+            if name.ends_with("_params.yaml") {
+                // A ROS 2 parameter file, applied onto the defaults.
+                let args = crate::ros::ros_args::RosArgs {
+                    params_files: vec![p.clone()],
+                    ..Default::default()
+                };
+                crate::ros::parameters::resolve(&NodeConfig::default(), &args)
+                    .unwrap_or_else(|e| panic!("{e}"));
+            } else if name.ends_with(".yaml") {
                 NodeConfig::read(&p).unwrap_or_else(|e| panic!("{e}"));
                 n += 1;
             }

@@ -12,7 +12,10 @@ use super::config::{IpcSettings, NodeConfig};
 use super::execute::{self, Cancels, Execution, Report};
 use super::joint_states::JointStates;
 use super::plan_action::GoalLink;
+use super::parameters::{self, LiveConfig, Resolved};
 use super::recorder::Recorder;
+use super::ros_args::Remaps;
+use super::shape_readers::ShapeReaders;
 use crate::error::{Error, Result};
 use crate::formats::job::DEFAULT_FEED_RATE;
 use crate::formats::{Machine, PlanResult, Shape};
@@ -75,12 +78,19 @@ pub mod qos {
             depth: JOB_READER_DEPTH,
         })
     }
-    /// The node's readers of `surface` and `pocket`: the documented keep-last
-    /// 100 (not KEEP_ALL, which RustDDS caps at 64, see [`JOB_READER_DEPTH`]);
-    /// a transient-local writer of depth 100 offers no more to a late joiner,
+    /// The node's readers of `surface` and `pocket`: keep-last 100 (not
+    /// KEEP_ALL, which RustDDS caps at 64, see [`JOB_READER_DEPTH`]); a
+    /// transient-local writer of depth 100 offers no more to a late joiner,
     /// and read samples stay in the cache up to the depth, which for large
-    /// surfaces is memory.
+    /// surfaces is memory. This one is volatile: it matches ROS's default
+    /// publisher (reliable, volatile, keep-last 10) and transient-local ones.
     pub fn shapes_reader() -> QosProfile {
+        reliable(Durability::Volatile, History::KeepLast { depth: 100 })
+    }
+    /// The second reader of `surface` and `pocket`: transient-local, so a
+    /// transient-local publisher that published before the node started
+    /// hands it its history (see `shape_readers`).
+    pub fn shapes_history_reader() -> QosProfile {
         shapes()
     }
     /// A client's reader of `job_status` that must see every status of a
@@ -171,6 +181,8 @@ pub fn check_on_this_host(ips: &[std::net::IpAddr]) -> Result<()> {
 pub struct RosNode {
     pub node: Node,
     pub namespace: String,
+    /// Topic remapping rules (`--ros-args -r from:=to`).
+    remaps: Remaps,
     _context: Context,
 }
 
@@ -180,6 +192,19 @@ impl RosNode {
         namespace: &str,
         domain_id: u16,
         interfaces: Option<Vec<std::net::IpAddr>>,
+    ) -> Result<Self> {
+        let options = NodeOptions::new().enable_rosout(false);
+        Self::with_options(name, namespace, domain_id, interfaces, options, &[])
+    }
+
+    /// A node with `options` (parameters, rosout) and topic `remaps`.
+    pub fn with_options(
+        name: &str,
+        namespace: &str,
+        domain_id: u16,
+        interfaces: Option<Vec<std::net::IpAddr>>,
+        options: NodeOptions,
+        remaps: &[(String, String)],
     ) -> Result<Self> {
         let mut builder = rustdds::DomainParticipantBuilder::new(domain_id);
         if let Some(ips) = interfaces {
@@ -194,7 +219,7 @@ impl RosNode {
         let node_name = NodeName::new(namespace, name)
             .map_err(|e| Error::invalid("node.name", format!("\"{namespace}\" \"{name}\": {e}")))?;
         let mut node = context
-            .new_node(node_name, NodeOptions::new().enable_rosout(false))
+            .new_node(node_name, options)
             .map_err(|e| ros_err("cannot create the node", e))?;
         let spinner = node
             .spinner()
@@ -207,12 +232,28 @@ impl RosNode {
         Ok(Self {
             node,
             namespace: namespace.to_string(),
+            remaps: Remaps::new(remaps, namespace, name),
             _context: context,
         })
     }
 
+    /// The fully qualified name of the node's topic `relative`, after remapping.
+    pub fn resolved(&self, relative: &str) -> String {
+        self.remaps
+            .apply(&topics::absolute(&self.namespace, relative))
+    }
+
     fn topic<M: RosMessage>(&mut self, relative: &str, qos: &QosProfile) -> Result<rustdds::Topic> {
         let name = topic_name(&self.namespace, relative)?;
+        let name = match self.remaps.apply(&name.to_string()) {
+            same if same == name.to_string() => name,
+            remapped => Name::parse(&remapped).map_err(|e| {
+                Error::invalid(
+                    "--ros-args -r",
+                    format!("topic {relative} remapped to \"{remapped}\", which is not a valid name: {e}"),
+                )
+            })?,
+        };
         self.node
             .create_topic(&name, MessageTypeName::new(M::PACKAGE, M::NAME), qos)
             .map_err(|e| ros_err(&format!("cannot create topic {relative}"), e))
@@ -488,6 +529,10 @@ struct Shared {
     wake: Condvar,
     /// The latest `/joint_states`: where each trajectory starts.
     joints: JointStates,
+    /// The settings each job is planned with (parameters change them).
+    live: Arc<LiveConfig>,
+    /// Busy workers and planning times, for `/diagnostics`.
+    activity: super::diagnostics::Activity,
 }
 
 impl Shared {
@@ -763,14 +808,17 @@ fn execute_job(
         .map_err(|_| Error::planning("the executor has stopped"))?
 }
 
-fn worker(
-    shared: Arc<Shared>,
-    outputs: Arc<Outputs>,
-    machines: Machines,
-    options: RunOptions,
-    timeout_s: f64,
-) {
+fn worker(shared: Arc<Shared>, outputs: Arc<Outputs>) {
     while let Some(work) = next_work(&shared) {
+        let _busy = shared.activity.working();
+        let config = shared.live.get();
+        let (machines, timeout_s) = (config.machines(), config.node.surface_timeout_s);
+        let options = RunOptions {
+            skip_verify: !config.node.verify,
+            no_timing: false,
+            time_limit: config.node.time_limit(),
+            budget: config.node.budget,
+        };
         let goal = match &work {
             Work::Reject(p, _) | Work::TimedOut(p) | Work::Plan(p, _) => p.goal.clone(),
         };
@@ -784,9 +832,11 @@ fn worker(
                 (p.msg.job_id, msgs::JobStatus::FAILED, 0.0, why)
             }
             Work::Plan(p, shape) => {
+                let started = Instant::now();
                 let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                     plan_and_publish(&p, &shape, &outputs, &machines, &shared.joints, options)
                 }));
+                shared.activity.planned(started.elapsed());
                 let (state, progress, message) = match run {
                     Ok(Ok(summary)) => (msgs::JobStatus::SUCCEEDED, 1.0, summary),
                     Ok(Err(e)) => (final_state(&e), 0.0, e.to_string()),
@@ -922,8 +972,8 @@ fn receive_shape(shared: &Shared, id: String, shape: Result<Shape>) {
 
 /// The node's readers of its inputs.
 struct Inputs {
-    surfaces: Subscription<msgs::Surface>,
-    pockets: Subscription<msgs::Pocket>,
+    surfaces: ShapeReaders<msgs::Surface>,
+    pockets: ShapeReaders<msgs::Pocket>,
     jobs: Subscription<msgs::Job>,
     joint_states: Subscription<msgs::JointState>,
     cancels: Subscription<msgs::follow_joint_trajectory::StringMsg>,
@@ -997,20 +1047,12 @@ fn start_workers(
     shared: &Arc<Shared>,
     outputs: &Arc<Outputs>,
 ) -> Result<Vec<std::thread::JoinHandle<()>>> {
-    let settings = &config.node;
-    let options = RunOptions {
-        skip_verify: !settings.verify,
-        no_timing: false,
-        time_limit: settings.time_limit(),
-        budget: settings.budget,
-    };
     let mut handles = Vec::new();
-    for k in 0..settings.worker_count() {
-        let (s, o, m) = (Arc::clone(shared), Arc::clone(outputs), config.machines());
-        let timeout_s = settings.surface_timeout_s;
+    for k in 0..config.node.worker_count() {
+        let (s, o) = (Arc::clone(shared), Arc::clone(outputs));
         let h = std::thread::Builder::new()
             .name(format!("planner-{k}"))
-            .spawn(move || worker(s, o, m, options, timeout_s))
+            .spawn(move || worker(s, o))
             .map_err(|e| Error::planning(format!("cannot start a planning thread: {e}")))?;
         handles.push(h);
     }
@@ -1036,15 +1078,64 @@ fn announce_ready(ros: &RosNode, config: &NodeConfig, domain: u16, outputs: &Out
     let _ = std::io::stdout().flush();
 }
 
+/// The `/diagnostics` publishing loop of the node (see `diagnostics`): the
+/// queue, the workers, the recorder and the peers discovered on each topic.
+fn diagnostics<'a>(
+    ros: &'a RosNode,
+    publisher: Publisher<crate::messages::diagnostics::DiagnosticArray>,
+    config: &NodeConfig,
+    shared: &'a Shared,
+    outputs: &'a Outputs,
+) -> impl std::future::Future<Output = ()> + 'a {
+    use super::diagnostics::{self as diag, RecorderState, Snapshot};
+    let inputs = [
+        topics::SURFACE,
+        topics::POCKET,
+        topics::JOB,
+        topics::JOINT_STATES,
+        topics::CANCEL,
+    ];
+    let outputs_topics = [
+        topics::JOB_STATUS,
+        topics::TOOLPATH,
+        topics::TOOL_POSES,
+        topics::MILL5_TRAJECTORY,
+        topics::BELT6_TRAJECTORY,
+        topics::MARKERS,
+    ];
+    let workers = config.node.worker_count();
+    let snapshot = move || {
+        let queued = shared.lock().queue.len();
+        let (activity_busy, planned, last_planning) = Snapshot::activity(&shared.activity);
+        let mut peers = Vec::new();
+        for t in inputs {
+            let fq = ros.resolved(t);
+            let n = ros.node.publisher_count(&fq);
+            peers.push((fq, "publishers", n));
+        }
+        for t in outputs_topics {
+            let fq = ros.resolved(t);
+            let n = ros.node.subscription_count(&fq);
+            peers.push((fq, "subscribers", n));
+        }
+        Snapshot {
+            queued,
+            workers,
+            activity_busy,
+            planned,
+            last_planning,
+            recorder: RecorderState::of(outputs.recorder.as_deref()),
+            peers,
+        }
+    };
+    let name = config.node.name.clone();
+    let fully_qualified = ros.node.fully_qualified_name();
+    diag::publish(publisher, name, fully_qualified, snapshot)
+}
+
 /// Receives shapes and jobs (recording each as it arrives) until SIGINT or
 /// SIGTERM. Never plans: jobs go to the workers' queue.
-async fn receive_until_signal(
-    inputs: Inputs,
-    shared: &Shared,
-    outputs: &Outputs,
-    machines: &Machines,
-    timeout: Duration,
-) -> Result<()> {
+async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs) -> Result<()> {
     let recorder = outputs.recorder.as_deref();
     let mut surface_stream = Box::pin(inputs.surfaces.async_stream());
     let mut pocket_stream = Box::pin(inputs.pockets.async_stream());
@@ -1060,7 +1151,9 @@ async fn receive_until_signal(
                     if let Some(rec) = recorder {
                         rec.record(topics::JOB, &msg);
                     }
-                    receive_job(shared, outputs, machines, msg, timeout)
+                    let config = shared.live.get();
+                    let timeout = Duration::from_secs_f64(config.node.surface_timeout_s);
+                    receive_job(shared, outputs, &config.machines(), msg, timeout)
                 }
                 Err(e) => log::error!("undecodable message on topic job: {e:?}"),
             },
@@ -1161,41 +1254,65 @@ fn shut_down(
 
 /// Runs the node until SIGINT/SIGTERM. Prints one line "ready ..." on stdout
 /// once every topic exists (tests and the demo wait for it).
-pub async fn run(config: NodeConfig) -> Result<()> {
+pub async fn run(resolved: Resolved) -> Result<()> {
+    let config = &resolved.config;
     config.validate()?;
     large_blocks_back_to_the_system();
     let domain = config.domain_id()?;
     let settings = &config.node;
-    let mut ros = RosNode::new(
+    let live = LiveConfig::new(config.clone());
+    let options =
+        parameters::node_options(config, &resolved.builtin, &live)?.enable_rosout(resolved.rosout);
+    let mut ros = RosNode::with_options(
         &settings.name,
         &settings.namespace,
         domain,
         config.interfaces()?,
+        options,
+        &resolved.remaps,
     )?;
+    super::logging::attach_rosout(
+        ros.node.logging_handle(),
+        super::logging::logger_name(&settings.namespace, &settings.name),
+    );
     let inputs = Inputs {
-        surfaces: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
-        pockets: ros.subscription(topics::POCKET, qos::shapes_reader())?,
+        surfaces: ShapeReaders {
+            volatile: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
+            transient_local: ros.subscription(topics::SURFACE, qos::shapes_history_reader())?,
+        },
+        pockets: ShapeReaders {
+            volatile: ros.subscription(topics::POCKET, qos::shapes_reader())?,
+            transient_local: ros.subscription(topics::POCKET, qos::shapes_history_reader())?,
+        },
         jobs: ros.subscription(topics::JOB, qos::job_reader())?,
         joint_states: ros.subscription(topics::JOINT_STATES, qos::joint_states())?,
         cancels: ros.subscription(topics::CANCEL, qos::job())?,
     };
-    let (outputs, ipc_thread) = start_outputs(&mut ros, &config)?;
+    let (outputs, ipc_thread) = start_outputs(&mut ros, config)?;
+    if let Some(r) = &outputs.recorder {
+        live.set_recorder(Arc::clone(r));
+    }
     let shared = Arc::new(Shared {
         state: Mutex::new(State::default()),
         wake: Condvar::new(),
         joints: JointStates::default(),
+        live,
+        activity: Default::default(),
     });
-    let workers = start_workers(&config, &shared, &outputs)?;
-    let timeout = Duration::from_secs_f64(settings.surface_timeout_s);
+    let workers = start_workers(config, &shared, &outputs)?;
     let queue = goals::NodeQueue {
         shared: Arc::clone(&shared),
         outputs: Arc::downgrade(&outputs),
         machines: config.machines(),
     };
     super::plan_action::serve(&mut ros, Arc::new(queue))?;
-    announce_ready(&ros, &config, domain, &outputs);
-    let received =
-        receive_until_signal(inputs, &shared, &outputs, &config.machines(), timeout).await;
+    let diagnostics_publisher = super::diagnostics::publisher(&mut ros.node)?;
+    let diagnostics = diagnostics(&ros, diagnostics_publisher, config, &shared, &outputs);
+    announce_ready(&ros, config, domain, &outputs);
+    let received = tokio::select! {
+        r = receive_until_signal(inputs, &shared, &outputs) => r,
+        () = diagnostics => Ok(()),
+    };
     // Executions are canceled at the controller; workers finish their
     // current job; the process exits after them.
     outputs.cancels.cancel_all();

@@ -64,6 +64,8 @@ pub struct Recorder {
     failures: Arc<Mutex<Failures>>,
     tx: Mutex<Option<Sender<Entry>>>,
     thread: Mutex<Option<JoinHandle<Result<BagSummary>>>>,
+    /// Messages are dropped while paused (the `recording.enabled` parameter).
+    paused: std::sync::atomic::AtomicBool,
 }
 
 /// `YYYYMMDDTHHMMSSZ` of a Unix time in seconds (UTC, proleptic Gregorian).
@@ -138,7 +140,19 @@ impl Recorder {
             directory,
             tx: Mutex::new(Some(tx)),
             thread: Mutex::new(Some(thread)),
+            paused: std::sync::atomic::AtomicBool::new(false),
         })
+    }
+
+    /// Pauses (or resumes) recording; the bag stays open.
+    pub fn set_paused(&self, paused: bool) {
+        self.paused
+            .store(paused, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// Whether recording is paused.
+    pub fn paused(&self) -> bool {
+        self.paused.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// The bag directory.
@@ -155,6 +169,9 @@ impl Recorder {
 
     /// Records `msg` on the node topic `relative` (as received or published now).
     pub fn record<M: RosMessage>(&self, relative: &str, msg: &M) {
+        if self.paused.load(std::sync::atomic::Ordering::Relaxed) {
+            return;
+        }
         let msg = msg.clone();
         self.send(Entry::Message {
             topic: topics::absolute(&self.namespace, relative),

@@ -28,9 +28,10 @@ def random_domain():
 
 
 class NodeProcess:
-    """`toolpath node` on `domain_id`; stop() kills it by pid and cleans up."""
+    """`toolpath node` on `domain_id`, with `ros_args` after `--ros-args` if
+    given; stop() kills it by pid and cleans up."""
 
-    def __init__(self, domain_id=None, config_text=None, extra_env=None, ready_timeout=30.0):
+    def __init__(self, domain_id=None, config_text=None, extra_env=None, ready_timeout=30.0, ros_args=None):
         self.domain_id = random_domain() if domain_id is None else domain_id
         self._tmp = tempfile.TemporaryDirectory(prefix="toolpath_node_")
         args = [binary(), "node"]
@@ -39,6 +40,8 @@ class NodeProcess:
             with open(cfg, "w") as fh:
                 fh.write(config_text)
             args += ["--config", cfg]
+        if ros_args is not None:
+            args += ["--ros-args"] + list(ros_args)
         env = dict(os.environ)
         env["ROS_DOMAIN_ID"] = str(self.domain_id)
         env.update(extra_env or {})

@@ -1,0 +1,258 @@
+"""The node as a ROS 2 node, checked from a Cyclone DDS peer on loopback (what
+an rclpy node or the ros2 CLI looks like on the wire): the --ros-args forms,
+the parameter services (list, get, set), /rosout, and ROS's default QoS on
+the shape inputs."""
+
+import os
+import subprocess
+import time
+
+import pytest
+import yaml
+
+from harness import msgs, rcl
+from harness.client import Client, job, quadratic_surface, tool
+from harness.msgs import ROOT
+from harness.process import NodeProcess, binary
+from harness.ros import QOS_READ_ALL, QoSProfile, Node
+
+NS, NAME = "/cell_b", "tp"
+FQ = NS + "/" + NAME
+# rclpy's default publisher QoS: reliable, volatile, keep-last 10.
+ROS_DEFAULT = QoSProfile(depth=10)
+
+PARAMS_FILE = """\
+/**:
+  ros__parameters:
+    node:
+      surface_timeout_s: 7.5
+    mill5.retract_mm: 12.5
+/other_node:
+  ros__parameters:
+    node.surface_timeout_s: 99.0
+"""
+
+
+def flat_names(tree, prefix=""):
+    """Dotted names of the leaves of a YAML mapping."""
+    out = []
+    for k, v in tree.items():
+        name = prefix + str(k)
+        if isinstance(v, dict):
+            out += flat_names(v, name + ".")
+        else:
+            out.append(name)
+    return out
+
+
+@pytest.fixture(scope="module")
+def cell(tmp_path_factory):
+    """A node started as `ros2 run` would with remaps, a params file and -p."""
+    params = tmp_path_factory.mktemp("params") / "tp.yaml"
+    params.write_text(PARAMS_FILE)
+    proc = NodeProcess(
+        ros_args=[
+            "-r", "__ns:=" + NS,
+            "-r", "__node:=" + NAME,
+            "--params-file", str(params),
+            "-p", "node.verify:=false",
+            "-p", "node.workers:=2",
+            "-r", "job_status:=status",
+        ]
+    )
+    # Stopped however the setup ends: a failed wait must not leave the node running.
+    peer = None
+    try:
+        peer = Node("ros_conventions_test", namespace=NS, domain_id=proc.domain_id)
+        from cyclonedds.core import Policy, Qos
+        from cyclonedds.sub import DataReader
+        from cyclonedds.topic import Topic
+        from cyclonedds.util import duration
+
+        # /diagnostics with ROS's default subscription QoS (reliable, volatile, keep last 10).
+        diagnostics = DataReader(
+            peer._dp,
+            Topic(peer._dp, "rt/diagnostics", msgs.DiagnosticArray),
+            qos=Qos(Policy.Reliability.Reliable(duration(seconds=5)), Policy.Durability.Volatile,
+                    Policy.History.KeepLast(10)),
+        )
+        # /rosout as `ros2 topic echo /rosout` reads it (reliable, transient-local).
+        rosout = DataReader(
+            peer._dp,
+            Topic(peer._dp, "rt/rosout", rcl.Log),
+            qos=Qos(Policy.Reliability.Reliable(duration(seconds=5)), Policy.Durability.TransientLocal,
+                    Policy.History.KeepLast(1000)),
+        )
+        params_client = rcl.ParameterClient(peer._dp, FQ)
+        params_client.wait()
+        statuses = {}
+        peer.create_subscription(msgs.JobStatus, "status", lambda m: statuses.setdefault(m.job_id, []).append(m),
+                                 QOS_READ_ALL)
+        job_pub = peer.create_publisher(msgs.Job, "job", QoSProfile(keep_all=True))
+        assert peer.spin_until(lambda: job_pub.get_subscription_count() > 0, 20), "job reader not matched"
+        yield {"proc": proc, "peer": peer, "params": params_client, "rosout": rosout, "statuses": statuses,
+               "job_pub": job_pub, "logs": [],
+               "diagnostics": diagnostics}
+    finally:
+        if peer is not None:
+            peer.destroy_node()
+        proc.stop()
+
+
+def wait_final(cell, job_id, timeout=60.0):
+    final = (msgs.JobStatus.SUCCEEDED, msgs.JobStatus.FAILED, msgs.JobStatus.REJECTED)
+    peer, statuses = cell["peer"], cell["statuses"]
+    done = lambda: any(s.state in final for s in statuses.get(job_id, []))  # noqa: E731
+    assert peer.spin_until(done, timeout), "no final status of %s on %s/status" % (job_id, NS)
+    return [s for s in statuses[job_id] if s.state in final][-1]
+
+
+def rosout_lines(cell, timeout, predicate):
+    """/rosout records received so far (and up to `timeout` more seconds until one matches)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        cell["logs"] += cell["rosout"].take(N=1000)
+        if any(predicate(m) for m in cell["logs"]) or time.monotonic() > deadline:
+            return cell["logs"]
+        time.sleep(0.05)
+
+
+def test_the_node_runs_under_the_remapped_name_and_namespace(cell):
+    assert "node %s on ROS domain %d" % (FQ, cell["proc"].domain_id) in cell["proc"].ready_line
+
+
+def test_every_config_setting_is_a_listed_parameter(cell):
+    names = cell["params"].list()
+    with open(os.path.join(ROOT, "launch_configs", "default.yaml")) as fh:
+        settings = flat_names(yaml.safe_load(fh))
+    missing = sorted(set(settings) - set(names))
+    assert not missing, missing
+    assert "use_sim_time" in names
+    assert len(names) == len(set(names))
+
+
+def test_values_come_from_the_params_file_and_p_rules(cell):
+    got = cell["params"].get(
+        "node.verify", "node.surface_timeout_s", "mill5.retract_mm", "node.name", "node.namespace",
+        "mill5.workpiece_origin_mm", "node.interfaces", "node.workers", "no.such_parameter",
+    )
+    assert got == [False, 7.5, 12.5, NAME, NS, [2500.0, 1000.0, 300.0], ["127.0.0.1"], 2, None]
+
+
+def test_bad_sets_are_refused_with_the_reason_and_change_nothing(cell):
+    p = cell["params"]
+    ok, why = p.set("mill5.pivot_length_mm", 300.0)
+    assert not ok and "mill5.pivot_length_mm is read-only" in why and "machine geometry" in why, why
+    ok, why = p.set("node.workers", 4)
+    assert not ok and "planning threads are started once" in why, why
+    ok, why = p.set("node.surface_timeout_s", -1.0)
+    assert not ok and "node.surface_timeout_s: must be a finite number >= 0" in why, why
+    ok, why = p.set("node.verify", "yes")
+    assert not ok and why, why
+    ok, why = p.set("no.such_parameter", 1)
+    assert not ok and why, why
+    assert p.get("mill5.pivot_length_mm", "node.workers", "node.surface_timeout_s", "node.verify") == [
+        250.0, 2, 7.5, False]
+    assert cell["proc"].alive()
+
+
+def test_a_run_time_set_takes_effect_for_the_next_job_and_is_logged_on_rosout(cell):
+    ok, why = cell["params"].set("node.surface_timeout_s", 1.0)
+    assert ok, why
+    assert cell["params"].get("node.surface_timeout_s") == [1.0]
+    t0 = time.monotonic()
+    cell["job_pub"].publish(job("orphan", "never_sent", "iso_scallop", tool("ball", radius=3.0), scallop=0.05))
+    final = wait_final(cell, "orphan", timeout=30)
+    assert final.state == msgs.JobStatus.FAILED
+    assert final.message.startswith('surface "never_sent" has not arrived within 1 s'), final.message
+    assert time.monotonic() - t0 < 7.0  # not the 7.5 s of the params file
+
+    want = "parameter node.surface_timeout_s set to"
+    logs = rosout_lines(cell, 10, lambda m: want in m.msg)
+    mine = [m for m in logs if want in m.msg]
+    assert mine, [m.msg for m in logs]
+    m = mine[0]
+    assert m.level == rcl.INFO
+    assert m.name == "cell_b.tp"  # rclcpp's logger name of /cell_b/tp
+    assert m.file.endswith(".rs") and m.line > 0 and m.function
+    assert m.stamp.sec > 1_600_000_000
+
+
+def test_a_publisher_with_ros_default_qos_on_surface_is_received(cell):
+    peer = cell["peer"]
+    pub = peer.create_publisher(msgs.Surface, "surface", ROS_DEFAULT)
+    assert peer.spin_until(lambda: pub.get_subscription_count() > 0, 20), "default-QoS surface writer not matched"
+    pub.publish(quadratic_surface("default_qos_surface", 0, 40, -20, 20, ky=0.01))
+    cell["job_pub"].publish(job("on_default_qos", "default_qos_surface", "iso_scallop", tool("ball", radius=3.0),
+                                scallop=0.05))
+    final = wait_final(cell, "on_default_qos", timeout=120)
+    assert final.state == msgs.JobStatus.SUCCEEDED, final.message
+    # Received once, though both of the node's surface readers match this writer.
+    assert cell["proc"].log().count("received default_qos_surface") == 1, cell["proc"].log()
+
+
+def test_a_transient_local_surface_published_before_the_node_starts_is_received():
+    from harness.process import random_domain
+
+    domain = random_domain()
+    early = Client(domain)
+    early.send_surface(quadratic_surface("early_surface", 0, 40, -20, 20, ky=0.01))
+    proc = NodeProcess(domain_id=domain, ros_args=["-p", "node.verify:=false"])
+    try:
+        early.wait_for_node()
+        early.send_job(job("on_early", "early_surface", "iso_scallop", tool("ball", radius=3.0), scallop=0.05))
+        got = early.wait_final(["on_early"], timeout=120)["on_early"]
+        assert got.state == msgs.JobStatus.SUCCEEDED, got.message
+        assert proc.log().count("received early_surface") == 1, proc.log()
+    finally:
+        early.close()
+        proc.stop()
+
+
+@pytest.mark.parametrize(
+    "args, reason",
+    [
+        (["-p", "node.workers:=lots"], '--ros-args -p node.workers: node.workers: invalid type: string "lots"'),
+        (["-p", "node.wrokers:=2"], "--ros-args -p node.wrokers: is not a parameter of this node"),
+        (["-p", "node.workers=2"], 'expected NAME:=VALUE (the separator is ":=")'),
+        (["-r", "__ns:=cell"], "-r __ns:=cell: the namespace must be absolute"),
+        (["--params-file", "/nonexistent/tp.yaml"], "/nonexistent/tp.yaml: No such file"),
+        (["--log-level", "loud"], '"loud" is not a log level'),
+        (["--frobnicate"], "--ros-args --frobnicate: is not a ROS argument"),
+    ],
+)
+def test_bad_ros_args_stop_the_node_with_the_reason(args, reason):
+    env = dict(os.environ, ROS_DOMAIN_ID="0")
+    r = subprocess.run([binary(), "node", "--ros-args"] + args, env=env, capture_output=True, text=True,
+                       timeout=30)
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    assert reason in r.stderr, r.stderr
+    assert "ready" not in r.stdout
+
+
+def test_diagnostics_report_the_node_once_a_second(cell):
+    """Runs after jobs were planned above: the counts are of this node's life."""
+    reader = cell["diagnostics"]
+    reader.take(N=100)
+    got, deadline = [], time.monotonic() + 5.0
+    while len(got) < 3 and time.monotonic() < deadline:
+        got += reader.take(N=10)
+        time.sleep(0.05)
+    assert len(got) >= 3, "%d DiagnosticArray in 5 s" % len(got)
+    stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in got]
+    gaps = [b - a for a, b in zip(stamps, stamps[1:])]
+    assert all(0.8 < g < 1.2 for g in gaps), gaps
+    m = got[-1]
+    assert len(m.status) == 1
+    s = m.status[0]
+    assert (s.level, s.name, s.hardware_id, s.message) == (msgs.DiagnosticStatus.OK, "tp: planner", FQ, "idle")
+    v = {kv.key: kv.value for kv in s.values}
+    assert v["queued jobs"] == "0" and v["busy workers"] == "0" and v["workers"] == "2"
+    # orphan (timed out, not planned) and on_default_qos (planned) ran before.
+    assert int(v["jobs planned"]) >= 1, v
+    assert 0.0 < float(v["last planning time s"]) < 60.0, v
+    assert v["recorder"] == "off"
+    # This test's peer: one job writer, one reader of the remapped job_status.
+    assert v["discovered publishers /cell_b/job"] == "1", v
+    assert v["discovered subscribers /cell_b/status"] == "1", v
+    assert v["discovered subscribers /cell_b/toolpath"] == "0", v
