@@ -11,8 +11,8 @@
 use super::config::{IpcSettings, NodeConfig};
 use super::execute::{self, Cancels, Execution, Report};
 use super::joint_states::JointStates;
-use super::plan_action::GoalLink;
 use super::parameters::{self, LiveConfig, Resolved};
+use super::plan_action::GoalLink;
 use super::recorder::Recorder;
 use super::ros_args::Remaps;
 use super::shape_readers::ShapeReaders;
