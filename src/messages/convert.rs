@@ -298,6 +298,8 @@ pub fn job_to_msg(job: &Job, surface_id: &str, header: msgs::Header) -> msgs::Jo
                 feed_speed: g.feed_speed,
             }
         },
+        // Any node: a client addresses a job by setting this.
+        node: String::new(),
     }
 }
 

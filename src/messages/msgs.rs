@@ -570,6 +570,9 @@ pub struct Job {
     pub section_normal: Vector3,
     pub simulation_resolution: f64,
     pub grinding: GrindingParams,
+    /// The fully qualified name of the node that should plan the job; empty:
+    /// any node. Other nodes ignore it.
+    pub node: String,
 }
 ros_message!(Job, "toolpath_msgs", "Job");
 

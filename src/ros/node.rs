@@ -972,6 +972,8 @@ fn receive_shape(shared: &Shared, id: String, shape: Result<Shape>) {
 
 /// The node's readers of its inputs.
 struct Inputs {
+    /// This node's fully qualified name, which `Job.node` may name.
+    name: String,
     surfaces: ShapeReaders<msgs::Surface>,
     pockets: ShapeReaders<msgs::Pocket>,
     jobs: Subscription<msgs::Job>,
@@ -1133,6 +1135,12 @@ fn diagnostics<'a>(
     diag::publish(publisher, name, fully_qualified, snapshot)
 }
 
+/// Whether a job is for the node named `name` (fully qualified): it names
+/// no node, or this one. Jobs for other nodes are neither planned nor recorded.
+fn addressed_to(job: &msgs::Job, name: &str) -> bool {
+    job.node.is_empty() || job.node == name
+}
+
 /// Receives shapes and jobs (recording each as it arrives) until SIGINT or
 /// SIGTERM. Never plans: jobs go to the workers' queue.
 async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs) -> Result<()> {
@@ -1147,6 +1155,9 @@ async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs
     loop {
         tokio::select! {
             Some(r) = job_stream.next() => match r {
+                Ok((msg, _)) if !addressed_to(&msg, &inputs.name) => {
+                    log::debug!("job {} is for node {}, not {}: ignored", msg.job_id, msg.node, inputs.name);
+                }
                 Ok((msg, _)) => {
                     if let Some(rec) = recorder {
                         rec.record(topics::JOB, &msg);
@@ -1276,6 +1287,7 @@ pub async fn run(resolved: Resolved) -> Result<()> {
         super::logging::logger_name(&settings.namespace, &settings.name),
     );
     let inputs = Inputs {
+        name: ros.node.fully_qualified_name(),
         surfaces: ShapeReaders {
             volatile: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
             transient_local: ros.subscription(topics::SURFACE, qos::shapes_history_reader())?,
@@ -1324,6 +1336,18 @@ pub async fn run(resolved: Resolved) -> Result<()> {
 mod tests {
     use super::*;
     use std::net::{IpAddr, Ipv4Addr};
+
+    #[test]
+    fn a_job_names_no_node_or_this_one() {
+        let job = |node: &str| msgs::Job {
+            node: node.into(),
+            ..Default::default()
+        };
+        assert!(addressed_to(&job(""), "/cell_b/tp"));
+        assert!(addressed_to(&job("/cell_b/tp"), "/cell_b/tp"));
+        assert!(!addressed_to(&job("/cell_a/tp"), "/cell_b/tp"));
+        assert!(!addressed_to(&job("tp"), "/cell_b/tp"));
+    }
 
     #[test]
     fn an_interface_not_on_this_host_is_refused_by_name() {

@@ -256,3 +256,21 @@ def test_diagnostics_report_the_node_once_a_second(cell):
     assert v["discovered publishers /cell_b/job"] == "1", v
     assert v["discovered subscribers /cell_b/status"] == "1", v
     assert v["discovered subscribers /cell_b/toolpath"] == "0", v
+
+
+def test_a_job_for_another_node_is_ignored_and_one_for_this_node_planned(cell):
+    peer = cell["peer"]
+    pub = peer.create_publisher(msgs.Surface, "surface", ROS_DEFAULT)
+    assert peer.spin_until(lambda: pub.get_subscription_count() > 0, 20), "surface writer not matched"
+    pub.publish(quadratic_surface("addressed_surface", 0, 40, -20, 20, ky=0.01))
+    other = job("for_other", "addressed_surface", "iso_scallop", tool("ball", radius=3.0), scallop=0.05)
+    other.node = "/cell_a/" + NAME
+    cell["job_pub"].publish(other)
+    mine = job("for_me", "addressed_surface", "iso_scallop", tool("ball", radius=3.0), scallop=0.05)
+    mine.node = FQ
+    cell["job_pub"].publish(mine)
+    final = wait_final(cell, "for_me", timeout=120)
+    assert final.state == msgs.JobStatus.SUCCEEDED, final.message
+    # The other node's job was published first: by now it would have a status.
+    peer.spin_until(lambda: False, 1.0)
+    assert "for_other" not in cell["statuses"], cell["statuses"].get("for_other")
