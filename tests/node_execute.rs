@@ -6,6 +6,8 @@
 //! reason, a cancel is forwarded, and a job after an abort starts from where
 //! the machine stopped. Loopback only, a random domain, the node killed by pid.
 
+#[path = "common/node_client.rs"]
+mod node_client;
 #[path = "common/node_process.rs"]
 mod node_process;
 
@@ -16,9 +18,9 @@ use std::time::{Duration, Instant};
 use toolpath_planner::formats::Shape;
 use toolpath_planner::machines::Machines;
 use toolpath_planner::messages::follow_joint_trajectory::StringMsg;
-use toolpath_planner::messages::{self as msgs, convert, topics};
+use toolpath_planner::messages::{self as msgs, convert};
 use toolpath_planner::ros::fake_controller::{self, Behaviour, FakeOptions};
-use toolpath_planner::ros::node::{qos, RosNode};
+use toolpath_planner::ros::node::RosNode;
 
 // Both machines publish on one /joint_states, so the belt's joints get names
 // of their own (the node refuses two executing machines sharing a name).
@@ -46,7 +48,7 @@ fn jobs_execute_pass_by_pass_and_stop_on_abort_reject_and_cancel() {
         .unwrap();
     rt.block_on(async {
         let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
-        let mut cell = RosNode::new("fake_cell", "/", d, lo.clone()).unwrap();
+        let mut cell = RosNode::new("fake_cell", "/", d, lo).unwrap();
         let m = Machines::default();
         let belt_joints: Vec<String> = ["X", "Y", "Z", "A", "B", "C"]
             .iter()
@@ -76,31 +78,14 @@ fn jobs_execute_pass_by_pass_and_stop_on_abort_reject_and_cancel() {
         .unwrap();
         let (_node, ready) = NodeProcess::spawn(&config, d);
         assert!(ready.starts_with("ready"), "node said {ready:?}");
-        let mut client = RosNode::new("execute_client", "/", d, lo).unwrap();
-        let surfaces = client
-            .publisher::<msgs::Surface>(topics::SURFACE, qos::shapes())
-            .unwrap();
-        let jobs = client
-            .publisher::<msgs::Job>(topics::JOB, qos::job())
-            .unwrap();
-        let cancel = client
-            .publisher::<StringMsg>(topics::CANCEL, qos::job())
-            .unwrap();
-        let status = client
-            .subscription::<msgs::JobStatus>(topics::JOB_STATUS, qos::status_reader())
-            .unwrap();
-        tokio::time::timeout(
-            Duration::from_secs(20),
-            jobs.wait_for_subscription(&client.node),
-        )
-        .await
-        .expect("the node's job reader was not discovered");
-        tokio::time::timeout(
-            Duration::from_secs(20),
-            cancel.wait_for_subscription(&client.node),
-        )
-        .await
-        .expect("the node's cancel reader was not discovered");
+        let client = node_client::NodeClient::connect("execute_client", d).await;
+        let node_client::NodeClient {
+            surfaces,
+            jobs,
+            cancel,
+            status,
+            ..
+        } = client;
         // The node's action clients find the servers in the meantime.
         tokio::time::sleep(Duration::from_secs(2)).await;
         let plane = toolpath_planner::samples::job("plane").unwrap();

@@ -5,18 +5,18 @@
 //! naming the reason, and a normal job is served right after each.
 //! Loopback only, a random domain, the node killed by pid.
 
+#[path = "common/node_client.rs"]
+mod node_client;
 #[path = "common/node_process.rs"]
 mod node_process;
 
 use futures::StreamExt;
 use node_process::NodeProcess;
-use std::net::{IpAddr, Ipv4Addr};
 use std::time::{Duration, Instant};
 use toolpath_planner::formats::{Job, Shape};
 use toolpath_planner::geometry::Pocket;
 use toolpath_planner::messages::follow_joint_trajectory::StringMsg;
-use toolpath_planner::messages::{self as msgs, convert, topics};
-use toolpath_planner::ros::node::{qos, RosNode};
+use toolpath_planner::messages::{self as msgs, convert};
 use toolpath_planner::samples;
 
 const TIME_LIMIT_S: f64 = 3.0;
@@ -54,35 +54,15 @@ fn hostile_jobs_fail_with_a_reason_and_the_node_keeps_serving() {
     assert!(ready.starts_with("ready"), "node said {ready:?}");
     let pid = node.child.id();
     rt.block_on(async {
-        let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
-        let mut client = RosNode::new("hostile_client", "/", d, lo).unwrap();
-        let surfaces = client
-            .publisher::<msgs::Surface>(topics::SURFACE, qos::shapes())
-            .unwrap();
-        let pockets = client
-            .publisher::<msgs::Pocket>(topics::POCKET, qos::shapes())
-            .unwrap();
-        let jobs = client
-            .publisher::<msgs::Job>(topics::JOB, qos::job())
-            .unwrap();
-        let cancel = client
-            .publisher::<StringMsg>(topics::CANCEL, qos::job())
-            .unwrap();
-        let status = client
-            .subscription::<msgs::JobStatus>(topics::JOB_STATUS, qos::status_reader())
-            .unwrap();
-        tokio::time::timeout(
-            Duration::from_secs(20),
-            jobs.wait_for_subscription(&client.node),
-        )
-        .await
-        .expect("the node's job reader was not discovered");
-        tokio::time::timeout(
-            Duration::from_secs(20),
-            cancel.wait_for_subscription(&client.node),
-        )
-        .await
-        .expect("the node's cancel reader was not discovered");
+        let client = node_client::NodeClient::connect("hostile_client", d).await;
+        let node_client::NodeClient {
+            surfaces,
+            pockets,
+            jobs,
+            cancel,
+            status,
+            ..
+        } = client;
         let plane = samples::job("plane").unwrap();
         let wing = samples::job("wing_mould").unwrap();
         for (id, job) in [("plane_shape", &plane), ("wing_shape", &wing)] {
@@ -248,32 +228,14 @@ fn a_small_job_overtakes_a_heavy_one_with_two_workers() {
     let (node, ready) = NodeProcess::spawn(&config, d);
     assert!(ready.starts_with("ready"), "node said {ready:?}");
     rt.block_on(async {
-        let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
-        let mut client = RosNode::new("overtake_client", "/", d, lo).unwrap();
-        let surfaces = client
-            .publisher::<msgs::Surface>(topics::SURFACE, qos::shapes())
-            .unwrap();
-        let jobs = client
-            .publisher::<msgs::Job>(topics::JOB, qos::job())
-            .unwrap();
-        let cancel = client
-            .publisher::<StringMsg>(topics::CANCEL, qos::job())
-            .unwrap();
-        let status = client
-            .subscription::<msgs::JobStatus>(topics::JOB_STATUS, qos::status_reader())
-            .unwrap();
-        tokio::time::timeout(
-            Duration::from_secs(20),
-            jobs.wait_for_subscription(&client.node),
-        )
-        .await
-        .expect("the node's job reader was not discovered");
-        tokio::time::timeout(
-            Duration::from_secs(20),
-            cancel.wait_for_subscription(&client.node),
-        )
-        .await
-        .expect("the node's cancel reader was not discovered");
+        let client = node_client::NodeClient::connect("overtake_client", d).await;
+        let node_client::NodeClient {
+            surfaces,
+            jobs,
+            cancel,
+            status,
+            ..
+        } = client;
         let plane = samples::job("plane").unwrap();
         let wing = samples::job("wing_mould").unwrap();
         for (id, job) in [("plane_shape", &plane), ("wing_shape", &wing)] {

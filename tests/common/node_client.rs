@@ -1,0 +1,52 @@
+//! A client of `toolpath node` for the node tests, built on ros2-client as a
+//! cell's own node would be: publishers of surface, pocket, job and cancel
+//! and a reader of job_status, connected on loopback once the node's job and
+//! cancel readers are discovered. Each test binary uses the parts it needs.
+#![allow(dead_code)]
+
+use std::net::{IpAddr, Ipv4Addr};
+use std::time::Duration;
+use toolpath_planner::messages::follow_joint_trajectory::StringMsg;
+use toolpath_planner::messages::{self as msgs, topics};
+use toolpath_planner::ros::node::{qos, RosNode};
+
+pub struct NodeClient {
+    pub ros: RosNode,
+    pub surfaces: ros2_client::Publisher<msgs::Surface>,
+    pub pockets: ros2_client::Publisher<msgs::Pocket>,
+    pub jobs: ros2_client::Publisher<msgs::Job>,
+    pub cancel: ros2_client::Publisher<StringMsg>,
+    pub status: ros2_client::Subscription<msgs::JobStatus>,
+}
+
+impl NodeClient {
+    /// A client named `name` on `domain` (loopback), once the node's job and
+    /// cancel readers are discovered (20 s at most each).
+    pub async fn connect(name: &str, domain: u16) -> NodeClient {
+        let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
+        let mut ros = RosNode::new(name, "/", domain, lo).unwrap();
+        let client = NodeClient {
+            surfaces: ros.publisher(topics::SURFACE, qos::shapes()).unwrap(),
+            pockets: ros.publisher(topics::POCKET, qos::shapes()).unwrap(),
+            jobs: ros.publisher(topics::JOB, qos::job()).unwrap(),
+            cancel: ros.publisher(topics::CANCEL, qos::job()).unwrap(),
+            status: ros
+                .subscription(topics::JOB_STATUS, qos::status_reader())
+                .unwrap(),
+            ros,
+        };
+        tokio::time::timeout(
+            Duration::from_secs(20),
+            client.jobs.wait_for_subscription(&client.ros.node),
+        )
+        .await
+        .expect("the node's job reader was not discovered");
+        tokio::time::timeout(
+            Duration::from_secs(20),
+            client.cancel.wait_for_subscription(&client.ros.node),
+        )
+        .await
+        .expect("the node's cancel reader was not discovered");
+        client
+    }
+}
