@@ -447,7 +447,18 @@ fn a_full_disk_is_reported_in_the_job_status_and_recording_resumes() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert_same(&node.replay_publish(&golden("mpec_die_saddle")));
+    let second = node.replay_publish(&golden("mpec_die_saddle"));
+    if !second.status.success() {
+        let mut process = node.process;
+        let alive = process.child.try_wait().map(|s| format!("{s:?}"));
+        panic!(
+            "second job: {}\n{}\nnode (exit: {alive:?}) log:\n{}",
+            String::from_utf8_lossy(&second.stdout),
+            String::from_utf8_lossy(&second.stderr),
+            std::fs::read_to_string(&log_path).unwrap_or_default()
+        );
+    }
+    assert_same(&second);
     let mut process = node.process;
     let pid = nix::unistd::Pid::from_raw(process.child.id() as i32);
     nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).unwrap();

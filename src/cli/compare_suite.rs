@@ -65,6 +65,47 @@ fn median(v: &mut [f64]) -> f64 {
     }
 }
 
+/// The simulator's figures of one surface's plans.
+struct Checks {
+    /// Max scallop of each strategy's plan, as printed ("error" if it failed).
+    scallops: Vec<String>,
+    worst_scallop: f64,
+    gouge: f64,
+    uncovered: f64,
+}
+
+/// Reads the simulator's figures off a row's plans; plans above `h` are
+/// named in `over_h`, failed ones reported on stderr.
+fn checks(name: &str, row: &Row, h: f64, over_h: &mut Vec<String>) -> Checks {
+    let mut c = Checks {
+        scallops: Vec::new(),
+        worst_scallop: 0.0,
+        gouge: 0.0,
+        uncovered: 0.0,
+    };
+    for (k, r) in row.results.iter().enumerate() {
+        let strategy = super::compare_milling::STRATEGIES[k].name();
+        match r {
+            Ok(r) => {
+                let s = r.stats.max_scallop_mm.unwrap_or(f64::NAN);
+                c.worst_scallop = c.worst_scallop.max(s);
+                if s > h {
+                    over_h.push(format!("{name} {strategy}"));
+                }
+                c.scallops.push(format!("{s:.4}"));
+                c.gouge = c.gouge.max(r.stats.max_gouge_mm.unwrap_or(0.0));
+                let uncovered = r.stats.extra.get("uncovered_area_mm2");
+                c.uncovered = c.uncovered.max(uncovered.copied().unwrap_or(0.0));
+            }
+            Err(e) => {
+                c.scallops.push("error".into());
+                eprintln!("{name} {strategy}: {e}");
+            }
+        }
+    }
+    c
+}
+
 pub fn run(only: Option<&str>) -> Result<()> {
     println!(
         "| surface | umbilics | lower bound mm | iso_parametric mm | iso_scallop mm | tensor_regions mm | tensor / shorter | shorter / bound | tensor / bound | max scallop mm (ip, is, tr) | max gouge mm | uncovered mm2 | regions | plan | repair mm | s |"
@@ -113,39 +154,13 @@ pub fn run(only: Option<&str>) -> Result<()> {
             to_bound.push(x);
         }
         let h = job.scallop.unwrap_or(f64::NAN);
-        let mut scallops = Vec::new();
-        let mut gouge: f64 = 0.0;
-        let mut uncovered: f64 = 0.0;
-        for (k, r) in row.results.iter().enumerate() {
-            match r {
-                Ok(r) => {
-                    let s = r.stats.max_scallop_mm.unwrap_or(f64::NAN);
-                    worst_scallop = worst_scallop.max(s);
-                    if s > h {
-                        over_h.push(format!(
-                            "{name} {}",
-                            super::compare_milling::STRATEGIES[k].name()
-                        ));
-                    }
-                    scallops.push(format!("{s:.4}"));
-                    gouge = gouge.max(r.stats.max_gouge_mm.unwrap_or(0.0));
-                    uncovered = uncovered.max(
-                        r.stats
-                            .extra
-                            .get("uncovered_area_mm2")
-                            .copied()
-                            .unwrap_or(0.0),
-                    );
-                }
-                Err(e) => {
-                    scallops.push("error".into());
-                    eprintln!(
-                        "{name} {}: {e}",
-                        super::compare_milling::STRATEGIES[k].name()
-                    );
-                }
-            }
-        }
+        let Checks {
+            scallops,
+            worst_scallop: row_scallop,
+            gouge,
+            uncovered,
+        } = checks(&name, &row, h, &mut over_h);
+        worst_scallop = worst_scallop.max(row_scallop);
         worst_gouge = worst_gouge.max(gouge);
         println!(
             "| {name} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {gouge:.4} | {uncovered:.2} | {} | {} | {} | {:.1} |",

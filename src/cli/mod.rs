@@ -290,7 +290,18 @@ pub fn run() -> i32 {
         );
         return 2;
     }
-    let outcome: Result<(), Error> = match cli.command {
+    match dispatch(cli.command, ros.as_deref()) {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {e}");
+            e.exit_code()
+        }
+    }
+}
+
+/// Runs one command; `ros` is the `--ros-args` block (`toolpath node` only).
+fn dispatch(command: Command, ros: Option<&[String]>) -> Result<(), Error> {
+    match command {
         Command::Plan {
             job,
             output,
@@ -343,7 +354,7 @@ pub fn run() -> i32 {
             _ => compare_suite::run(only.as_deref()),
         },
         Command::Simulate { job, result, map } => simulate::run(&job, &result, map.as_deref()),
-        Command::Node { config } => node::run(config.as_deref(), ros.as_deref()),
+        Command::Node { config } => node::run(config.as_deref(), ros),
         Command::BenchNode {
             jobs,
             points,
@@ -391,13 +402,6 @@ pub fn run() -> i32 {
             format,
             output,
         } => post::run(&result, &job, machine.as_deref(), &format, &output),
-    };
-    match outcome {
-        Ok(()) => 0,
-        Err(e) => {
-            eprintln!("error: {e}");
-            e.exit_code()
-        }
     }
 }
 

@@ -90,29 +90,8 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
     let mut warnings = Vec::new();
     let step = settings.point_step.min(settings.cutter.radius);
     let whole = whole_domain(surface);
-    let (regions, separatrices_uv) = if analysis.everywhere {
-        warnings.push(
-            "the strip-width field is isotropic everywhere (every point is degenerate): one region, feed along u"
-                .into(),
-        );
-        (vec![whole.clone()], Vec::new())
-    } else {
-        let p = partition(surface, k_b, &analysis.points, step);
-        // The regions must tile the surface: where the separatrix graph did
-        // not close into faces covering it (separatrices ending near each
-        // other or on a wedge), planning the faces found would leave the rest
-        // uncut. Then the whole surface is one region.
-        let covered: f64 = p.regions.iter().map(|r| r.area_mm2).sum();
-        if (covered - whole.area_mm2).abs() > TILING_TOLERANCE * whole.area_mm2 {
-            warnings.push(format!(
-                "the separatrices split the surface into regions covering {covered:.0} of {:.0} mm^2: planned as one region",
-                whole.area_mm2
-            ));
-            (vec![whole.clone()], p.separatrices_uv)
-        } else {
-            (p.regions, p.separatrices_uv)
-        }
-    };
+    let (regions, separatrices_uv) =
+        regions_of(surface, k_b, &analysis, step, &whole, &mut warnings);
     progress.set(0.2);
     progress.check()?;
     let mut kinds = Vec::new();
@@ -181,46 +160,14 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
         } else {
             &whole_list
         };
-        let mut result = PlanResult::new(&job.job_id, job.strategy.name());
-        result.passes = passes;
-        result.stats.path_length_lower_bound_mm = Some(bound);
-        result.degenerate_points = Some(
-            analysis
-                .points
-                .iter()
-                .map(|p| DegeneratePoint {
-                    uv: p.uv.into(),
-                    xyz: p.xyz.into(),
-                    kind: p.kind.name().to_string(),
-                })
-                .collect(),
-        );
-        result.separatrices = Some(
-            separatrices_uv
-                .iter()
-                .map(|line| {
-                    line.iter()
-                        .map(|uv| surface.point(uv.x, uv.y).into())
-                        .collect()
-                })
-                .collect(),
-        );
-        result.regions = Some(
-            used.iter()
-                .map(|r| RegionOut {
-                    id: r.id,
-                    // On a trimmed face, the region's part on it.
-                    area_mm2: match surface.trim() {
-                        Some(_) => super::regions::partition::polygon_face_area(
-                            surface,
-                            &r.boundary_uv,
-                            48,
-                        ),
-                        None => r.area_mm2,
-                    },
-                    boundary_uv: r.boundary_uv.iter().map(|p| [p.x, p.y]).collect(),
-                })
-                .collect(),
+        let result = candidate_result(
+            job,
+            surface,
+            passes,
+            used,
+            bound,
+            &analysis,
+            &separatrices_uv,
         );
         let length = result.cl_path_length();
         plans.push((*kind, result, length));
@@ -230,6 +177,101 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
             crate::error::Error::planning("tensor_regions: no candidate plan has any pass")
         }));
     }
+    Ok(ranked(plans, &warnings))
+}
+
+/// The regions to plan: the partition at the degenerate points when its
+/// regions tile the surface, else the whole surface as one region (with a
+/// warning saying why), and the separatrices in (u, v).
+fn regions_of(
+    surface: &NurbsSurface,
+    k_b: f64,
+    analysis: &degenerate_points::Analysis,
+    step: f64,
+    whole: &Region,
+    warnings: &mut Vec<String>,
+) -> (Vec<Region>, Vec<Vec<Vector2<f64>>>) {
+    if analysis.everywhere {
+        warnings.push(
+            "the strip-width field is isotropic everywhere (every point is degenerate): one region, feed along u"
+                .into(),
+        );
+        return (vec![whole.clone()], Vec::new());
+    }
+    let p = partition(surface, k_b, &analysis.points, step);
+    // The regions must tile the surface: where the separatrix graph did
+    // not close into faces covering it (separatrices ending near each
+    // other or on a wedge), planning the faces found would leave the rest
+    // uncut. Then the whole surface is one region.
+    let covered: f64 = p.regions.iter().map(|r| r.area_mm2).sum();
+    if (covered - whole.area_mm2).abs() > TILING_TOLERANCE * whole.area_mm2 {
+        warnings.push(format!(
+            "the separatrices split the surface into regions covering {covered:.0} of {:.0} mm^2: planned as one region",
+            whole.area_mm2
+        ));
+        (vec![whole.clone()], p.separatrices_uv)
+    } else {
+        (p.regions, p.separatrices_uv)
+    }
+}
+
+/// One candidate's result: its passes, the lower bound, and the analysis
+/// it shares with the others (degenerate points, separatrices, the regions
+/// it `used`, on a trimmed face their part on it).
+fn candidate_result(
+    job: &Job,
+    surface: &NurbsSurface,
+    passes: Vec<Pass>,
+    used: &[Region],
+    bound: f64,
+    analysis: &degenerate_points::Analysis,
+    separatrices_uv: &[Vec<Vector2<f64>>],
+) -> PlanResult {
+    let mut result = PlanResult::new(&job.job_id, job.strategy.name());
+    result.passes = passes;
+    result.stats.path_length_lower_bound_mm = Some(bound);
+    result.degenerate_points = Some(
+        analysis
+            .points
+            .iter()
+            .map(|p| DegeneratePoint {
+                uv: p.uv.into(),
+                xyz: p.xyz.into(),
+                kind: p.kind.name().to_string(),
+            })
+            .collect(),
+    );
+    result.separatrices = Some(
+        separatrices_uv
+            .iter()
+            .map(|line| {
+                line.iter()
+                    .map(|uv| surface.point(uv.x, uv.y).into())
+                    .collect()
+            })
+            .collect(),
+    );
+    result.regions = Some(
+        used.iter()
+            .map(|r| RegionOut {
+                id: r.id,
+                // On a trimmed face, the region's part on it.
+                area_mm2: match surface.trim() {
+                    Some(_) => {
+                        super::regions::partition::polygon_face_area(surface, &r.boundary_uv, 48)
+                    }
+                    None => r.area_mm2,
+                },
+                boundary_uv: r.boundary_uv.iter().map(|p| [p.x, p.y]).collect(),
+            })
+            .collect(),
+    );
+    result
+}
+
+/// The plans shortest first (stable: equal lengths keep the build order),
+/// each naming its candidate and every candidate's length in `plan_choice`.
+fn ranked(mut plans: Vec<(Candidate, PlanResult, f64)>, warnings: &[String]) -> Vec<PlanResult> {
     // Stable: equal lengths keep the build order.
     plans.sort_by(|a, b| a.2.total_cmp(&b.2));
     let summary: Vec<String> = plans
@@ -237,7 +279,7 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
         .map(|(k, _, l)| format!("{} {l:.0} mm", k.label()))
         .collect();
     let n = plans.len();
-    Ok(plans
+    plans
         .into_iter()
         .enumerate()
         .map(|(rank, (kind, mut result, _))| {
@@ -255,10 +297,10 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
                     summary.join(", ")
                 )
             });
-            result.warnings = warnings.clone();
+            result.warnings = warnings.to_vec();
             result
         })
-        .collect())
+        .collect()
 }
 
 /// Each region covered by passes offset from the field line through its
