@@ -82,10 +82,7 @@ fn action_and_service_plan_cancel_and_refuse_with_reasons() {
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("node.yaml");
     std::fs::write(&config, CONFIG).unwrap();
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
-    let d = (1 + (nanos ^ std::process::id().wrapping_mul(7877)) % 230) as u16;
+    let d = node_process::fresh_domain(0);
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

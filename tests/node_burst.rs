@@ -22,15 +22,6 @@ use toolpath_planner::cli::bench_node;
 use toolpath_planner::messages::{self as msgs, topics};
 use toolpath_planner::ros::node::{qos, RosNode};
 
-/// A fresh domain in 1..=230 (test files run one after another; a random
-/// domain keeps concurrent runs in other checkouts apart).
-fn domain(offset: u32) -> u16 {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
-    (1 + (nanos ^ std::process::id().wrapping_mul(7919)).wrapping_add(offset) % 230) as u16
-}
-
 /// More jobs than one 64 KB loopback datagram of coalesced DATA carries
 /// (~350), so several arrive while the reader has not taken the first.
 const DDS_BURST: usize = 1000;
@@ -42,7 +33,7 @@ fn job_reader_keeps_every_job_of_a_burst_from_a_rustdds_writer() {
         .enable_all()
         .build()
         .unwrap();
-    let d = domain(0);
+    let d = node_process::fresh_domain(0);
     let received: BTreeMap<String, usize> = rt.block_on(async move {
         let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
         let mut client = RosNode::new("burst_client", "/", d, lo.clone()).unwrap();
@@ -110,7 +101,7 @@ fn node_answers_every_job_of_a_200_burst_from_the_rust_client() {
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("node.yaml");
     std::fs::write(&config, bench_node::NODE_CONFIG).unwrap();
-    let d = domain(1);
+    let d = node_process::fresh_domain(1);
     // The benchmark's launch config; killed by pid on drop.
     let (_node, ready) = NodeProcess::spawn(&config, d);
     assert!(ready.starts_with("ready"), "node said {ready:?}");

@@ -21,6 +21,22 @@ use toolpath_planner::samples;
 
 const TIME_LIMIT_S: f64 = 3.0;
 
+/// The plane and wing_mould sample jobs, their surfaces published as
+/// `plane_shape` and `wing_shape`.
+fn publish_sample_surfaces(surfaces: &ros2_client::Publisher<msgs::Surface>) -> (Job, Job) {
+    let plane = samples::job("plane").unwrap();
+    let wing = samples::job("wing_mould").unwrap();
+    for (id, job) in [("plane_shape", &plane), ("wing_shape", &wing)] {
+        let Shape::Surface(s) = &job.shape else {
+            panic!("surface jobs")
+        };
+        surfaces
+            .publish(convert::surface_to_msg(id, s, msgs::Header::default()))
+            .unwrap();
+    }
+    (plane, wing)
+}
+
 /// Resident memory of a process, MB.
 fn rss_mb(pid: u32) -> f64 {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
@@ -42,10 +58,7 @@ fn hostile_jobs_fail_with_a_reason_and_the_node_keeps_serving() {
         format!("node:\n  verify: false\n  workers: 1\n  job_time_limit_s: {TIME_LIMIT_S}\n"),
     )
     .unwrap();
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
-    let d = (1 + (nanos ^ std::process::id().wrapping_mul(7919)) % 230) as u16;
+    let d = node_process::fresh_domain(0);
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
@@ -63,16 +76,7 @@ fn hostile_jobs_fail_with_a_reason_and_the_node_keeps_serving() {
             status,
             ..
         } = client;
-        let plane = samples::job("plane").unwrap();
-        let wing = samples::job("wing_mould").unwrap();
-        for (id, job) in [("plane_shape", &plane), ("wing_shape", &wing)] {
-            let Shape::Surface(s) = &job.shape else {
-                panic!("surface jobs")
-            };
-            surfaces
-                .publish(convert::surface_to_msg(id, s, msgs::Header::default()))
-                .unwrap();
-        }
+        let (plane, wing) = publish_sample_surfaces(&surfaces);
         let rect = samples::job("rect_pocket").unwrap();
         let Shape::Pocket(p) = &rect.shape else {
             panic!("a pocket job")
@@ -217,10 +221,7 @@ fn a_small_job_overtakes_a_heavy_one_with_two_workers() {
         "node:\n  verify: false\n  workers: 2\n  job_time_limit_s: 60\n",
     )
     .unwrap();
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
-    let d = (1 + (nanos ^ std::process::id().wrapping_mul(7907)).wrapping_add(97) % 230) as u16;
+    let d = node_process::fresh_domain(97);
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
@@ -236,16 +237,7 @@ fn a_small_job_overtakes_a_heavy_one_with_two_workers() {
             status,
             ..
         } = client;
-        let plane = samples::job("plane").unwrap();
-        let wing = samples::job("wing_mould").unwrap();
-        for (id, job) in [("plane_shape", &plane), ("wing_shape", &wing)] {
-            let Shape::Surface(s) = &job.shape else {
-                panic!("surface jobs")
-            };
-            surfaces
-                .publish(convert::surface_to_msg(id, s, msgs::Header::default()))
-                .unwrap();
-        }
+        let (plane, wing) = publish_sample_surfaces(&surfaces);
         let mut statuses = Box::pin(status.async_stream());
         let mut heavy = convert::job_to_msg(&wing, "wing_shape", msgs::Header::default());
         heavy.job_id = "heavy".into();

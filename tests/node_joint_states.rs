@@ -34,11 +34,7 @@ fn trajectories_start_from_the_joint_state_or_fail_with_its_reason() {
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("node.yaml");
     std::fs::write(&config, CONFIG).unwrap();
-    // A fresh domain in 1..=230 apart from concurrent runs elsewhere.
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
-    let d = (1 + (nanos ^ std::process::id().wrapping_mul(7919)) % 230) as u16;
+    let d = node_process::fresh_domain(0);
     let (_node, ready) = NodeProcess::spawn(&config, d);
     assert!(ready.starts_with("ready"), "node said {ready:?}");
     let rt = tokio::runtime::Builder::new_multi_thread()

@@ -16,13 +16,6 @@ use toolpath_planner::formats::{FeedDirection, Job, JobFile, Machine, Shape, Str
 use toolpath_planner::samples::surfaces;
 use toolpath_planner::tools::Tool;
 
-fn domain() -> u16 {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
-    (1 + (nanos ^ std::process::id().wrapping_mul(7919)) % 230) as u16
-}
-
 /// Resident set size of `pid`, MiB (from /proc).
 fn rss_mib(pid: u32) -> f64 {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
@@ -108,7 +101,7 @@ fn memory_levels_off_over_small_and_large_job_streams() {
     let tmp = tempfile::tempdir().unwrap();
     let config = tmp.path().join("soak.yaml");
     std::fs::write(&config, bench_node::NODE_CONFIG).unwrap();
-    let d = domain();
+    let d = node_process::fresh_domain(0);
     let (node, line) = NodeProcess::spawn(&config, d);
     assert!(line.starts_with("ready"), "node did not start: {line:?}");
 

@@ -5,6 +5,17 @@ use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 
+/// A fresh ROS domain in 1..=230 for one node test: random per run and
+/// process, so concurrent runs in other checkouts stay apart; `salt` keeps
+/// two nodes of one test binary apart. (Not every test binary uses it.)
+#[allow(dead_code)]
+pub fn fresh_domain(salt: u32) -> u16 {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    (1 + (nanos ^ std::process::id().wrapping_mul(7919)).wrapping_add(salt) % 230) as u16
+}
+
 pub struct NodeProcess {
     pub child: Child,
 }
