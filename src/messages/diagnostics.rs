@@ -1,18 +1,9 @@
 //! diagnostic_msgs (ROS 2 Jazzy) in .msg field order: the node's health on
 //! `/diagnostics`, as `diagnostic_updater` publishes it.
 
+use super::msgs::ros_message;
 use super::msgs::Header;
-use super::RosMessage;
 use serde::{Deserialize, Serialize};
-
-macro_rules! ros_message {
-    ($ty:ident, $pkg:literal, $name:literal) => {
-        impl RosMessage for $ty {
-            const PACKAGE: &'static str = $pkg;
-            const NAME: &'static str = $name;
-        }
-    };
-}
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct KeyValue {

@@ -3,18 +3,9 @@
 //! trajectories to a joint_trajectory_controller with it; the test controller
 //! serves it.
 
+use super::msgs::ros_message;
 use super::msgs::{Duration, Header, JointTrajectory, JointTrajectoryPoint, Quaternion, Vector3};
-use super::RosMessage;
 use serde::{Deserialize, Serialize};
-
-macro_rules! ros_message {
-    ($ty:ident, $pkg:literal, $name:literal) => {
-        impl RosMessage for $ty {
-            const PACKAGE: &'static str = $pkg;
-            const NAME: &'static str = $name;
-        }
-    };
-}
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Transform {

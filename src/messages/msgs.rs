@@ -33,14 +33,16 @@ pub trait RosMessage:
     }
 }
 
+/// `impl RosMessage` for a message struct: its package and type name.
 macro_rules! ros_message {
     ($ty:ident, $pkg:literal, $name:literal) => {
-        impl RosMessage for $ty {
+        impl $crate::messages::RosMessage for $ty {
             const PACKAGE: &'static str = $pkg;
             const NAME: &'static str = $name;
         }
     };
 }
+pub(crate) use ros_message;
 
 /// Every .msg text this crate knows, by `pkg/Type`, sorted by name.
 pub const DEFINITIONS: &[(&str, &str)] = &[

@@ -221,7 +221,15 @@ impl NodeConfig {
     }
 
     pub fn parse(text: &str) -> Result<Self> {
-        let de = serde_yaml_ng::Deserializer::from_str(text);
+        Self::deserialize_checked(serde_yaml_ng::Deserializer::from_str(text))
+    }
+
+    /// Reads a config from YAML text or a YAML tree, with the config's
+    /// checks; errors name the dotted setting.
+    pub fn deserialize_checked<'de, D>(de: D) -> Result<Self>
+    where
+        D: serde::Deserializer<'de, Error = serde_yaml_ng::Error>,
+    {
         let cfg: NodeConfig = serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();
             let path = if path == "." { String::new() } else { path };

@@ -65,13 +65,7 @@ pub fn to_tree(config: &NodeConfig) -> Result<Value> {
 /// Reads a config back from a YAML tree, with the config file's checks;
 /// errors name the dotted setting.
 pub fn from_tree(tree: Value) -> Result<NodeConfig> {
-    let cfg: NodeConfig = serde_path_to_error::deserialize(tree).map_err(|e| {
-        let path = e.path().to_string();
-        let path = if path == "." { String::new() } else { path };
-        Error::invalid(path, e.into_inner().to_string())
-    })?;
-    cfg.validate()?;
-    Ok(cfg)
+    NodeConfig::deserialize_checked(tree)
 }
 
 /// The leaves of a YAML tree by dotted name (mappings nest; sequences,
