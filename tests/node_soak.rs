@@ -12,9 +12,7 @@ mod node_process;
 use node_process::NodeProcess;
 use std::time::Duration;
 use toolpath_planner::cli::bench_node::{self, BurstLoad};
-use toolpath_planner::formats::{FeedDirection, Job, JobFile, Machine, Shape, Strategy};
 use toolpath_planner::samples::surfaces;
-use toolpath_planner::tools::Tool;
 
 /// Resident set size of `pid`, MiB (from /proc).
 fn rss_mib(pid: u32) -> f64 {
@@ -32,30 +30,7 @@ fn rss_mib(pid: u32) -> f64 {
 fn wing_mould_load() -> BurstLoad {
     BurstLoad {
         surface: surfaces::wing_mould(),
-        job: Box::new(|id, s| {
-            let file = JobFile {
-                job_id: id.into(),
-                surface: serde_json::Value::Null,
-                strategy: Strategy::IsoParametric,
-                tool: Some(Tool::FlatEnd {
-                    radius: 2.5,
-                    length: None,
-                }),
-                machine: Some(Machine::Mill5),
-                scallop: Some(0.05),
-                tolerance: None,
-                lead_angle_deg: Some(5.0),
-                side_tilt_deg: None,
-                feed_direction: Some(FeedDirection::U),
-                feed_rate: Some(2000.0),
-                tool_catalogue: None,
-                section_normal: None,
-                simulation_resolution: None,
-                grinding: None,
-                time_limit_s: None,
-            };
-            Job::new(file, Shape::Surface(s.clone()))
-        }),
+        job: Box::new(|id, s| bench_node::iso_parametric_job(id, s.clone(), 0.05)),
     }
 }
 

@@ -56,6 +56,13 @@ fn rectangle(width_mm: f64) -> Result<NurbsSurface> {
 }
 
 fn bench_job(job_id: &str, surface: NurbsSurface) -> Result<Job> {
+    iso_parametric_job(job_id, surface, 0.5)
+}
+
+/// iso_parametric with a flat end R 2.5 on mill5 at scallop `scallop_mm`,
+/// lead 5 deg, feed along u at 2000 mm/min: the benchmark's and the soak
+/// test's job.
+pub fn iso_parametric_job(job_id: &str, surface: NurbsSurface, scallop_mm: f64) -> Result<Job> {
     let file = JobFile {
         job_id: job_id.into(),
         surface: serde_json::Value::Null,
@@ -65,7 +72,7 @@ fn bench_job(job_id: &str, surface: NurbsSurface) -> Result<Job> {
             length: None,
         }),
         machine: Some(Machine::Mill5),
-        scallop: Some(0.5),
+        scallop: Some(scallop_mm),
         tolerance: None,
         lead_angle_deg: Some(5.0),
         side_tilt_deg: None,
