@@ -108,6 +108,139 @@ pub fn read_bag(path: &Path) -> Result<Bag> {
 /// Largest bag file read, bytes: the whole file is held in memory.
 pub const MAX_BAG_BYTES: u64 = 4 << 30;
 
+/// Largest uncompressed chunk accepted, bytes.
+pub const MAX_CHUNK_BYTES: u64 = 1 << 30;
+
+/// MCAP record opcode of a chunk.
+const CHUNK_OPCODE: u8 = 0x06;
+
+/// Checks every chunk before the mcap reader sees it: the reader reserves
+/// the sizes a chunk and the records in it claim before reading them, so a
+/// damaged size field would abort the process. Walks the top-level records
+/// (opcode, u64 length) as the reader does. Refused: a chunk claiming more
+/// than [`MAX_CHUNK_BYTES`] uncompressed, a record in a chunk reaching past
+/// the chunk's claimed size, and a whole chunk that does not decompress to
+/// that size. A chunk cut short by the end of the file is checked as far as
+/// it goes (the reader recovers the records before the cut).
+fn check_chunks(bytes: &[u8], shown: &str) -> Result<()> {
+    let mut at = MAGIC.len();
+    while let (Some(&opcode), Some(len)) = (bytes.get(at), le_u64(bytes, at + 1)) {
+        let body = at + 9;
+        let end = usize::try_from(len).ok().and_then(|l| body.checked_add(l));
+        if opcode == CHUNK_OPCODE {
+            let whole = end.and_then(|e| bytes.get(body..e));
+            let chunk = whole.unwrap_or_else(|| bytes.get(body..).unwrap_or(&[]));
+            check_chunk(chunk, whole.is_some()).map_err(|why| {
+                Error::invalid(shown, format!("the chunk at byte {at} is damaged: {why}"))
+            })?;
+        }
+        match end {
+            Some(e) if e <= bytes.len() => at = e,
+            _ => return Ok(()),
+        }
+    }
+    Ok(())
+}
+
+fn le_u64(bytes: &[u8], at: usize) -> Option<u64> {
+    Some(u64::from_le_bytes(bytes.get(at..at + 8)?.try_into().ok()?))
+}
+
+fn le_u32(bytes: &[u8], at: usize) -> Option<u32> {
+    Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?))
+}
+
+/// One chunk's body (`whole`: not cut by the end of the file): start and
+/// end time, uncompressed size and CRC, the compression name, the
+/// (compressed) records.
+fn check_chunk(chunk: &[u8], whole: bool) -> std::result::Result<(), String> {
+    let Some(size) = le_u64(chunk, 16) else {
+        return if whole {
+            Err("its header is cut short".into())
+        } else {
+            Ok(())
+        };
+    };
+    if size > MAX_CHUNK_BYTES {
+        return Err(format!(
+            "it claims {size} bytes uncompressed (more than {MAX_CHUNK_BYTES})"
+        ));
+    }
+    let (Some(name_len), Some(name)) = (
+        le_u32(chunk, 28),
+        le_u32(chunk, 28).and_then(|n| chunk.get(32..32 + n as usize)),
+    ) else {
+        return if whole {
+            Err("its compression name is cut short".into())
+        } else {
+            Ok(())
+        };
+    };
+    let records_at = 32 + name_len as usize;
+    let Some(records_len) = le_u64(chunk, records_at) else {
+        return if whole {
+            Err("its records are cut short".into())
+        } else {
+            Ok(())
+        };
+    };
+    let from = records_at + 8;
+    let records = match usize::try_from(records_len)
+        .ok()
+        .and_then(|l| from.checked_add(l))
+    {
+        Some(to) if to <= chunk.len() => &chunk[from..to],
+        _ if whole => return Err("its records run past its end".into()),
+        _ => &chunk[from.min(chunk.len())..],
+    };
+    // Read at most one byte more than claimed: enough to tell it is longer.
+    let limit = size + 1;
+    let mut plain = Vec::new();
+    let decoded = match name {
+        b"" => {
+            plain.extend_from_slice(&records[..records.len().min(limit as usize)]);
+            Ok(())
+        }
+        b"zstd" => zstd::stream::read::Decoder::new(records)
+            .and_then(|d| {
+                std::io::Read::read_to_end(&mut std::io::Read::take(d, limit), &mut plain)
+            })
+            .map(|_| ())
+            .map_err(|e| format!("zstd: {e}")),
+        b"lz4" => lz4::Decoder::new(records)
+            .and_then(|d| {
+                std::io::Read::read_to_end(&mut std::io::Read::take(d, limit), &mut plain)
+            })
+            .map(|_| ())
+            .map_err(|e| format!("lz4: {e}")),
+        // Unknown compression: the reader refuses it by name.
+        _ => return Ok(()),
+    };
+    if whole {
+        decoded?;
+        if plain.len() as u64 != size {
+            return Err(format!(
+                "it holds {} bytes uncompressed, not the {size} it claims",
+                plain.len()
+            ));
+        }
+    }
+    let mut at = 0usize;
+    while let Some(len) = le_u64(&plain, at + 1) {
+        at = usize::try_from(len)
+            .ok()
+            .and_then(|l| (at + 9).checked_add(l))
+            .filter(|&end| end as u64 <= size)
+            .ok_or_else(|| {
+                format!("the record at offset {at} claims {len} bytes, past the chunk's end")
+            })?;
+    }
+    if whole && at != plain.len() {
+        return Err(format!("a record header at offset {at} is cut short"));
+    }
+    Ok(())
+}
+
 fn read_mcap(path: &Path, bag: &mut Bag) -> Result<()> {
     let shown = path.display().to_string();
     let bytes = crate::formats::read_file_limited(path, MAX_BAG_BYTES)?;
@@ -117,6 +250,7 @@ fn read_mcap(path: &Path, bag: &mut Bag) -> Result<()> {
             "not an MCAP file (no MCAP magic at the start)",
         ));
     }
+    check_chunks(&bytes, &shown)?;
     let complete = bytes.len() >= 2 * MAGIC.len() && bytes.ends_with(MAGIC);
     let reader = mcap::read::ChunkFlattener::new_with_options(
         &bytes,
