@@ -885,7 +885,7 @@ impl<'a> Simulator<'a> {
         }
         let (stamp, ids, query) = (&mut sc.stamp, &mut sc.ids, sc.query);
         let boxes = &self.boxes;
-        self.buckets.visit(&lo, &hi, |cell| {
+        self.buckets.visit(lo, hi, |cell| {
             for &id in cell {
                 if let Some(m) = stamp.get_mut(id as usize) {
                     if *m != query {
