@@ -845,6 +845,38 @@ impl<'a> Simulator<'a> {
     /// by the same motion, so its drop makes the cutoff for the others tight.
     fn candidates_stamped(&self, p: &Vector3<f64>, n: &Vector3<f64>, sc: &mut Scratch) {
         let (lo, hi) = self.line_box(p, n);
+        self.collect_stamped(&lo, &hi, sc);
+        if let Some(pos) = sc
+            .last_best
+            .and_then(|b| sc.ids.iter().position(|&id| id == b))
+        {
+            sc.ids.swap(0, pos);
+        }
+    }
+
+    /// The segments of a tile of samples (their frames): those whose own box
+    /// meets the box of all the tile's lines, once each, into `sc.ids`.
+    fn tile_candidates<'f>(
+        &self,
+        frames: impl Iterator<Item = &'f (Vector3<f64>, Vector3<f64>, f64)>,
+        sc: &mut Scratch,
+    ) {
+        let mut lo = Vector3::repeat(f64::INFINITY);
+        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+        for (p, n, _) in frames {
+            let (a, b) = self.line_box(p, n);
+            lo = lo.inf(&a);
+            hi = hi.sup(&b);
+        }
+        sc.ids.clear();
+        if lo.x <= hi.x {
+            self.collect_stamped(&lo, &hi, sc);
+        }
+    }
+
+    /// Ids of the segments whose own box meets [lo, hi], once each (marked in a
+    /// per-segment stamp array instead of sorted), into `sc.ids`.
+    fn collect_stamped(&self, lo: &Vector3<f64>, hi: &Vector3<f64>, sc: &mut Scratch) {
         sc.ids.clear();
         sc.query = sc.query.wrapping_add(1);
         if sc.query == 0 {
@@ -853,32 +885,75 @@ impl<'a> Simulator<'a> {
         }
         let (stamp, ids, query) = (&mut sc.stamp, &mut sc.ids, sc.query);
         let boxes = &self.boxes;
-        self.buckets.visit(&lo, &hi, |cell| {
+        self.buckets.visit(lo, hi, |cell| {
             for &id in cell {
                 if let Some(m) = stamp.get_mut(id as usize) {
                     if *m != query {
                         *m = query;
                         // A cell is larger than both boxes: keep only the
                         // segments whose own box meets the line's.
-                        if boxes.get(id as usize).is_some_and(|(a, b)| {
-                            a.x <= hi.x
-                                && a.y <= hi.y
-                                && a.z <= hi.z
-                                && b.x >= lo.x
-                                && b.y >= lo.y
-                                && b.z >= lo.z
-                        }) {
+                        if boxes
+                            .get(id as usize)
+                            .is_some_and(|(a, b)| boxes_meet(a, b, lo, hi))
+                        {
                             ids.push(id);
                         }
                     }
                 }
             }
         });
-        if let Some(pos) = sc
-            .last_best
-            .and_then(|b| sc.ids.iter().position(|&id| id == b))
-        {
-            sc.ids.swap(0, pos);
+    }
+
+    /// The fast residual of a sample of the tile whose candidates are in
+    /// `sc.ids`: those whose box meets the sample's line box, the previous
+    /// sample's lowest motion first.
+    fn residual_in_tile(
+        &self,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        sc: &mut Scratch,
+    ) -> Option<f64> {
+        let (lo, hi) = self.line_box(p, n);
+        let meets = |id: u32| {
+            self.boxes
+                .get(id as usize)
+                .is_some_and(|(a, b)| boxes_meet(a, b, &lo, &hi))
+        };
+        let first = sc.last_best.filter(|&b| meets(b));
+        let mut best = f64::INFINITY;
+        let mut lowest = None;
+        let rest = sc.ids.iter().copied().filter(|&id| Some(id) != first);
+        for id in first.into_iter().chain(rest) {
+            if Some(id) != first && !meets(id) {
+                continue;
+            }
+            self.consider(id, p, n, &mut best, &mut lowest);
+        }
+        if lowest.is_some() {
+            sc.last_best = lowest;
+        }
+        (best <= self.cap).then_some(best)
+    }
+
+    /// Lowers `best` (and sets `lowest`) to the drop of motion `id` if below.
+    fn consider(
+        &self,
+        id: u32,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        best: &mut f64,
+        lowest: &mut Option<u32>,
+    ) {
+        let Some(seg) = self.segments.get(id as usize) else {
+            return;
+        };
+        if !self.may_reach(seg, p, n, *best) {
+            return;
+        }
+        let h = self.sweep_min(seg, p, n, *best);
+        if h < *best {
+            *best = h;
+            *lowest = Some(id);
         }
     }
 
@@ -902,17 +977,7 @@ impl<'a> Simulator<'a> {
         let mut best = f64::INFINITY;
         let mut lowest = None;
         for &id in ids {
-            let Some(seg) = self.segments.get(id as usize) else {
-                continue;
-            };
-            if !self.may_reach(seg, p, n, best) {
-                continue;
-            }
-            let h = self.sweep_min(seg, p, n, best);
-            if h < best {
-                best = h;
-                lowest = Some(id);
-            }
+            self.consider(id, p, n, &mut best, &mut lowest);
         }
         ((best <= self.cap).then_some(best), lowest)
     }
@@ -997,7 +1062,7 @@ impl<'a> Simulator<'a> {
             }
         }
         let stop = std::sync::OnceLock::new();
-        let residual = self.residuals(&frames, method, (progress, &stop));
+        let residual = self.residuals(&frames, (nu, nv), method, (progress, &stop));
         if let Some(e) = stop.into_inner() {
             return Err(e);
         }
@@ -1078,18 +1143,26 @@ impl<'a> Simulator<'a> {
         (uv, xyz, frames)
     }
 
-    /// Residuals of all samples, in parallel over chunks of a fixed size (the
-    /// fast residual carries the previous sample's lowest segment within a
-    /// chunk, so chunks must not depend on the number of threads). A stop
-    /// found by `check` is put in its cell and leaves the rest uncomputed.
+    /// Residuals of all samples (`nu` x `nv`, k = i nv + j), in parallel over
+    /// tiles of TILE x TILE samples, a fixed number per task. The fast residual
+    /// lists a tile's candidate motions once and carries the previous sample's
+    /// lowest motion within a task, so tiles and tasks must not depend on the
+    /// number of threads. A stop found by `check` is put in its cell and
+    /// leaves the rest uncomputed.
     fn residuals(
         &self,
         frames: &[Frame],
+        (nu, nv): (usize, usize),
         method: Method,
         (progress, stop): (&dyn Progress, &std::sync::OnceLock<Error>),
     ) -> Vec<Option<f64>> {
-        const CHUNK: usize = 1024;
-        crate::parallel::map_chunks(frames, CHUNK, |frames| {
+        const TILE: usize = 8;
+        const TILES_PER_TASK: usize = 16;
+        let tiles: Vec<(usize, usize)> = (0..nu)
+            .step_by(TILE)
+            .flat_map(|i| (0..nv).step_by(TILE).map(move |j| (i, j)))
+            .collect();
+        let parts = crate::parallel::map_chunks(&tiles, TILES_PER_TASK, |tiles| {
             if stop.get().is_some() {
                 return Vec::new();
             }
@@ -1098,17 +1171,31 @@ impl<'a> Simulator<'a> {
                 return Vec::new();
             }
             let mut scratch = Scratch::new(self.segments.len());
-            frames
-                .iter()
-                .map(|f| {
-                    f.as_ref()
-                        .and_then(|(p, n, _)| self.residual_by(p, n, &mut scratch, method))
-                })
-                .collect::<Vec<_>>()
-        })
-        .into_iter()
-        .flatten()
-        .collect()
+            let mut out = Vec::with_capacity(tiles.len() * TILE * TILE);
+            for &(i0, j0) in tiles {
+                let ks = (i0..(i0 + TILE).min(nu))
+                    .flat_map(|i| (j0..(j0 + TILE).min(nv)).map(move |j| i * nv + j));
+                let frame = |k: usize| frames.get(k).and_then(|f| f.as_ref());
+                if method == Method::Fast {
+                    self.tile_candidates(ks.clone().filter_map(frame), &mut scratch);
+                }
+                for k in ks {
+                    let r = frame(k).and_then(|(p, n, _)| match method {
+                        Method::Fast => self.residual_in_tile(p, n, &mut scratch),
+                        Method::Reference => self.residual_reference(p, n, &mut scratch.ids),
+                    });
+                    out.push((k, r));
+                }
+            }
+            out
+        });
+        let mut residual = vec![None; frames.len()];
+        for (k, r) in parts.into_iter().flatten() {
+            if let Some(slot) = residual.get_mut(k) {
+                *slot = r;
+            }
+        }
+        residual
     }
 
     fn residual_by(
@@ -1334,6 +1421,11 @@ fn grid_resolution(
         res *= (n / AUTO_MAX_SAMPLES as f64).sqrt() * 1.01;
     }
     Ok(res)
+}
+
+/// Whether the boxes [a, b] and [lo, hi] meet.
+fn boxes_meet(a: &Vector3<f64>, b: &Vector3<f64>, lo: &Vector3<f64>, hi: &Vector3<f64>) -> bool {
+    a.x <= hi.x && a.y <= hi.y && a.z <= hi.z && b.x >= lo.x && b.y >= lo.y && b.z >= lo.z
 }
 
 /// Distance between segments [p0, p1] and [q0, q1] (Ericson, Real-Time Collision Detection 5.1.9).
