@@ -17,6 +17,7 @@ mod plot;
 mod post;
 mod progress;
 mod record;
+mod record_executed;
 mod replay;
 mod sample;
 mod simulate;
@@ -185,6 +186,11 @@ pub enum Command {
         /// Exit non-zero unless the job succeeds (the bag is written either way).
         #[arg(long)]
         require_success: bool,
+        /// Run the job through a node that executes it on a fake
+        /// FollowJointTrajectory controller (loopback, a private domain) and
+        /// keep the node's recording of the run.
+        #[arg(long)]
+        fake_execute: bool,
     },
     /// Bag maintenance.
     Bag {
@@ -386,7 +392,8 @@ fn dispatch(command: Command, ros: Option<&[String]>) -> Result<(), Error> {
             job,
             output,
             require_success,
-        } => record::run(&job, &output, require_success),
+            fake_execute,
+        } => record::run(&job, &output, require_success, fake_execute),
         Command::Bag {
             action: BagAction::Reindex { bag },
         } => reindex(&bag),
