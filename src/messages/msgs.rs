@@ -134,6 +134,14 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
         include_str!("../../msg/msg/PocketLoop.msg"),
     ),
     (
+        "toolpath_msgs/TrimCurve",
+        include_str!("../../msg/msg/TrimCurve.msg"),
+    ),
+    (
+        "toolpath_msgs/TrimLoop",
+        include_str!("../../msg/msg/TrimLoop.msg"),
+    ),
+    (
         "toolpath_msgs/Surface",
         include_str!("../../msg/msg/Surface.msg"),
     ),
@@ -536,8 +544,25 @@ pub struct Surface {
     pub count_v: u32,
     pub control_points: Vec<Point>,
     pub weights: Vec<f64>,
+    pub trim_loops: Vec<TrimLoop>,
+    pub trim_tolerance: f64,
 }
 ros_message!(Surface, "toolpath_msgs", "Surface");
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrimCurve {
+    pub degree: u32,
+    pub knots: Vec<f64>,
+    pub points_uv: Vec<f64>,
+    pub weights: Vec<f64>,
+}
+ros_message!(TrimCurve, "toolpath_msgs", "TrimCurve");
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrimLoop {
+    pub curves: Vec<TrimCurve>,
+}
+ros_message!(TrimLoop, "toolpath_msgs", "TrimLoop");
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PocketLoop {
@@ -747,6 +772,8 @@ mod tests {
         }
         check::<Tool>();
         check::<Surface>();
+        check::<TrimCurve>();
+        check::<TrimLoop>();
         check::<PocketLoop>();
         check::<Pocket>();
         check::<Job>();
