@@ -40,6 +40,7 @@ fn job(
         simulation_resolution: None,
         grinding: None,
         time_limit_s: None,
+        execute: None,
     }
 }
 

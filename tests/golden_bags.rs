@@ -1,11 +1,13 @@
 //! The golden bags in bags/ (made by `bags/record_all.sh`) replay with no
 //! difference; a bag whose recorded toolpath was moved gives a readable diff
-//! and a non-zero exit from `toolpath replay --check`.
+//! and a non-zero exit from `toolpath replay --check`. The `executed_*` bags
+//! (recorded by a node executing on a fake controller) show every pass
+//! executed, and their trajectory meets the controller rules from home.
 
 use std::path::{Path, PathBuf};
-use toolpath_planner::formats::Strategy;
-use toolpath_planner::machines::Machines;
-use toolpath_planner::messages::{self as msgs, topics};
+use toolpath_planner::formats::{Machine, Strategy};
+use toolpath_planner::machines::{jtc, Machines};
+use toolpath_planner::messages::{self as msgs, convert, topics};
 use toolpath_planner::recording::runs::{self, replay, topic_specs, Recorded};
 use toolpath_planner::recording::{read_bag, BagWriter, WriterOptions};
 
@@ -76,6 +78,67 @@ fn every_golden_job_was_recorded_as_succeeded() {
             assert!(out.poses.is_some() && out.trajectory.is_some());
         }
     }
+}
+
+#[test]
+fn executed_bags_show_every_pass_executed_on_both_machines() {
+    let m = Machines::default();
+    let mut machines = std::collections::BTreeSet::new();
+    for bag in golden_bags() {
+        let name = bag.file_name().unwrap().to_str().unwrap().to_string();
+        if !name.starts_with("executed_") {
+            continue;
+        }
+        let rec = Recorded::read(&bag).unwrap();
+        assert_eq!(rec.jobs.len(), 1, "{name}");
+        let job = &rec.jobs[0];
+        assert_eq!(job.execute, msgs::Job::EXECUTE, "{name}");
+        let out = rec.outputs(&job.job_id);
+        let passes = out.toolpath.expect("a toolpath").passes.len();
+        let (machine, trajectory) = out.trajectory.expect("a trajectory");
+        let (names, limits, home, controller) = match machine {
+            Machine::Mill5 => (
+                m.mill5.joint_names(),
+                m.mill5.limits(),
+                m.mill5.home(),
+                &m.mill5.controller,
+            ),
+            Machine::Belt6 => (
+                m.belt6.joint_names(),
+                m.belt6.limits(),
+                m.belt6.home(),
+                &m.belt6.controller,
+            ),
+        };
+        let action = controller.action(machine.name());
+        // One accepted goal per pass, in order, then SUCCEEDED saying so.
+        let accepted: Vec<String> = rec
+            .statuses
+            .iter()
+            .filter(|s| s.state == msgs::JobStatus::RUNNING && s.message.ends_with(": accepted"))
+            .map(|s| s.message.clone())
+            .collect();
+        let want: Vec<String> = (1..=passes)
+            .map(|k| format!("executing pass {k}/{passes} on {action}: accepted"))
+            .collect();
+        assert_eq!(accepted, want, "{name}");
+        let (state, message) = out.state.clone().unwrap();
+        assert_eq!(state, msgs::JobStatus::SUCCEEDED, "{name}: {message}");
+        assert!(
+            message.contains(&format!("; executed {passes} passes on {action} in ")),
+            "{name}: {message}"
+        );
+        // The published trajectory starts from the controller's pose (home:
+        // the fake controller's start) and meets every rule.
+        let points = convert::trajectory_points(trajectory, &names, &limits);
+        jtc::check(&points, &names, &limits, Some(&home)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        machines.insert(machine.name());
+    }
+    assert_eq!(
+        machines.into_iter().collect::<Vec<_>>(),
+        ["belt6", "mill5"],
+        "an executed golden bag of each machine"
+    );
 }
 
 /// Copies `src` into a new bag at `dst`, passing each toolpath through `edit`.

@@ -82,6 +82,7 @@ fn job_file(feed: FeedDirection) -> JobFile {
         simulation_resolution: None,
         grinding: None,
         time_limit_s: None,
+        execute: None,
     }
 }
 

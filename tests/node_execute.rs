@@ -4,7 +4,9 @@
 //! controller rules from the pose they are at. Checks a mill5 and a belt6 job
 //! run through, an abort and a rejection stop the job with the controller's
 //! reason, a cancel is forwarded, and a job after an abort starts from where
-//! the machine stopped. Loopback only, a random domain, the node killed by pid.
+//! the machine stopped. A PlanToolpath goal's `job.execute` overrides its
+//! machine's default both ways. Loopback only, a random domain, the node
+//! killed by pid.
 
 #[path = "common/node_client.rs"]
 mod node_client;
@@ -18,9 +20,11 @@ use std::time::{Duration, Instant};
 use toolpath_planner::formats::Shape;
 use toolpath_planner::machines::Machines;
 use toolpath_planner::messages::follow_joint_trajectory::StringMsg;
+use toolpath_planner::messages::plan_toolpath::{Goal, GoalResult};
 use toolpath_planner::messages::{self as msgs, convert};
 use toolpath_planner::ros::fake_controller::{self, Behaviour, FakeOptions};
 use toolpath_planner::ros::node::RosNode;
+use toolpath_planner::ros::plan_action::{self, PlanToolpathClient};
 
 // Both machines publish on one /joint_states, so the belt's joints get names
 // of their own (the node refuses two executing machines sharing a name).
@@ -247,5 +251,152 @@ fn jobs_execute_pass_by_pass_and_stop_on_abort_reject_and_cancel() {
             st.message
         );
         assert_eq!(mill.goals().last().unwrap().outcome, "canceled");
+    });
+}
+
+/// mill5 plans only by default, belt6 executes by default.
+const MIXED: &str = "node:\n  verify: false\nbelt6:\n  controller:\n    execute: true\n    joint_names: [belt_X, belt_Y, belt_Z, belt_A, belt_B, belt_C]\n";
+
+/// Sends a goal; its feedback stages and its result.
+async fn run_goal(client: &PlanToolpathClient, goal: Goal) -> (Vec<String>, GoalResult) {
+    let wait = Duration::from_secs(120);
+    let (id, response) = tokio::time::timeout(wait, client.async_send_goal(goal))
+        .await
+        .expect("no goal response")
+        .unwrap();
+    assert!(response.accepted);
+    let result = client.async_request_result(id);
+    let feedback = client.feedback_stream(id);
+    futures::pin_mut!(result, feedback);
+    let mut stages = Vec::new();
+    let deadline = tokio::time::sleep(wait);
+    tokio::pin!(deadline);
+    loop {
+        tokio::select! {
+            r = &mut result => return (stages, r.unwrap().1),
+            Some(Ok(f)) = feedback.next() => stages.push(f.stage),
+            _ = &mut deadline => panic!("no result within {wait:?}"),
+        }
+    }
+}
+
+#[test]
+fn a_goal_executes_or_plans_only_whatever_its_machine_default() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("node.yaml");
+    std::fs::write(&config, MIXED).unwrap();
+    let d = node_process::fresh_domain(1);
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
+        let mut cell = RosNode::new("fake_cell", "/", d, lo.clone()).unwrap();
+        let m = Machines::default();
+        let mill = fake_controller::spawn(
+            &mut cell,
+            FakeOptions {
+                action: "mill5_controller/follow_joint_trajectory".into(),
+                joint_names: m.mill5.joint_names(),
+                limits: m.mill5.limits(),
+                start: m.mill5.home(),
+                behaviour: fast(),
+            },
+        )
+        .unwrap();
+        let belt = fake_controller::spawn(
+            &mut cell,
+            FakeOptions {
+                action: "belt6_controller/follow_joint_trajectory".into(),
+                joint_names: ["X", "Y", "Z", "A", "B", "C"]
+                    .iter()
+                    .map(|j| format!("belt_{j}"))
+                    .collect(),
+                limits: m.belt6.limits(),
+                start: m.belt6.home(),
+                behaviour: fast(),
+            },
+        )
+        .unwrap();
+        let (_node, ready) = NodeProcess::spawn(&config, d);
+        assert!(ready.starts_with("ready"), "node said {ready:?}");
+        let mut ros = RosNode::new("goal_client", "/", d, lo).unwrap();
+        let action = plan_action::action_client(&mut ros).unwrap();
+        let found = async {
+            action.goal_client().wait_for_service(&ros.node).await;
+            action.result_client().wait_for_service(&ros.node).await;
+        };
+        tokio::time::timeout(Duration::from_secs(30), found)
+            .await
+            .expect("the node's action was not discovered");
+        // The node's action clients find the controllers in the meantime.
+        tokio::time::sleep(Duration::from_secs(2)).await;
+        let goal = |sample: &str, id: &str, execute: u8| {
+            let job = toolpath_planner::samples::job(sample).unwrap();
+            let Shape::Surface(s) = &job.shape else {
+                panic!("surface jobs")
+            };
+            let mut msg = convert::job_to_msg(&job, "shape", msgs::Header::default());
+            msg.job_id = id.into();
+            msg.surface_id = format!("{id}_shape");
+            msg.execute = execute;
+            Goal {
+                surface: vec![convert::surface_to_msg(
+                    &msg.surface_id,
+                    s,
+                    msgs::Header::default(),
+                )],
+                job: msg,
+                ..Default::default()
+            }
+        };
+
+        // execute = 1 on mill5, which only plans by default: every pass goes
+        // to its controller, and the feedback and result say so.
+        let (stages, r) = run_goal(&action, goal("plane", "mill_goal", msgs::Job::EXECUTE)).await;
+        assert_eq!(r.status, msgs::JobStatus::SUCCEEDED, "{}", r.reason);
+        let passes = mill.goals().len();
+        assert_eq!(passes, r.toolpath.passes.len(), "one goal per pass");
+        assert!(mill.goals().iter().all(|g| g.accepted && g.outcome == "succeeded"));
+        assert!(
+            r.reason.contains(&format!(
+                "executed {passes} passes on mill5_controller/follow_joint_trajectory"
+            )),
+            "{}",
+            r.reason
+        );
+        assert!(
+            stages.iter().any(|s| s.contains("executing pass 1/")),
+            "{stages:?}"
+        );
+
+        // execute = 0 on mill5: its default, plan only.
+        let (stages, r) = run_goal(
+            &action,
+            goal("plane", "mill_default", msgs::Job::EXECUTE_MACHINE_DEFAULT),
+        )
+        .await;
+        assert_eq!(r.status, msgs::JobStatus::SUCCEEDED, "{}", r.reason);
+        assert!(!r.reason.contains("executed"), "{}", r.reason);
+        assert!(!stages.iter().any(|s| s.contains("executing")), "{stages:?}");
+        assert_eq!(mill.goals().len(), passes, "nothing sent to mill5");
+
+        // execute = 2 on belt6, which executes by default: plan only.
+        let (stages, r) =
+            run_goal(&action, goal("sine_wave", "belt_plan", msgs::Job::PLAN_ONLY)).await;
+        assert_eq!(r.status, msgs::JobStatus::SUCCEEDED, "{}", r.reason);
+        assert!(!r.reason.contains("executed"), "{}", r.reason);
+        assert!(!stages.iter().any(|s| s.contains("executing")), "{stages:?}");
+        assert!(belt.goals().is_empty(), "{:?}", belt.goals());
+
+        // A value outside 0..2 is refused with the reason.
+        let (_, r) = run_goal(&action, goal("plane", "bad_execute", 7)).await;
+        assert_eq!(r.status, msgs::JobStatus::REJECTED);
+        assert_eq!(
+            r.reason,
+            "invalid input: execute: 7 is not 0 (the machine's default), 1 (execute) or 2 (plan only)"
+        );
+        assert_eq!(mill.goals().len(), passes);
     });
 }

@@ -44,6 +44,7 @@ fn ball_job() -> JobFile {
         simulation_resolution: Some(0.25),
         grinding: None,
         time_limit_s: None,
+        execute: None,
     }
 }
 

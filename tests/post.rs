@@ -905,6 +905,7 @@ fn write_case(dir: &Path, job: &Job, result: &PlanResult) -> (PathBuf, PathBuf) 
         simulation_resolution: None,
         grinding: None,
         time_limit_s: None,
+        execute: None,
     };
     std::fs::write(&job_path, serde_json::to_string(&file).unwrap()).unwrap();
     let result_path = dir.join("result.json");

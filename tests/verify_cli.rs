@@ -35,6 +35,7 @@ fn job_file(strategy: Strategy, tool: Tool, shape: &Shape) -> JobFile {
         simulation_resolution: Some(0.25),
         grinding: None,
         time_limit_s: None,
+        execute: None,
     }
 }
 

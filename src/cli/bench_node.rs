@@ -83,6 +83,7 @@ pub fn iso_parametric_job(job_id: &str, surface: NurbsSurface, scallop_mm: f64) 
         simulation_resolution: None,
         grinding: None,
         time_limit_s: None,
+        execute: None,
     };
     Job::new(file, Shape::Surface(surface))
 }

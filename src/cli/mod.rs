@@ -8,6 +8,7 @@ mod compare_mpec;
 mod compare_pocket;
 mod compare_suite;
 mod demo;
+mod import;
 mod inspect;
 mod ipc_publish;
 mod node;
@@ -16,6 +17,7 @@ mod plot;
 mod post;
 mod progress;
 mod record;
+mod record_executed;
 mod replay;
 mod sample;
 mod simulate;
@@ -65,6 +67,20 @@ pub enum Command {
         /// Refuse, before planning, a job estimated to need more memory (MB).
         #[arg(long, value_name = "MB", default_value_t = crate::pipeline::Budget::DEFAULT.max_memory_mb)]
         max_memory_mb: f64,
+    },
+    /// List the faces of a STEP file, or write chosen faces as trimmed surfaces (JSON).
+    Import {
+        /// STEP file (AP203/AP214/AP242, Part 21).
+        step: PathBuf,
+        /// List the faces: STEP entity id, surface type, area (mm²), bounding box (mm).
+        #[arg(long)]
+        list: bool,
+        /// Entity id of a face to write (repeat for several: a JSON array).
+        #[arg(long = "face", value_name = "ID")]
+        faces: Vec<u64>,
+        /// Output file ("-" for stdout).
+        #[arg(short, long, default_value = "-")]
+        output: PathBuf,
     },
     /// Print the differential geometry of a surface at (u, v) as JSON.
     Inspect {
@@ -170,6 +186,11 @@ pub enum Command {
         /// Exit non-zero unless the job succeeds (the bag is written either way).
         #[arg(long)]
         require_success: bool,
+        /// Run the job through a node that executes it on a fake
+        /// FollowJointTrajectory controller (loopback, a private domain) and
+        /// keep the node's recording of the run.
+        #[arg(long)]
+        fake_execute: bool,
     },
     /// Bag maintenance.
     Bag {
@@ -325,6 +346,12 @@ fn dispatch(command: Command, ros: Option<&[String]>) -> Result<(), Error> {
                 },
             },
         ),
+        Command::Import {
+            step,
+            list,
+            faces,
+            output,
+        } => import::run(&step, list, &faces, &output),
         Command::Inspect { surface, uv } => inspect::run(&surface, uv[0], uv[1]),
         Command::Sample {
             name,
@@ -365,7 +392,8 @@ fn dispatch(command: Command, ros: Option<&[String]>) -> Result<(), Error> {
             job,
             output,
             require_success,
-        } => record::run(&job, &output, require_success),
+            fake_execute,
+        } => record::run(&job, &output, require_success, fake_execute),
         Command::Bag {
             action: BagAction::Reindex { bag },
         } => reindex(&bag),

@@ -189,6 +189,10 @@ pub struct JobFile {
     /// Stop planning after this many seconds (the job FAILS, stopped).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time_limit_s: Option<f64>,
+    /// The node sends the trajectory to the machine's controller (`true`) or
+    /// only publishes it (`false`); absent: the machine's `controller.execute`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub execute: Option<bool>,
 }
 
 /// A validated job.
@@ -213,6 +217,8 @@ pub struct Job {
     pub grinding: GrindingParams,
     /// s; `None`: only the limit of the CLI or node applies.
     pub time_limit_s: Option<f64>,
+    /// Whether the node executes the trajectory; `None`: the machine's default.
+    pub execute: Option<bool>,
 }
 
 /// Longest time limit a job (or a config) may give, s: a week. Beyond it a
@@ -546,6 +552,7 @@ impl Job {
             simulation_resolution: f.simulation_resolution,
             grinding: f.grinding.unwrap_or_default(),
             time_limit_s: f.time_limit_s,
+            execute: f.execute,
         })
     }
 
@@ -569,6 +576,7 @@ impl Job {
             simulation_resolution: self.simulation_resolution,
             grinding: (self.grinding != GrindingParams::default()).then_some(self.grinding),
             time_limit_s: self.time_limit_s,
+            execute: self.execute,
         }
     }
 

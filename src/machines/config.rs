@@ -333,6 +333,43 @@ impl Machines {
         self.check_joint_names_apart()
     }
 
+    /// Whether `machine`'s trajectories go to its controller by default
+    /// (`controller.execute`; a job may say otherwise).
+    pub fn executes_by_default(&self, machine: crate::formats::Machine) -> bool {
+        match machine {
+            crate::formats::Machine::Mill5 => self.mill5.controller.execute,
+            crate::formats::Machine::Belt6 => self.belt6.controller.execute,
+        }
+    }
+
+    /// Checks that a job may execute on `machine` (the job asks for it): when
+    /// the other machine executes by default their joint names must differ,
+    /// as for two machines executing by default.
+    pub fn check_job_may_execute(&self, machine: crate::formats::Machine) -> Result<()> {
+        let other = match machine {
+            crate::formats::Machine::Mill5 => crate::formats::Machine::Belt6,
+            crate::formats::Machine::Belt6 => crate::formats::Machine::Mill5,
+        };
+        if !self.executes_by_default(other) {
+            return Ok(());
+        }
+        let shared = self.shared_joint_names();
+        if shared.is_empty() {
+            return Ok(());
+        }
+        Err(Error::invalid(
+            "execute",
+            format!(
+                "{} cannot execute while {} executes by default: they share the joints {} and \
+                 /joint_states cannot tell them apart; give one machine its controller's own \
+                 joint names (controller.joint_names)",
+                machine.name(),
+                other.name(),
+                shared.join(" ")
+            ),
+        ))
+    }
+
     /// Both machines executing in one cell read one `/joint_states`, which
     /// names joints only: a joint name both use would give each machine the
     /// other's position as its start pose.
@@ -340,13 +377,7 @@ impl Machines {
         if !(self.mill5.controller.execute && self.belt6.controller.execute) {
             return Ok(());
         }
-        let mill = self.mill5.joint_names();
-        let shared: Vec<String> = self
-            .belt6
-            .joint_names()
-            .into_iter()
-            .filter(|n| mill.contains(n))
-            .collect();
+        let shared = self.shared_joint_names();
         if shared.is_empty() {
             return Ok(());
         }
@@ -360,5 +391,15 @@ impl Machines {
                 shared[0]
             ),
         ))
+    }
+
+    /// The joint names both machines use.
+    fn shared_joint_names(&self) -> Vec<String> {
+        let mill = self.mill5.joint_names();
+        self.belt6
+            .joint_names()
+            .into_iter()
+            .filter(|n| mill.contains(n))
+            .collect()
     }
 }

@@ -457,6 +457,7 @@ mod tests {
             simulation_resolution: None,
             grinding: None,
             time_limit_s: None,
+            execute: None,
         };
         Job::new(file, Shape::Surface(crate::samples::surfaces::plane())).unwrap()
     }

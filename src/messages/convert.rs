@@ -215,6 +215,19 @@ pub fn job_file_from_msg(m: &msgs::Job) -> Result<JobFile> {
         simulation_resolution: opt_nonzero(m.simulation_resolution),
         grinding: grinding_from_msg(&m.grinding),
         time_limit_s: None,
+        execute: match m.execute {
+            msgs::Job::EXECUTE_MACHINE_DEFAULT => None,
+            msgs::Job::EXECUTE => Some(true),
+            msgs::Job::PLAN_ONLY => Some(false),
+            other => {
+                return Err(Error::invalid(
+                    "execute",
+                    format!(
+                        "{other} is not 0 (the machine's default), 1 (execute) or 2 (plan only)"
+                    ),
+                ))
+            }
+        },
     })
 }
 
@@ -300,6 +313,11 @@ pub fn job_to_msg(job: &Job, surface_id: &str, header: msgs::Header) -> msgs::Jo
         },
         // Any node: a client addresses a job by setting this.
         node: String::new(),
+        execute: match job.execute {
+            None => msgs::Job::EXECUTE_MACHINE_DEFAULT,
+            Some(true) => msgs::Job::EXECUTE,
+            Some(false) => msgs::Job::PLAN_ONLY,
+        },
     }
 }
 
@@ -878,7 +896,8 @@ mod tests {
             "section_normal": [0.0, 0.6, 0.8],
             "simulation_resolution": 0.4,
             "grinding": {"c_a": 0.003, "k_a": 1.1, "k_t": 0.9, "belt_speed": 25.0,
-                         "force": 15.0, "feed_speed": 12.0}
+                         "force": 15.0, "feed_speed": 12.0},
+            "execute": true
         }))
         .unwrap();
         let shape = Shape::Surface(crate::samples::surfaces::plane());
@@ -890,8 +909,30 @@ mod tests {
         assert_eq!((m.grinding.c_a, m.grinding.feed_speed), (0.003, 12.0));
         assert_eq!(m.side_tilt_deg, -2.25);
         assert_eq!(m.simulation_resolution, 0.4);
+        assert_eq!(m.execute, msgs::Job::EXECUTE);
         let back = job_from_msg(&m, &shape).unwrap();
         assert_eq!(back, job);
+        // Plan only, and the machine's default, round-trip too.
+        for (execute, code) in [
+            (Some(false), msgs::Job::PLAN_ONLY),
+            (None, msgs::Job::EXECUTE_MACHINE_DEFAULT),
+        ] {
+            let j = Job {
+                execute,
+                ..job.clone()
+            };
+            let m = job_to_msg(&j, "plane", msgs::Header::default());
+            assert_eq!(m.execute, code);
+            assert_eq!(job_from_msg(&m, &shape).unwrap().execute, execute);
+        }
+        let bad = msgs::Job {
+            execute: 3,
+            ..m.clone()
+        };
+        assert_eq!(
+            prevalidate_job(&bad).unwrap_err().to_string(),
+            "invalid input: execute: 3 is not 0 (the machine's default), 1 (execute) or 2 (plan only)"
+        );
         // Zero grinding fields take their defaults, one by one.
         let mut m = m;
         m.grinding.force = 0.0;

@@ -575,8 +575,19 @@ pub struct Job {
     /// The fully qualified name of the node that should plan the job; empty:
     /// any node. Other nodes ignore it.
     pub node: String,
+    /// Whether the node executes the trajectory ([`Job::EXECUTE`]...).
+    pub execute: u8,
 }
 ros_message!(Job, "toolpath_msgs", "Job");
+
+impl Job {
+    /// `execute`: as the machine's `controller.execute` says.
+    pub const EXECUTE_MACHINE_DEFAULT: u8 = 0;
+    /// `execute`: send the trajectory to the controller.
+    pub const EXECUTE: u8 = 1;
+    /// `execute`: publish the trajectory only.
+    pub const PLAN_ONLY: u8 = 2;
+}
 
 /// The tool poses of one job, one PoseArray per pass.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

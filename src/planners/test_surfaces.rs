@@ -99,6 +99,7 @@ pub fn job(
         simulation_resolution: None,
         grinding: None,
         time_limit_s: None,
+        execute: None,
     };
     crate::formats::Job::new(file, crate::formats::Shape::Surface(surface)).expect("valid test job")
 }

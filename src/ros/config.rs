@@ -344,6 +344,7 @@ impl NodeConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::formats::Machine;
 
     #[test]
     fn every_launch_config_parses() {
@@ -387,7 +388,33 @@ mod tests {
         let apart = format!("{both}    joint_names: [b_X, b_Y, b_Z, b_A, b_B, b_C]\n");
         NodeConfig::parse(&apart).unwrap();
         // One machine executing alone reads its own joints only.
-        NodeConfig::parse("mill5:\n  controller:\n    execute: true\n").unwrap();
+        let mill = NodeConfig::parse("mill5:\n  controller:\n    execute: true\n").unwrap();
+        // A job asking belt6 to execute beside it is refused the same way;
+        // mill5 itself, or belt6 with joints of its own, may.
+        let machines = mill.machines();
+        machines.check_job_may_execute(Machine::Mill5).unwrap();
+        let e = machines
+            .check_job_may_execute(Machine::Belt6)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "invalid input: execute: belt6 cannot execute while mill5 executes by default: they \
+             share the joints X Y Z A C and /joint_states cannot tell them apart; give one \
+             machine its controller's own joint names (controller.joint_names)"
+        );
+        let apart = NodeConfig::parse(
+            "mill5:\n  controller:\n    execute: true\nbelt6:\n  controller:\n    joint_names: [b_X, b_Y, b_Z, b_A, b_B, b_C]\n",
+        )
+        .unwrap();
+        apart
+            .machines()
+            .check_job_may_execute(Machine::Belt6)
+            .unwrap();
+        // Nothing executes by default: any job may.
+        let none = NodeConfig::default().machines();
+        none.check_job_may_execute(Machine::Belt6).unwrap();
+        none.check_job_may_execute(Machine::Mill5).unwrap();
     }
 
     #[test]

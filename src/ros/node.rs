@@ -297,7 +297,8 @@ struct Outputs {
     last_stamp_ns: AtomicU64,
     /// To the iceoryx2 publisher thread (its publisher is not `Send`).
     ipc: Option<std::sync::mpsc::Sender<PlanResult>>,
-    /// Executors of the machines with `controller.execute: true`.
+    /// Executors of both machines (a job may execute on a machine whose
+    /// `controller.execute` is off).
     executors: Vec<(Machine, ExecutorQueue)>,
     /// Cancel requests of executions.
     cancels: Arc<Cancels>,
@@ -724,10 +725,13 @@ fn plan_and_publish(
         summary.push_str(&format!("; WARNING: {why}"));
     }
     let trajectory_topic = out.trajectory_topic();
+    let executes = job
+        .execute
+        .unwrap_or_else(|| machines.executes_by_default(job.machine));
     let executor = outputs
         .executors
         .iter()
-        .find(|(m, _)| *m == job.machine)
+        .find(|(m, _)| *m == job.machine && executes)
         .map(|(_, q)| q);
     let chunks = executor.map(|_| convert::trajectory_chunks(&trajectory, &out.trajectory));
     let JobOutputs {
@@ -905,7 +909,11 @@ fn check_job(msg: &msgs::Job, machines: &Machines) -> Result<()> {
         machine,
         file.feed_rate.unwrap_or(DEFAULT_FEED_RATE),
         machines,
-    )
+    )?;
+    if file.execute == Some(true) && !machines.executes_by_default(machine) {
+        machines.check_job_may_execute(machine)?;
+    }
+    Ok(())
 }
 
 /// Handles a received job message: REJECTED at once when the message itself is
@@ -1008,13 +1016,11 @@ fn start_outputs(
         (Machine::Mill5, &config.mill5.controller),
         (Machine::Belt6, &config.belt6.controller),
     ] {
-        if controller.execute {
-            let action = controller.action(machine.name());
-            let client = Arc::new(execute::client(ros, &action)?);
-            let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
-            tokio::spawn(execute::executor(client, action, rx, Arc::clone(&cancels)));
-            executors.push((machine, tx));
-        }
+        let action = controller.action(machine.name());
+        let client = Arc::new(execute::client(ros, &action)?);
+        let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+        tokio::spawn(execute::executor(client, action, rx, Arc::clone(&cancels)));
+        executors.push((machine, tx));
     }
     let outputs = Arc::new(Outputs {
         status: Mutex::new(ros.publisher(topics::JOB_STATUS, qos::status())?),

@@ -128,6 +128,7 @@ fn base_job(name: &str, strategy: Strategy, tool: Tool) -> JobFile {
         simulation_resolution: None,
         grinding: None,
         time_limit_s: None,
+        execute: None,
     }
 }
 

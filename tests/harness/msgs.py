@@ -62,20 +62,25 @@ _CLASSES = {}
 
 def _parse(full_name):
     """Fields [(name, type_token)] and constants {name: value} of a .msg file."""
-    fields, constants = [], {}
     with open(_SOURCES[full_name]) as fh:
-        for raw in fh:
-            line = raw.split("#", 1)[0].strip()
-            if not line:
-                continue
-            m = re.match(r"^(\S+)\s+([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.+)$", line)
-            if m:
-                ty, name, value = m.groups()
-                base = _PRIMITIVES.get(ty)
-                constants[name] = base[1](value) if base and base[1] is not str else value.strip("'\"")
-                continue
-            parts = line.split()
-            fields.append((parts[1], parts[0]))
+        return _parse_lines(fh)
+
+
+def _parse_lines(lines):
+    """Fields [(name, type_token)] and constants {name: value} of .msg text."""
+    fields, constants = [], {}
+    for raw in lines:
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        m = re.match(r"^(\S+)\s+([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.+)$", line)
+        if m:
+            ty, name, value = m.groups()
+            base = _PRIMITIVES.get(ty)
+            constants[name] = base[1](value) if base and base[1] is not str else value.strip("'\"")
+            continue
+        parts = line.split()
+        fields.append((parts[1], parts[0]))
     return fields, constants
 
 
@@ -130,19 +135,39 @@ def get(full_name):
     pkg, name = full_name.split("/")
     fields, constants = _parse(full_name)
     typename = "%s::msg::dds_::%s_" % (pkg, name)
+    cls = struct(name, typename, [(f,) + _field_type(pkg, token) for f, token in fields], constants)
+    cls.ros_name = full_name
+    _CLASSES[full_name] = cls
+    return cls
+
+
+def struct(name, typename, fields, constants=None):
+    """A final IdlStruct named `typename` with fields [(name, annotation, default factory)]."""
     ns = IdlMeta.__prepare__(name, (IdlStruct,), typename=typename)
-    for fname, token in fields:
-        ann, default = _field_type(pkg, token)
+    for fname, ann, default in fields:
         ns["__annotations__"][fname] = ann
         ns[fname] = dataclasses.field(default_factory=default)
     cls = IdlMeta(name, (IdlStruct,), ns, typename=typename)
     cls = _annotate.final(cls)
     cls = dataclasses.dataclass(cls)
-    for k, v in constants.items():
+    for k, v in (constants or {}).items():
         setattr(cls, k, v)
-    cls.ros_name = full_name
-    _CLASSES[full_name] = cls
     return cls
+
+
+def sections(path, pkg, kind, name, parts):
+    """The classes of the '---'-separated parts of a .srv or .action file, named
+    as rmw_cyclonedds names them: ``pkg::<kind>::dds_::<name>_<part>_``."""
+    with open(path) as fh:
+        texts = re.split(r"^---\s*$", fh.read(), flags=re.M)
+    assert len(texts) == len(parts), path
+    out = []
+    for part, text in zip(parts, texts):
+        fields, constants = _parse_lines(text.splitlines())
+        typename = "%s::%s::dds_::%s_%s_" % (pkg, kind, name, part)
+        out.append(struct("%s_%s" % (name, part), typename,
+                          [(f,) + _field_type(pkg, token) for f, token in fields], constants))
+    return out
 
 
 for _full in _SOURCES:
