@@ -34,20 +34,24 @@ pub struct Timed {
 const MIN_DT: f64 = 1e-4;
 
 fn waypoint_velocities(q: &[Vec<f64>], dt: &[f64], stops: &[bool]) -> Vec<Vec<f64>> {
+    (0..q.len())
+        .map(|k| waypoint_velocity(q, dt, stops, k))
+        .collect()
+}
+
+/// Velocity of every joint at waypoint `k`: the mean of its two segments'
+/// velocities, zero at a stop or an end.
+fn waypoint_velocity(q: &[Vec<f64>], dt: &[f64], stops: &[bool], k: usize) -> Vec<f64> {
     let n = q.len();
     let joints = q.first().map_or(0, |p| p.len());
     let seg_v = |k: usize, j: usize| (q[k + 1][j] - q[k][j]) / dt[k];
-    (0..n)
-        .map(|k| {
-            (0..joints)
-                .map(|j| {
-                    if stops[k] || k == 0 || k + 1 == n {
-                        0.0
-                    } else {
-                        0.5 * (seg_v(k - 1, j) + seg_v(k, j))
-                    }
-                })
-                .collect()
+    (0..joints)
+        .map(|j| {
+            if stops[k] || k == 0 || k + 1 == n {
+                0.0
+            } else {
+                0.5 * (seg_v(k - 1, j) + seg_v(k, j))
+            }
         })
         .collect()
 }
@@ -80,26 +84,68 @@ fn worst_acceleration(
     dt: &[f64],
     limits: &[JointLimit],
 ) -> (f64, Vec<f64>) {
-    let mut worst = 0.0f64;
-    let per_segment: Vec<f64> = dt
+    let per_segment: Vec<f64> = (0..dt.len())
+        .map(|k| segment_ratio(q, v, dt, limits, k))
+        .collect();
+    (worst_of(&per_segment), per_segment)
+}
+
+fn worst_of(per_segment: &[f64]) -> f64 {
+    per_segment.iter().fold(0.0, |w, &r| w.max(r))
+}
+
+/// [`worst_acceleration`]'s ratio of segment `k` (waypoints k and k + 1).
+fn segment_ratio(
+    q: &[Vec<f64>],
+    v: &[Vec<f64>],
+    dt: &[f64],
+    limits: &[JointLimit],
+    k: usize,
+) -> f64 {
+    let d = dt[k];
+    limits
         .iter()
         .enumerate()
-        .map(|(k, &d)| {
-            let r = limits
-                .iter()
-                .enumerate()
-                .map(|(j, l)| {
-                    let fd = (v[k + 1][j] - v[k][j]).abs() / (l.max_acceleration * d);
-                    let (vp, ap) = hermite_peaks(q[k][j], q[k + 1][j], v[k][j], v[k + 1][j], d);
-                    fd.max(ap / l.max_acceleration)
-                        .max((vp / l.max_velocity).powi(2))
-                })
-                .fold(0.0, f64::max);
-            worst = worst.max(r);
-            r
+        .map(|(j, l)| {
+            let fd = (v[k + 1][j] - v[k][j]).abs() / (l.max_acceleration * d);
+            let (vp, ap) = hermite_peaks(q[k][j], q[k + 1][j], v[k][j], v[k + 1][j], d);
+            fd.max(ap / l.max_acceleration)
+                .max((vp / l.max_velocity).powi(2))
         })
-        .collect();
-    (worst, per_segment)
+        .fold(0.0, f64::max)
+}
+
+/// Lengthens the segments over their limits (by the square root of their
+/// ratio, at most twice) and updates what depends on them: the velocities of
+/// their end waypoints, and the ratios of the segments sharing those
+/// waypoints. Everything else keeps its value, so the result is the one a
+/// full recomputation gives.
+fn stretch_over_limit(
+    q: &[Vec<f64>],
+    v: &mut [Vec<f64>],
+    dt: &mut [f64],
+    stops: &[bool],
+    limits: &[JointLimit],
+    per_segment: &mut [f64],
+) {
+    let over: Vec<usize> = (0..dt.len()).filter(|&k| per_segment[k] > 1.0).collect();
+    for &k in &over {
+        dt[k] *= per_segment[k].sqrt().min(2.0);
+    }
+    for &k in &over {
+        v[k] = waypoint_velocity(q, dt, stops, k);
+        v[k + 1] = waypoint_velocity(q, dt, stops, k + 1);
+    }
+    let last = dt.len() - 1;
+    let mut next = 0;
+    for &k in &over {
+        let first = k.saturating_sub(1).max(next);
+        let end = (k + 1).min(last);
+        for (s, r) in per_segment.iter_mut().enumerate().take(end + 1).skip(first) {
+            *r = segment_ratio(q, v, dt, limits, s);
+        }
+        next = next.max(end + 1);
+    }
 }
 
 /// Times the path `q` (one row of joint values per waypoint). `segments[k]`
@@ -128,19 +174,14 @@ pub fn parameterise(
         })
         .collect();
     let mut v = waypoint_velocities(&q, &dt, stops);
+    let (mut worst, mut per_segment) = worst_acceleration(&q, &v, &dt, limits);
     for _ in 0..60 {
-        let (worst, per_segment) = worst_acceleration(&q, &v, &dt, limits);
         if worst <= 1.0 {
             break;
         }
-        for (d, r) in dt.iter_mut().zip(&per_segment) {
-            if *r > 1.0 {
-                *d *= r.sqrt().min(2.0);
-            }
-        }
-        v = waypoint_velocities(&q, &dt, stops);
+        stretch_over_limit(&q, &mut v, &mut dt, stops, limits, &mut per_segment);
+        worst = worst_of(&per_segment);
     }
-    let (worst, _) = worst_acceleration(&q, &v, &dt, limits);
     if worst > 1.0 {
         // Stretching time by k divides velocities by k and accelerations by k^2.
         let k = worst.sqrt() * (1.0 + 1e-9);
@@ -232,5 +273,95 @@ mod tests {
             let speed = segs[k - 1].length / dt;
             assert!(speed <= 50.0 * (1.0 + 1e-9));
         }
+    }
+
+    /// The timing with every velocity and ratio recomputed in every round:
+    /// the incremental update must give the same bits.
+    fn parameterise_recomputing_all(
+        q: &[Vec<f64>],
+        segments: &[Segment],
+        stops: &[bool],
+        limits: &[JointLimit],
+    ) -> (Vec<f64>, Vec<Vec<f64>>) {
+        let mut dt: Vec<f64> = segments
+            .iter()
+            .enumerate()
+            .map(|(k, s)| {
+                let cart = s.max_speed.map_or(0.0, |f| s.length / f);
+                let joint = limits
+                    .iter()
+                    .enumerate()
+                    .map(|(j, l)| (q[k + 1][j] - q[k][j]).abs() / l.max_velocity)
+                    .fold(0.0, f64::max);
+                cart.max(joint).max(MIN_DT)
+            })
+            .collect();
+        let mut v = waypoint_velocities(q, &dt, stops);
+        for _ in 0..60 {
+            let (worst, per_segment) = worst_acceleration(q, &v, &dt, limits);
+            if worst <= 1.0 {
+                break;
+            }
+            for (d, r) in dt.iter_mut().zip(&per_segment) {
+                if *r > 1.0 {
+                    *d *= r.sqrt().min(2.0);
+                }
+            }
+            v = waypoint_velocities(q, &dt, stops);
+        }
+        let (worst, _) = worst_acceleration(q, &v, &dt, limits);
+        if worst > 1.0 {
+            let k = worst.sqrt() * (1.0 + 1e-9);
+            dt.iter_mut().for_each(|d| *d *= k);
+            v = waypoint_velocities(q, &dt, stops);
+        }
+        (dt, v)
+    }
+
+    #[test]
+    fn incremental_stretching_matches_full_recomputation_bit_for_bit() {
+        // An irregular 3-joint path: steps of varying size, sharp and mild
+        // turns, a stop in the middle, tight and loose limits.
+        let q: Vec<Vec<f64>> = (0..300)
+            .map(|k| {
+                let t = k as f64;
+                vec![
+                    0.7 * t + (0.37 * t).sin() * 4.0,
+                    if k % 7 < 3 { 0.0 } else { 2.5 } + 0.01 * t,
+                    (0.05 * t).cos() * 0.4,
+                ]
+            })
+            .collect();
+        let segs: Vec<Segment> = q
+            .windows(2)
+            .enumerate()
+            .map(|(k, w)| Segment {
+                length: (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]),
+                max_speed: (k % 50 != 49).then_some(40.0),
+            })
+            .collect();
+        let mut stops = vec![false; q.len()];
+        stops[0] = true;
+        stops[150] = true;
+        stops[299] = true;
+        let limits = [
+            limit("X", 20.0, 100.0),
+            limit("Y", 40.0, 150.0),
+            limit("A", 2.0, 5.0),
+        ];
+        let t = parameterise(q.clone(), &segs, &stops, &limits);
+        let (dt, v) = parameterise_recomputing_all(&q, &segs, &stops, &limits);
+        assert!(
+            dt.iter().any(|&d| d > 0.1),
+            "the limits must stretch some segments"
+        );
+        let times: Vec<f64> = std::iter::once(0.0)
+            .chain(dt.iter().scan(0.0, |t, d| {
+                *t += d;
+                Some(*t)
+            }))
+            .collect();
+        assert_eq!(t.times, times);
+        assert_eq!(t.velocities, v);
     }
 }
