@@ -8,6 +8,7 @@ mod compare_mpec;
 mod compare_pocket;
 mod compare_suite;
 mod demo;
+mod import;
 mod inspect;
 mod ipc_publish;
 mod node;
@@ -66,6 +67,20 @@ pub enum Command {
         /// Refuse, before planning, a job estimated to need more memory (MB).
         #[arg(long, value_name = "MB", default_value_t = crate::pipeline::Budget::DEFAULT.max_memory_mb)]
         max_memory_mb: f64,
+    },
+    /// List the faces of a STEP file, or write chosen faces as trimmed surfaces (JSON).
+    Import {
+        /// STEP file (AP203/AP214/AP242, Part 21).
+        step: PathBuf,
+        /// List the faces: STEP entity id, surface type, area (mm²), bounding box (mm).
+        #[arg(long)]
+        list: bool,
+        /// Entity id of a face to write (repeat for several: a JSON array).
+        #[arg(long = "face", value_name = "ID")]
+        faces: Vec<u64>,
+        /// Output file ("-" for stdout).
+        #[arg(short, long, default_value = "-")]
+        output: PathBuf,
     },
     /// Print the differential geometry of a surface at (u, v) as JSON.
     Inspect {
@@ -331,6 +346,12 @@ fn dispatch(command: Command, ros: Option<&[String]>) -> Result<(), Error> {
                 },
             },
         ),
+        Command::Import {
+            step,
+            list,
+            faces,
+            output,
+        } => import::run(&step, list, &faces, &output),
         Command::Inspect { surface, uv } => inspect::run(&surface, uv[0], uv[1]),
         Command::Sample {
             name,

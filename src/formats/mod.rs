@@ -4,6 +4,7 @@
 pub mod job;
 pub mod result;
 pub mod shape;
+pub mod step;
 
 pub use job::{FeedDirection, GrindingParams, Job, JobFile, Machine, Strategy};
 pub use result::{Pass, PathPoint, PlanResult, Stats};

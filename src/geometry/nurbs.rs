@@ -312,11 +312,31 @@ impl NurbsSurface {
         self.derivs_order(u, v, 2)
     }
 
+    /// [`Self::derivs_with`] with the degrees and order as constants for the
+    /// common bicubic surface, so that the compiler unrolls its loops: the
+    /// same operations in the same order, hence the same bits, only faster.
+    fn derivs_order(&self, u: f64, v: f64, order: usize) -> SurfaceDerivs {
+        match (self.degree_u, self.degree_v, order) {
+            (3, 3, 2) => self.derivs_with(u, v, 3, 3, 2),
+            (3, 3, 1) => self.derivs_with(u, v, 3, 3, 1),
+            (3, 3, 0) => self.derivs_with(u, v, 3, 3, 0),
+            (pu, pv, order) => self.derivs_any(u, v, pu, pv, order),
+        }
+    }
+
+    /// [`Self::derivs_with`] for any degrees, as one out-of-line copy.
+    #[inline(never)]
+    fn derivs_any(&self, u: f64, v: f64, pu: usize, pv: usize, order: usize) -> SurfaceDerivs {
+        self.derivs_with(u, v, pu, pv, order)
+    }
+
+    /// Position and derivatives up to `order` (<= 2) for degrees `pu`, `pv`
+    /// (this surface's): A2.3 in each direction, then A4.4 when rational.
     // Index loops mirror The NURBS Book's algorithms; iterators would obscure them.
     #[allow(clippy::needless_range_loop)]
-    fn derivs_order(&self, u: f64, v: f64, order: usize) -> SurfaceDerivs {
+    #[inline(always)]
+    fn derivs_with(&self, u: f64, v: f64, pu: usize, pv: usize, order: usize) -> SurfaceDerivs {
         let (u, v) = self.clamp_uv(u, v);
-        let (pu, pv) = (self.degree_u, self.degree_v);
         let su = find_span(pu, self.count_u, &self.knots_u, u);
         let sv = find_span(pv, self.count_v, &self.knots_v, v);
         let du = order.min(pu);
@@ -494,6 +514,8 @@ fn find_span(degree: usize, count: usize, knots: &[f64], t: f64) -> usize {
 
 /// A2.3: basis functions and their derivatives up to `nd` (<= 2) at `t`
 /// in span `span`. Result `[k][j]`: k-th derivative of N_{span-p+j}.
+/// Inlined so that a constant degree unrolls it (see `derivs_order`).
+#[inline(always)]
 fn basis_ders(span: usize, t: f64, p: usize, nd: usize, knots: &[f64]) -> [[f64; MAXP1]; 3] {
     let mut ndu = [[0.0f64; MAXP1]; MAXP1];
     let mut left = [0.0f64; MAXP1];

@@ -1,0 +1,1362 @@
+//! STEP import (docs/formats.md, "STEP import"): the faces of a Part 21 file
+//! (AP203/AP214/AP242) as trimmed NURBS surfaces in mm.
+//!
+//! ruststep parses the exchange structure into its generic records; the
+//! mapping of the few entities a face needs onto our shapes is written here:
+//! `ADVANCED_FACE` (or `FACE_SURFACE`) on `B_SPLINE_SURFACE_WITH_KNOTS`
+//! (rational or not), `PLANE` or `CYLINDRICAL_SURFACE` (both converted to
+//! exact NURBS), bounded by `EDGE_LOOP`s of `EDGE_CURVE`s on `LINE`,
+//! `CIRCLE`, `ELLIPSE` and B-spline curves. On a B-spline surface an edge
+//! uses its pcurve on that surface when the file gives one; every other edge
+//! (and every edge of a plane or cylinder, whose own parametrisation differs
+//! from the NURBS written) is its 3-D curve projected onto the surface. Each
+//! loop is written as one closed polyline in (u, v), sampled so that the
+//! surface image of every chord stays within the trim tolerance of the edge.
+//! Lengths are converted to mm from the file's length unit. The face's
+//! orientation is honoured: a face whose `same_sense` is false gets its u
+//! direction reversed, so the surface normal is the face's.
+
+use super::shape::{SurfaceFile, TrimCurveFile, TrimFile};
+use crate::error::{Error, Result};
+use crate::geometry::inversion::{closest_point, closest_point_near};
+use crate::geometry::trim::DEFAULT_TOLERANCE_MM;
+use crate::geometry::NurbsSurface;
+use nalgebra::{Point3, Vector2, Vector3};
+use ruststep::ast::{EntityInstance, Name, Parameter, Record};
+use std::collections::BTreeMap;
+use std::f64::consts::{PI, TAU};
+use std::path::Path;
+
+/// Largest STEP file read, bytes.
+pub const MAX_STEP_BYTES: u64 = 512 << 20;
+
+/// Surface types a face may lie on.
+pub const SUPPORTED_SURFACES: &str = "B_SPLINE_SURFACE_WITH_KNOTS, PLANE, CYLINDRICAL_SURFACE";
+
+/// Grid cells per direction of the area integration of `--list`.
+pub const LIST_CELLS: usize = 128;
+
+/// Deepest bisection of an edge's parameter range when sampling it.
+const MAX_DEPTH: u32 = 18;
+
+/// Uniform pieces an edge starts from before bisection.
+const START_PIECES: usize = 8;
+
+type V3 = Vector3<f64>;
+
+/// One face of a STEP file, as `toolpath import --list` shows it.
+#[derive(Clone, Debug)]
+pub struct FaceSummary {
+    pub id: u64,
+    /// The surface entity's type, e.g. `B_SPLINE_SURFACE_WITH_KNOTS`.
+    pub surface_type: String,
+    /// Area of the trimmed face (mm²) and its bounding box (mm), or why the
+    /// face cannot be imported.
+    pub imported: std::result::Result<(f64, [f64; 3], [f64; 3]), String>,
+}
+
+/// A parsed STEP file: its entity instances by id and its length unit.
+pub struct StepFile {
+    label: String,
+    stem: String,
+    entities: BTreeMap<u64, Vec<Record>>,
+    mm_per_unit: f64,
+}
+
+/// A curve in the file's space (3-D, mm) or in a surface's (u, v) (z = 0).
+#[derive(Clone, Debug)]
+enum Curve {
+    /// `p + t d`.
+    Line { p: V3, d: V3 },
+    /// `c + a cos t x + b sin t y` (a circle when a = b).
+    Conic { c: V3, x: V3, y: V3, a: f64, b: f64 },
+    /// Homogeneous control points `(w x, w y, w z, w)`, full knot vector.
+    Bspline {
+        degree: usize,
+        knots: Vec<f64>,
+        points: Vec<[f64; 4]>,
+    },
+}
+
+impl Curve {
+    fn point(&self, t: f64) -> V3 {
+        match self {
+            Curve::Line { p, d } => p + d * t,
+            Curve::Conic { c, x, y, a, b } => c + x * (a * t.cos()) + y * (b * t.sin()),
+            Curve::Bspline {
+                degree,
+                knots,
+                points,
+            } => de_boor(*degree, knots, points, t),
+        }
+    }
+
+    fn periodic(&self) -> bool {
+        matches!(self, Curve::Conic { .. })
+    }
+
+    /// The parameter of the curve's point nearest `q`.
+    fn locate(&self, q: &V3) -> f64 {
+        match self {
+            Curve::Line { p, d } => (q - p).dot(d) / d.norm_squared(),
+            Curve::Conic { c, x, y, a, b } => {
+                let r = q - c;
+                (r.dot(y) / b).atan2(r.dot(x) / a)
+            }
+            Curve::Bspline { degree, knots, .. } => {
+                let (t0, t1) = (knots[*degree], knots[knots.len() - degree - 1]);
+                let n = 400;
+                let at = |k: usize| t0 + (t1 - t0) * k as f64 / n as f64;
+                let dist = |t: f64| (self.point(t) - q).norm_squared();
+                let best = (0..=n)
+                    .min_by(|&i, &j| dist(at(i)).total_cmp(&dist(at(j))))
+                    .unwrap_or(0);
+                // Golden-section search on the samples' neighbourhood.
+                let (mut lo, mut hi) = (at(best.saturating_sub(1)), at((best + 1).min(n)));
+                let g = 0.5 * (5f64.sqrt() - 1.0);
+                for _ in 0..80 {
+                    let (m1, m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+                    if dist(m1) <= dist(m2) {
+                        hi = m2;
+                    } else {
+                        lo = m1;
+                    }
+                }
+                0.5 * (lo + hi)
+            }
+        }
+    }
+
+    /// The parameter range of a bounded curve.
+    fn range(&self) -> Option<(f64, f64)> {
+        match self {
+            Curve::Bspline { degree, knots, .. } => {
+                Some((knots[*degree], knots[knots.len() - degree - 1]))
+            }
+            Curve::Conic { .. } => Some((0.0, TAU)),
+            Curve::Line { .. } => None,
+        }
+    }
+}
+
+/// Point of a rational B-spline curve at `t` (de Boor on homogeneous points).
+fn de_boor(p: usize, knots: &[f64], pts: &[[f64; 4]], t: f64) -> V3 {
+    let n = pts.len();
+    let t = t.clamp(knots[p], knots[n]);
+    let mut k = p;
+    while k + 1 < n && knots[k + 1] <= t {
+        k += 1;
+    }
+    let mut d: Vec<[f64; 4]> = (0..=p).map(|j| pts[j + k - p]).collect();
+    for r in 1..=p {
+        for j in (r..=p).rev() {
+            let i = j + k - p;
+            let den = knots[i + p + 1 - r] - knots[i];
+            let a = if den > 0.0 { (t - knots[i]) / den } else { 0.0 };
+            let prev = d[j - 1];
+            for (c, x) in d[j].iter_mut().enumerate() {
+                *x = (1.0 - a) * prev[c] + a * *x;
+            }
+        }
+    }
+    let h = d[p];
+    V3::new(h[0] / h[3], h[1] / h[3], h[2] / h[3])
+}
+
+/// The surface a face lies on, as read.
+enum Basis {
+    Bspline(SurfaceFile),
+    Plane(Frame),
+    Cylinder(Frame, f64),
+}
+
+/// An `AXIS2_PLACEMENT_3D`: origin and right-handed unit axes.
+#[derive(Clone, Copy)]
+struct Frame {
+    o: V3,
+    x: V3,
+    y: V3,
+    z: V3,
+}
+
+/// One edge of a loop: a curve (3-D, or a pcurve in (u, v)) run from `ta` to `tb`.
+struct EdgeUse {
+    id: u64,
+    curve: Curve,
+    in_uv: bool,
+    ta: f64,
+    tb: f64,
+}
+
+/// The angle parametrisation of a cylinder's NURBS: `n` rational quadratic
+/// arcs of `delta` radians each from `theta0`, u in [0, 1].
+#[derive(Clone, Copy)]
+struct Arcs {
+    theta0: f64,
+    delta: f64,
+    n: usize,
+}
+
+impl Arcs {
+    fn new(theta0: f64, theta1: f64) -> Self {
+        let span = (theta1 - theta0).max(1e-9);
+        let n = (span / (0.5 * PI) - 1e-9).ceil().max(1.0) as usize;
+        Arcs {
+            theta0,
+            delta: span / n as f64,
+            n,
+        }
+    }
+
+    /// u of angle `theta`: on the arc from -a to a with weights 1, cos a, 1,
+    /// the point at parameter s in [0, 1] has angle psi with
+    /// tan(psi / 2) = tan(a / 2) (2 s - 1) (docs/formats.md, "STEP import").
+    fn u_of(&self, theta: f64) -> f64 {
+        let s = (theta - self.theta0) / self.delta;
+        let k = (s.floor().max(0.0) as usize).min(self.n - 1);
+        let psi = theta - self.theta0 - (k as f64 + 0.5) * self.delta;
+        let t = 0.5 * (1.0 + (0.5 * psi).tan() / (0.25 * self.delta).tan());
+        ((k as f64 + t) / self.n as f64).clamp(0.0, 1.0)
+    }
+
+    fn theta_of(&self, u: f64) -> f64 {
+        let s = u.clamp(0.0, 1.0) * self.n as f64;
+        let k = (s.floor() as usize).min(self.n - 1);
+        let t = s - k as f64;
+        let psi = 2.0 * ((0.25 * self.delta).tan() * (2.0 * t - 1.0)).atan();
+        self.theta0 + (k as f64 + 0.5) * self.delta + psi
+    }
+}
+
+fn name_of(records: &[Record]) -> String {
+    if records.len() == 1 {
+        records[0].name.clone()
+    } else {
+        format!(
+            "({})",
+            records
+                .iter()
+                .map(|r| r.name.as_str())
+                .collect::<Vec<_>>()
+                .join(" ")
+        )
+    }
+}
+
+fn list(p: &Parameter) -> Option<&[Parameter]> {
+    match p {
+        Parameter::List(v) => Some(v),
+        _ => None,
+    }
+}
+
+impl StepFile {
+    /// Reads and parses a STEP file.
+    pub fn read(path: &Path) -> Result<Self> {
+        let bytes = super::read_file_limited(path, MAX_STEP_BYTES)?;
+        let text = String::from_utf8_lossy(&bytes);
+        let stem = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "step".into());
+        Self::parse(&text, &path.display().to_string(), &stem)
+    }
+
+    /// Parses Part 21 text; `label` names the file in errors.
+    pub fn parse(text: &str, label: &str, stem: &str) -> Result<Self> {
+        let bad = |m: String| Error::invalid(label, m);
+        let trimmed = text.trim_end();
+        if !trimmed.starts_with("ISO-10303-21;") {
+            return Err(bad(
+                "is not a STEP file (it does not start with ISO-10303-21;)".into(),
+            ));
+        }
+        if !trimmed.ends_with("END-ISO-10303-21;") {
+            return Err(bad(
+                "is truncated: it does not end with END-ISO-10303-21;".into()
+            ));
+        }
+        let exchange = ruststep::parser::parse(text).map_err(|e| {
+            let first = e.to_string();
+            let first = first.lines().take(6).collect::<Vec<_>>().join(" | ");
+            bad(format!("is not valid STEP (Part 21): {first}"))
+        })?;
+        let mut entities = BTreeMap::new();
+        for section in exchange.data {
+            for e in section.entities {
+                let (id, records) = match e {
+                    EntityInstance::Simple { id, record } => (id, vec![record]),
+                    EntityInstance::Complex { id, subsuper } => (id, subsuper.0),
+                };
+                if entities.insert(id, records).is_some() {
+                    return Err(bad(format!("#{id} is defined twice")));
+                }
+            }
+        }
+        let mut file = StepFile {
+            label: label.to_string(),
+            stem: stem.to_string(),
+            entities,
+            mm_per_unit: 1.0,
+        };
+        file.mm_per_unit = file.length_unit()?;
+        Ok(file)
+    }
+
+    /// Millimetres per length unit of the file.
+    pub fn mm_per_unit(&self) -> f64 {
+        self.mm_per_unit
+    }
+
+    fn err(&self, id: u64, message: impl Into<String>) -> Error {
+        let what = self
+            .entities
+            .get(&id)
+            .map(|r| name_of(r))
+            .unwrap_or_else(|| "(undefined)".into());
+        Error::invalid(format!("{}: #{id} {what}", self.label), message)
+    }
+
+    fn records(&self, id: u64) -> Result<&[Record]> {
+        self.entities.get(&id).map(|r| r.as_slice()).ok_or_else(|| {
+            Error::invalid(&self.label, format!("#{id} is referenced but not defined"))
+        })
+    }
+
+    /// Type name of a simple instance (or the complex one's parts).
+    fn kind(&self, id: u64) -> Result<String> {
+        Ok(name_of(self.records(id)?))
+    }
+
+    /// The parameters of the record named `name` in instance `id`.
+    fn part(&self, id: u64, name: &str) -> Option<&[Parameter]> {
+        self.entities
+            .get(&id)?
+            .iter()
+            .find(|r| r.name == name)
+            .and_then(|r| list(&r.parameter))
+    }
+
+    /// Parameters of `id`, which must be one of `names` (simple instances).
+    fn expect(&self, id: u64, names: &[&str]) -> Result<(&str, &[Parameter])> {
+        let records = self.records(id)?;
+        if records.len() == 1 && names.contains(&records[0].name.as_str()) {
+            if let Some(p) = list(&records[0].parameter) {
+                return Ok((records[0].name.as_str(), p));
+            }
+        }
+        Err(self.err(
+            id,
+            format!("is not supported here (expected {})", names.join(" or ")),
+        ))
+    }
+
+    fn arg<'a>(&self, id: u64, p: &'a [Parameter], i: usize) -> Result<&'a Parameter> {
+        p.get(i).ok_or_else(|| {
+            self.err(
+                id,
+                format!("has too few parameters (no parameter {})", i + 1),
+            )
+        })
+    }
+
+    fn reference(&self, id: u64, p: &[Parameter], i: usize) -> Result<u64> {
+        match self.arg(id, p, i)? {
+            Parameter::Ref(Name::Entity(r)) => Ok(*r),
+            other => Err(self.err(
+                id,
+                format!("parameter {} should be a reference, found {other:?}", i + 1),
+            )),
+        }
+    }
+
+    fn references(&self, id: u64, p: &[Parameter], i: usize) -> Result<Vec<u64>> {
+        let items = list(self.arg(id, p, i)?)
+            .ok_or_else(|| self.err(id, format!("parameter {} should be a list", i + 1)))?;
+        items
+            .iter()
+            .map(|x| match x {
+                Parameter::Ref(Name::Entity(r)) => Ok(*r),
+                other => Err(self.err(
+                    id,
+                    format!(
+                        "parameter {} should list references, found {other:?}",
+                        i + 1
+                    ),
+                )),
+            })
+            .collect()
+    }
+
+    fn real_of(&self, id: u64, x: &Parameter, i: usize) -> Result<f64> {
+        let v = match x {
+            Parameter::Real(v) => *v,
+            Parameter::Integer(v) => *v as f64,
+            Parameter::Typed { parameter, .. } => return self.real_of(id, parameter, i),
+            other => {
+                return Err(self.err(
+                    id,
+                    format!("parameter {} should be a number, found {other:?}", i + 1),
+                ))
+            }
+        };
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err(id, format!("parameter {} is not finite", i + 1)))
+        }
+    }
+
+    fn real(&self, id: u64, p: &[Parameter], i: usize) -> Result<f64> {
+        self.real_of(id, self.arg(id, p, i)?, i)
+    }
+
+    fn reals(&self, id: u64, p: &[Parameter], i: usize) -> Result<Vec<f64>> {
+        let items = list(self.arg(id, p, i)?)
+            .ok_or_else(|| self.err(id, format!("parameter {} should be a list", i + 1)))?;
+        items.iter().map(|x| self.real_of(id, x, i)).collect()
+    }
+
+    fn boolean(&self, id: u64, p: &[Parameter], i: usize) -> Result<bool> {
+        match self.arg(id, p, i)? {
+            Parameter::Enumeration(e) if e.trim_matches('.') == "T" => Ok(true),
+            Parameter::Enumeration(e) if e.trim_matches('.') == "F" => Ok(false),
+            other => Err(self.err(
+                id,
+                format!("parameter {} should be .T. or .F., found {other:?}", i + 1),
+            )),
+        }
+    }
+
+    fn integer(&self, id: u64, p: &[Parameter], i: usize) -> Result<usize> {
+        match self.arg(id, p, i)? {
+            Parameter::Integer(v) if *v >= 0 => Ok(*v as usize),
+            other => Err(self.err(
+                id,
+                format!("parameter {} should be a count, found {other:?}", i + 1),
+            )),
+        }
+    }
+
+    /// The length unit named by the representation contexts, in mm: an
+    /// `SI_UNIT` on metres with its prefix, or a `CONVERSION_BASED_UNIT`
+    /// (inch, foot, ...) through its measure. Files naming none are in mm.
+    fn length_unit(&self) -> Result<f64> {
+        let mut found: Option<(u64, f64)> = None;
+        for (&id, records) in &self.entities {
+            let Some(r) = records
+                .iter()
+                .find(|r| r.name == "GLOBAL_UNIT_ASSIGNED_CONTEXT")
+            else {
+                continue;
+            };
+            let units = list(&r.parameter)
+                .and_then(|p| p.first())
+                .and_then(list)
+                .ok_or_else(|| {
+                    self.err(id, "GLOBAL_UNIT_ASSIGNED_CONTEXT should list its units")
+                })?;
+            for u in units {
+                let Parameter::Ref(Name::Entity(u)) = u else {
+                    continue;
+                };
+                if self.part(*u, "LENGTH_UNIT").is_none() {
+                    continue;
+                }
+                let mm = self.unit_mm(*u, 0)?;
+                match found {
+                    Some((other, f)) if (f - mm).abs() > 1e-12 * f => {
+                        return Err(self.err(
+                            *u,
+                            format!("disagrees with the length unit #{other} ({f} mm): one length unit per file is supported"),
+                        ))
+                    }
+                    _ => found = Some((*u, mm)),
+                }
+            }
+        }
+        Ok(found.map(|(_, f)| f).unwrap_or(1.0))
+    }
+
+    fn unit_mm(&self, id: u64, depth: usize) -> Result<f64> {
+        if depth > 8 {
+            return Err(self.err(id, "unit conversions nest too deeply"));
+        }
+        if let Some(p) = self.part(id, "SI_UNIT") {
+            let prefix = match self.arg(id, p, 0)? {
+                Parameter::Enumeration(e) => e.trim_matches('.').to_string(),
+                _ => String::new(),
+            };
+            match self.arg(id, p, 1)? {
+                Parameter::Enumeration(e) if e.trim_matches('.') == "METRE" => {}
+                other => return Err(self.err(id, format!("is not a length unit ({other:?})"))),
+            }
+            let scale = match prefix.as_str() {
+                "" => 1e3,
+                "MILLI" => 1.0,
+                "CENTI" => 10.0,
+                "DECI" => 100.0,
+                "MICRO" => 1e-3,
+                "NANO" => 1e-6,
+                "KILO" => 1e6,
+                other => return Err(self.err(id, format!("has an unsupported prefix .{other}."))),
+            };
+            return Ok(scale);
+        }
+        if let Some(p) = self.part(id, "CONVERSION_BASED_UNIT") {
+            let m = self.reference(id, p, 1)?;
+            let records = self.records(m)?;
+            let mp = records
+                .iter()
+                .find(|r| r.name.ends_with("MEASURE_WITH_UNIT"))
+                .and_then(|r| list(&r.parameter))
+                .ok_or_else(|| self.err(m, "should be a LENGTH_MEASURE_WITH_UNIT"))?;
+            let factor = self.real(m, mp, 0)?;
+            let base = self.unit_mm(self.reference(m, mp, 1)?, depth + 1)?;
+            return Ok(factor * base);
+        }
+        Err(self.err(id, "is a length unit of an unsupported kind"))
+    }
+
+    /// Ids of the faces (`ADVANCED_FACE`, `FACE_SURFACE`), ascending.
+    pub fn face_ids(&self) -> Vec<u64> {
+        self.entities
+            .iter()
+            .filter(|(_, r)| {
+                r.len() == 1 && (r[0].name == "ADVANCED_FACE" || r[0].name == "FACE_SURFACE")
+            })
+            .map(|(&id, _)| id)
+            .collect()
+    }
+
+    /// Every face with its surface type, area and bounding box.
+    pub fn summaries(&self) -> Vec<FaceSummary> {
+        self.face_ids()
+            .into_iter()
+            .map(|id| {
+                let surface_type = self
+                    .face_surface(id)
+                    .map(|s| self.surface_type(s))
+                    .unwrap_or_else(|_| "?".into());
+                let imported = self
+                    .face(id)
+                    .and_then(|f| {
+                        let s = f.to_surface()?;
+                        let area = s.trim().map(|t| t.face_area(&s, LIST_CELLS)).unwrap_or(0.0);
+                        let (lo, hi) = face_box(&s);
+                        Ok((area, lo, hi))
+                    })
+                    .map_err(|e| e.to_string());
+                FaceSummary {
+                    id,
+                    surface_type,
+                    imported,
+                }
+            })
+            .collect()
+    }
+
+    /// The surface's entity type; a complex B-spline surface is named by
+    /// its most specific part.
+    fn surface_type(&self, id: u64) -> String {
+        if self.part(id, "RATIONAL_B_SPLINE_SURFACE").is_some() {
+            return "RATIONAL_B_SPLINE_SURFACE".into();
+        }
+        self.kind(id).unwrap_or_else(|_| "?".into())
+    }
+
+    fn face_surface(&self, id: u64) -> Result<u64> {
+        let (_, p) = self.expect(id, &["ADVANCED_FACE", "FACE_SURFACE"])?;
+        self.reference(id, p, 2)
+    }
+
+    /// Face `id` as a trimmed surface in mm (named `STEM_ID`).
+    pub fn face(&self, id: u64) -> Result<SurfaceFile> {
+        if !self.entities.contains_key(&id) {
+            return Err(Error::invalid(
+                &self.label,
+                format!("has no entity #{id} (faces: {})", self.face_list()),
+            ));
+        }
+        let (_, p) = match self.expect(id, &["ADVANCED_FACE", "FACE_SURFACE"]) {
+            Ok(x) => x,
+            Err(_) => {
+                return Err(self.err(id, format!("is not a face (faces: {})", self.face_list())))
+            }
+        };
+        let bounds = self.references(id, p, 1)?;
+        let surface_id = self.reference(id, p, 2)?;
+        let same_sense = self.boolean(id, p, 3)?;
+        let basis = self.basis(surface_id)?;
+        let mut loops = Vec::new();
+        for b in &bounds {
+            let (kind, bp) = self.expect(*b, &["FACE_OUTER_BOUND", "FACE_BOUND"])?;
+            let loop_id = self.reference(*b, bp, 1)?;
+            let orientation = self.boolean(*b, bp, 2)?;
+            let edges = self.edge_loop(loop_id, surface_id, &basis)?;
+            loops.push((*b, kind == "FACE_OUTER_BOUND", orientation, edges));
+        }
+        if loops.is_empty() {
+            return Err(self.err(id, "has no bounds"));
+        }
+        let (mut surface, sampled) = self.sample_loops(id, basis, &loops)?;
+        let mut polylines: Vec<(u64, bool, Vec<[f64; 2]>)> = sampled;
+        if !same_sense {
+            let (u0, u1) = (surface.knots_u[0], *surface.knots_u.last().unwrap_or(&1.0));
+            surface.control_points.reverse();
+            if let Some(w) = &mut surface.weights {
+                w.reverse();
+            }
+            surface.knots_u = surface.knots_u.iter().rev().map(|k| u0 + u1 - k).collect();
+            for (_, _, l) in &mut polylines {
+                for q in l.iter_mut() {
+                    q[0] = u0 + u1 - q[0];
+                }
+            }
+        }
+        let outer = self.outer_index(id, &polylines)?;
+        let mut holes = Vec::new();
+        let mut outer_loop = Vec::new();
+        for (k, (_, _, l)) in polylines.into_iter().enumerate() {
+            if k == outer {
+                outer_loop = vec![TrimCurveFile::Polyline(l)];
+            } else {
+                holes.push(vec![TrimCurveFile::Polyline(l)]);
+            }
+        }
+        surface.name = Some(format!("{}_{id}", self.stem));
+        surface.trim = Some(TrimFile {
+            tolerance: None,
+            outer: outer_loop,
+            holes,
+        });
+        surface
+            .to_surface()
+            .map_err(|e| self.err(id, format!("gives an invalid trimmed surface: {e}")))?;
+        Ok(surface)
+    }
+
+    fn face_list(&self) -> String {
+        let ids: Vec<String> = self.face_ids().iter().map(|i| format!("#{i}")).collect();
+        if ids.is_empty() {
+            "none".into()
+        } else {
+            ids.join(", ")
+        }
+    }
+
+    /// The outer loop: the `FACE_OUTER_BOUND`, else the one loop running
+    /// counter-clockwise in (u, v) with the face normal towards the viewer
+    /// (material on its left, as STEP orients bounds), else the largest.
+    fn outer_index(&self, face: u64, loops: &[(u64, bool, Vec<[f64; 2]>)]) -> Result<usize> {
+        let declared: Vec<usize> = (0..loops.len()).filter(|&k| loops[k].1).collect();
+        match declared.len() {
+            1 => return Ok(declared[0]),
+            0 => {}
+            _ => return Err(self.err(face, "has more than one FACE_OUTER_BOUND")),
+        }
+        let areas: Vec<f64> = loops.iter().map(|l| shoelace(&l.2)).collect();
+        let ccw: Vec<usize> = (0..loops.len()).filter(|&k| areas[k] > 0.0).collect();
+        if ccw.len() == 1 {
+            return Ok(ccw[0]);
+        }
+        if ccw.len() > 1 && loops.len() > 1 {
+            return Err(self.err(
+                face,
+                format!(
+                    "has {} outer loops (bounds {}): one outer loop per face is supported",
+                    ccw.len(),
+                    ccw.iter()
+                        .map(|&k| format!("#{}", loops[k].0))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        }
+        Ok((0..loops.len())
+            .max_by(|&a, &b| areas[a].abs().total_cmp(&areas[b].abs()))
+            .unwrap_or(0))
+    }
+
+    fn point3(&self, id: u64) -> Result<V3> {
+        let (_, p) = self.expect(id, &["CARTESIAN_POINT"])?;
+        let c = self.reals(id, p, 1)?;
+        match c.len() {
+            3 => Ok(V3::new(c[0], c[1], c[2]) * self.mm_per_unit),
+            _ => Err(self.err(id, format!("has {} coordinates, expected 3", c.len()))),
+        }
+    }
+
+    /// A point of a 2-D (pcurve, in (u, v), unscaled) or 3-D (mm) curve.
+    fn point_in(&self, id: u64, in_uv: bool) -> Result<V3> {
+        if !in_uv {
+            return self.point3(id);
+        }
+        let (_, p) = self.expect(id, &["CARTESIAN_POINT"])?;
+        let c = self.reals(id, p, 1)?;
+        match c.len() {
+            2 => Ok(V3::new(c[0], c[1], 0.0)),
+            _ => Err(self.err(id, format!("has {} coordinates, expected 2", c.len()))),
+        }
+    }
+
+    fn direction(&self, id: u64, in_uv: bool) -> Result<V3> {
+        let (_, p) = self.expect(id, &["DIRECTION"])?;
+        let c = self.reals(id, p, 1)?;
+        let v = match (c.len(), in_uv) {
+            (3, false) => V3::new(c[0], c[1], c[2]),
+            (2, true) => V3::new(c[0], c[1], 0.0),
+            (n, _) => return Err(self.err(id, format!("has {n} components"))),
+        };
+        let n = v.norm();
+        if n > 0.0 {
+            Ok(v / n)
+        } else {
+            Err(self.err(id, "is the zero vector"))
+        }
+    }
+
+    fn frame(&self, id: u64, in_uv: bool) -> Result<Frame> {
+        if in_uv {
+            let (_, p) = self.expect(id, &["AXIS2_PLACEMENT_2D"])?;
+            let o = self.point_in(self.reference(id, p, 1)?, true)?;
+            let x = match self.arg(id, p, 2)? {
+                Parameter::Ref(Name::Entity(r)) => self.direction(*r, true)?,
+                _ => V3::x(),
+            };
+            let z = V3::z();
+            return Ok(Frame {
+                o,
+                x,
+                y: z.cross(&x),
+                z,
+            });
+        }
+        let (_, p) = self.expect(id, &["AXIS2_PLACEMENT_3D"])?;
+        let o = self.point3(self.reference(id, p, 1)?)?;
+        let z = match self.arg(id, p, 2)? {
+            Parameter::Ref(Name::Entity(r)) => self.direction(*r, false)?,
+            _ => V3::z(),
+        };
+        let xr = match self.arg(id, p, 3)? {
+            Parameter::Ref(Name::Entity(r)) => self.direction(*r, false)?,
+            _ => {
+                if z.x.abs() < 0.9 {
+                    V3::x()
+                } else {
+                    V3::y()
+                }
+            }
+        };
+        let x = xr - z * xr.dot(&z);
+        if x.norm() < 1e-12 {
+            return Err(self.err(id, "has its reference direction along its axis"));
+        }
+        let x = x.normalize();
+        Ok(Frame {
+            o,
+            x,
+            y: z.cross(&x),
+            z,
+        })
+    }
+
+    fn basis(&self, id: u64) -> Result<Basis> {
+        let records = self.records(id)?;
+        let name = name_of(records);
+        if records.len() == 1 && name == "PLANE" {
+            let (_, p) = self.expect(id, &["PLANE"])?;
+            return Ok(Basis::Plane(self.frame(self.reference(id, p, 1)?, false)?));
+        }
+        if records.len() == 1 && name == "CYLINDRICAL_SURFACE" {
+            let (_, p) = self.expect(id, &["CYLINDRICAL_SURFACE"])?;
+            let frame = self.frame(self.reference(id, p, 1)?, false)?;
+            let r = self.real(id, p, 2)? * self.mm_per_unit;
+            if r <= 0.0 {
+                return Err(self.err(id, "has a radius that is not positive"));
+            }
+            return Ok(Basis::Cylinder(frame, r));
+        }
+        // B_SPLINE_SURFACE_WITH_KNOTS alone carries the name first; in a
+        // complex instance the B_SPLINE_SURFACE part holds degrees and points.
+        let (core, knots, offset) = if records.len() == 1 && name == "B_SPLINE_SURFACE_WITH_KNOTS" {
+            let p = list(&records[0].parameter).unwrap_or(&[]);
+            (p, p.get(8..).unwrap_or(&[]), 1)
+        } else if let (Some(core), Some(knots)) = (
+            self.part(id, "B_SPLINE_SURFACE"),
+            self.part(id, "B_SPLINE_SURFACE_WITH_KNOTS"),
+        ) {
+            (core, knots, 0)
+        } else {
+            return Err(self.err(
+                id,
+                format!("is not a supported surface (supported: {SUPPORTED_SURFACES})"),
+            ));
+        };
+        let degree_u = self.integer(id, core, offset)?;
+        let degree_v = self.integer(id, core, offset + 1)?;
+        let rows = list(self.arg(id, core, offset + 2)?)
+            .ok_or_else(|| self.err(id, "control points should be a list of lists"))?;
+        let mut control_points = Vec::new();
+        for row in rows {
+            let ids = self.references(id, std::slice::from_ref(row), 0)?;
+            control_points.push(
+                ids.iter()
+                    .map(|&c| self.point3(c).map(|v| [v.x, v.y, v.z]))
+                    .collect::<Result<Vec<_>>>()?,
+            );
+        }
+        let expand = |mi: usize, ki: usize| -> Result<Vec<f64>> {
+            let m = self.reals(id, knots, mi)?;
+            let k = self.reals(id, knots, ki)?;
+            if m.len() != k.len() {
+                return Err(self.err(id, "has knot and multiplicity lists of different lengths"));
+            }
+            let mut out = Vec::new();
+            for (&m, &k) in m.iter().zip(&k) {
+                if !(1.0..=64.0).contains(&m) {
+                    return Err(self.err(id, format!("has a knot multiplicity {m}")));
+                }
+                out.extend(std::iter::repeat_n(k, m as usize));
+            }
+            Ok(out)
+        };
+        let knots_u = expand(0, 2)?;
+        let knots_v = expand(1, 3)?;
+        let weights = match self.part(id, "RATIONAL_B_SPLINE_SURFACE") {
+            Some(w) => {
+                let rows = list(self.arg(id, w, 0)?)
+                    .ok_or_else(|| self.err(id, "weights should be a list of lists"))?;
+                Some(
+                    rows.iter()
+                        .map(|r| self.reals(id, std::slice::from_ref(r), 0))
+                        .collect::<Result<Vec<_>>>()?,
+                )
+            }
+            None => None,
+        };
+        let s = SurfaceFile {
+            kind: "nurbs".into(),
+            name: None,
+            degree_u,
+            degree_v,
+            knots_u,
+            knots_v,
+            control_points,
+            weights,
+            trim: None,
+        };
+        s.to_surface()
+            .map_err(|e| self.err(id, format!("is not a valid B-spline surface: {e}")))?;
+        Ok(Basis::Bspline(s))
+    }
+
+    fn curve(&self, id: u64, in_uv: bool) -> Result<Curve> {
+        let records = self.records(id)?;
+        let name = name_of(records);
+        let scale = if in_uv { 1.0 } else { self.mm_per_unit };
+        if records.len() == 1 {
+            let p = list(&records[0].parameter).unwrap_or(&[]);
+            match name.as_str() {
+                "LINE" => {
+                    let o = self.point_in(self.reference(id, p, 1)?, in_uv)?;
+                    let vid = self.reference(id, p, 2)?;
+                    let (_, vp) = self.expect(vid, &["VECTOR"])?;
+                    let d = self.direction(self.reference(vid, vp, 1)?, in_uv)?
+                        * self.real(vid, vp, 2)?
+                        * scale;
+                    if d.norm() == 0.0 {
+                        return Err(self.err(vid, "has zero magnitude"));
+                    }
+                    return Ok(Curve::Line { p: o, d });
+                }
+                "CIRCLE" | "ELLIPSE" => {
+                    let f = self.frame(self.reference(id, p, 1)?, in_uv)?;
+                    let a = self.real(id, p, 2)? * scale;
+                    let b = if name == "ELLIPSE" {
+                        self.real(id, p, 3)? * scale
+                    } else {
+                        a
+                    };
+                    if !(a > 0.0 && b > 0.0) {
+                        return Err(self.err(id, "has a radius that is not positive"));
+                    }
+                    return Ok(Curve::Conic {
+                        c: f.o,
+                        x: f.x,
+                        y: f.y,
+                        a,
+                        b,
+                    });
+                }
+                "B_SPLINE_CURVE_WITH_KNOTS" => {
+                    return self.bspline_curve(id, p, p.get(6..).unwrap_or(&[]), 1, None, in_uv);
+                }
+                _ => {}
+            }
+        } else if let (Some(core), Some(knots)) = (
+            self.part(id, "B_SPLINE_CURVE"),
+            self.part(id, "B_SPLINE_CURVE_WITH_KNOTS"),
+        ) {
+            let w = match self.part(id, "RATIONAL_B_SPLINE_CURVE") {
+                Some(w) => Some(self.reals(id, w, 0)?),
+                None => None,
+            };
+            return self.bspline_curve(id, core, knots, 0, w, in_uv);
+        }
+        Err(self.err(
+            id,
+            "is not a supported curve (supported: LINE, CIRCLE, ELLIPSE, B_SPLINE_CURVE_WITH_KNOTS)",
+        ))
+    }
+
+    fn bspline_curve(
+        &self,
+        id: u64,
+        core: &[Parameter],
+        knots: &[Parameter],
+        offset: usize,
+        weights: Option<Vec<f64>>,
+        in_uv: bool,
+    ) -> Result<Curve> {
+        let degree = self.integer(id, core, offset)?;
+        let pts = self
+            .references(id, core, offset + 1)?
+            .iter()
+            .map(|&c| self.point_in(c, in_uv))
+            .collect::<Result<Vec<_>>>()?;
+        let m = self.reals(id, knots, 0)?;
+        let k = self.reals(id, knots, 1)?;
+        let mut full = Vec::new();
+        for (&m, &k) in m.iter().zip(&k) {
+            if !(1.0..=64.0).contains(&m) {
+                return Err(self.err(id, format!("has a knot multiplicity {m}")));
+            }
+            full.extend(std::iter::repeat_n(k, m as usize));
+        }
+        if degree == 0 || m.len() != k.len() || full.len() != pts.len() + degree + 1 {
+            return Err(self.err(
+                id,
+                format!(
+                    "has {} knots for {} points of degree {degree}",
+                    full.len(),
+                    pts.len()
+                ),
+            ));
+        }
+        if full.windows(2).any(|w| w[1] < w[0]) || full[degree] >= full[pts.len()] {
+            return Err(self.err(id, "has knots that are not non-decreasing"));
+        }
+        let w = weights.unwrap_or_else(|| vec![1.0; pts.len()]);
+        if w.len() != pts.len() || w.iter().any(|&x| x.is_nan() || x <= 0.0) {
+            return Err(self.err(id, "has weights that are not one positive number per point"));
+        }
+        Ok(Curve::Bspline {
+            degree,
+            knots: full,
+            points: pts
+                .iter()
+                .zip(&w)
+                .map(|(p, &w)| [p.x * w, p.y * w, p.z * w, w])
+                .collect(),
+        })
+    }
+
+    /// The edges of an `EDGE_LOOP` in loop order, each with the curve to
+    /// sample (the pcurve on `surface_id` when there is one and the basis is
+    /// a B-spline) and the parameter range its vertices bound.
+    fn edge_loop(&self, id: u64, surface_id: u64, basis: &Basis) -> Result<Vec<EdgeUse>> {
+        let (_, p) = self.expect(id, &["EDGE_LOOP"])?;
+        let mut out = Vec::new();
+        let nurbs = match basis {
+            Basis::Bspline(s) => Some(s.to_surface()?),
+            _ => None,
+        };
+        for oe in self.references(id, p, 1)? {
+            let (_, op) = self.expect(oe, &["ORIENTED_EDGE"])?;
+            let edge = self.reference(oe, op, 3)?;
+            let forward = self.boolean(oe, op, 4)?;
+            let (_, ep) = self.expect(edge, &["EDGE_CURVE"])?;
+            let (v1, v2) = (self.reference(edge, ep, 1)?, self.reference(edge, ep, 2)?);
+            let geometry = self.reference(edge, ep, 3)?;
+            let same_sense = self.boolean(edge, ep, 4)?;
+            let vertex = |v: u64| -> Result<V3> {
+                let (_, vp) = self.expect(v, &["VERTEX_POINT"])?;
+                self.point3(self.reference(v, vp, 1)?)
+            };
+            let (p1, p2) = (vertex(v1)?, vertex(v2)?);
+            let (mut curve_id, mut pcurve) = (geometry, None);
+            if let Ok((_, sp)) = self.expect(geometry, &["SURFACE_CURVE", "SEAM_CURVE"]) {
+                curve_id = self.reference(geometry, sp, 1)?;
+                if nurbs.is_some() {
+                    for pc in self.references(geometry, sp, 2)? {
+                        if let Some(pp) = self.part(pc, "PCURVE") {
+                            if self.reference(pc, pp, 1)? == surface_id {
+                                let rep = self.reference(pc, pp, 2)?;
+                                let (_, rp) = self.expect(rep, &["DEFINITIONAL_REPRESENTATION"])?;
+                                pcurve = self.references(rep, rp, 1)?.first().copied();
+                                break;
+                            }
+                        }
+                    }
+                }
+            }
+            let (curve, in_uv, q1, q2) = match (pcurve, &nurbs) {
+                (Some(pc), Some(s)) => {
+                    let uv = |q: &V3| {
+                        let c = closest_point(s, &Point3::from(*q));
+                        V3::new(c.uv.x, c.uv.y, 0.0)
+                    };
+                    (self.curve(pc, true)?, true, uv(&p1), uv(&p2))
+                }
+                _ => (self.curve(curve_id, false)?, false, p1, p2),
+            };
+            let closed = v1 == v2 || (p1 - p2).norm() <= 1e-9 * (1.0 + p1.norm());
+            let (ta, tb) = if closed {
+                match curve.range() {
+                    Some((a, b)) if curve.periodic() => {
+                        let t = curve.locate(&q1);
+                        if same_sense {
+                            (t, t + (b - a))
+                        } else {
+                            (t, t - (b - a))
+                        }
+                    }
+                    Some((a, b)) => {
+                        if same_sense {
+                            (a, b)
+                        } else {
+                            (b, a)
+                        }
+                    }
+                    None => return Err(self.err(edge, "is a closed edge on a line")),
+                }
+            } else {
+                let (ta, mut tb) = (curve.locate(&q1), curve.locate(&q2));
+                if curve.periodic() {
+                    if same_sense {
+                        while tb <= ta {
+                            tb += TAU;
+                        }
+                        while tb - ta > TAU {
+                            tb -= TAU;
+                        }
+                    } else {
+                        while tb >= ta {
+                            tb -= TAU;
+                        }
+                        while ta - tb > TAU {
+                            tb += TAU;
+                        }
+                    }
+                }
+                (ta, tb)
+            };
+            let (ta, tb) = if forward { (ta, tb) } else { (tb, ta) };
+            out.push(EdgeUse {
+                id: edge,
+                curve,
+                in_uv,
+                ta,
+                tb,
+            });
+        }
+        if out.is_empty() {
+            return Err(self.err(id, "has no edges"));
+        }
+        Ok(out)
+    }
+
+    /// Builds the NURBS of the basis and samples every loop into (u, v).
+    #[allow(clippy::type_complexity)]
+    fn sample_loops(
+        &self,
+        face: u64,
+        basis: Basis,
+        loops: &[(u64, bool, bool, Vec<EdgeUse>)],
+    ) -> Result<(SurfaceFile, Vec<(u64, bool, Vec<[f64; 2]>)>)> {
+        // Coarse 3-D samples of every loop: the extent of a plane or
+        // cylinder patch, and each loop's unwrapped start angle.
+        let coarse: Vec<Vec<V3>> = loops
+            .iter()
+            .map(|(_, _, _, edges)| {
+                edges
+                    .iter()
+                    .filter(|e| !e.in_uv)
+                    .flat_map(|e| {
+                        (0..=32).map(move |k| e.curve.point(e.ta + (e.tb - e.ta) * k as f64 / 32.0))
+                    })
+                    .collect()
+            })
+            .collect();
+        let (surface, map): (SurfaceFile, Box<dyn Fn(&V3, Option<[f64; 2]>) -> [f64; 2]>) =
+            match basis {
+                Basis::Bspline(s) => {
+                    let n = s.to_surface()?;
+                    (
+                        s,
+                        Box::new(move |q: &V3, seed: Option<[f64; 2]>| {
+                            let c = match seed {
+                                Some(sd) => closest_point_near(
+                                    &n,
+                                    &Point3::from(*q),
+                                    Vector2::new(sd[0], sd[1]),
+                                ),
+                                None => closest_point(&n, &Point3::from(*q)),
+                            };
+                            [c.uv.x, c.uv.y]
+                        }),
+                    )
+                }
+                Basis::Plane(f) => {
+                    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+                    for q in coarse.iter().flatten() {
+                        let r = q - f.o;
+                        for (k, a) in [f.x, f.y].iter().enumerate() {
+                            lo[k] = lo[k].min(r.dot(a));
+                            hi[k] = hi[k].max(r.dot(a));
+                        }
+                    }
+                    if !(hi[0] > lo[0] && hi[1] > lo[1]) {
+                        return Err(self.err(face, "has a boundary of no extent on its plane"));
+                    }
+                    // The patch is the boundary's box: a loop on the domain's
+                    // edges is on the face (the face is closed).
+                    let at = |x: f64, y: f64| {
+                        let p = f.o + f.x * x + f.y * y;
+                        [p.x, p.y, p.z]
+                    };
+                    (
+                        SurfaceFile {
+                            kind: "nurbs".into(),
+                            name: None,
+                            degree_u: 1,
+                            degree_v: 1,
+                            knots_u: vec![lo[0], lo[0], hi[0], hi[0]],
+                            knots_v: vec![lo[1], lo[1], hi[1], hi[1]],
+                            control_points: vec![
+                                vec![at(lo[0], lo[1]), at(lo[0], hi[1])],
+                                vec![at(hi[0], lo[1]), at(hi[0], hi[1])],
+                            ],
+                            weights: None,
+                            trim: None,
+                        },
+                        Box::new(move |q: &V3, _| {
+                            let r = q - f.o;
+                            [
+                                r.dot(&f.x).clamp(lo[0], hi[0]),
+                                r.dot(&f.y).clamp(lo[1], hi[1]),
+                            ]
+                        }),
+                    )
+                }
+                Basis::Cylinder(f, r) => {
+                    let angle = move |q: &V3| {
+                        let d = q - f.o;
+                        d.dot(&f.y).atan2(d.dot(&f.x))
+                    };
+                    let (mut t0, mut t1) = (f64::INFINITY, f64::NEG_INFINITY);
+                    let (mut z0, mut z1) = (f64::INFINITY, f64::NEG_INFINITY);
+                    let mut reference = None;
+                    for l in &coarse {
+                        let mut prev: Option<f64> = None;
+                        for q in l {
+                            let mut t = angle(q);
+                            let near = prev.or(reference);
+                            if let Some(p) = near {
+                                t += TAU * ((p - t) / TAU).round();
+                            }
+                            reference.get_or_insert(t);
+                            prev = Some(t);
+                            t0 = t0.min(t);
+                            t1 = t1.max(t);
+                            let z = (q - f.o).dot(&f.z);
+                            z0 = z0.min(z);
+                            z1 = z1.max(z);
+                        }
+                    }
+                    if !(t1 > t0 && z1 > z0) {
+                        return Err(self.err(face, "has a boundary of no extent on its cylinder"));
+                    }
+                    if t1 - t0 > TAU + 1e-6 {
+                        return Err(self.err(
+                            face,
+                            "winds round its cylinder more than once: not supported",
+                        ));
+                    }
+                    let t1 = t1.min(t0 + TAU);
+                    let arcs = Arcs::new(t0, t1);
+                    let mut rows = Vec::new();
+                    let mut wrows = Vec::new();
+                    let w = (0.5 * arcs.delta).cos();
+                    for i in 0..=2 * arcs.n {
+                        let th = t0 + arcs.delta * i as f64 / 2.0;
+                        let (rad, wt) = if i % 2 == 1 { (r / w, w) } else { (r, 1.0) };
+                        let p = |z: f64| {
+                            let p = f.o + (f.x * th.cos() + f.y * th.sin()) * rad + f.z * z;
+                            [p.x, p.y, p.z]
+                        };
+                        rows.push(vec![p(z0), p(z1)]);
+                        wrows.push(vec![wt, wt]);
+                    }
+                    let mut knots_u = vec![0.0; 3];
+                    for k in 1..arcs.n {
+                        let u = k as f64 / arcs.n as f64;
+                        knots_u.extend([u, u]);
+                    }
+                    knots_u.extend([1.0; 3]);
+                    (
+                        SurfaceFile {
+                            kind: "nurbs".into(),
+                            name: None,
+                            degree_u: 2,
+                            degree_v: 1,
+                            knots_u,
+                            knots_v: vec![z0, z0, z1, z1],
+                            control_points: rows,
+                            weights: Some(wrows),
+                            trim: None,
+                        },
+                        Box::new(move |q: &V3, seed: Option<[f64; 2]>| {
+                            let mut t = angle(q);
+                            let near = seed
+                                .map(|s| arcs.theta_of(s[0]))
+                                .or(reference)
+                                .unwrap_or(t0);
+                            t += TAU * ((near - t) / TAU).round();
+                            let z = (q - f.o).dot(&f.z).clamp(z0, z1);
+                            [arcs.u_of(t.clamp(t0, t1)), z]
+                        }),
+                    )
+                }
+            };
+        let nurbs = surface.to_surface()?;
+        let mut out = Vec::new();
+        for (bound, declared_outer, orientation, edges) in loops {
+            let mut pts: Vec<[f64; 2]> = Vec::new();
+            for e in edges {
+                let seed = pts.last().copied();
+                let eval = |t: f64, seed: Option<[f64; 2]>| -> ([f64; 2], V3) {
+                    let c = e.curve.point(t);
+                    if e.in_uv {
+                        let p = nurbs.point(c.x, c.y);
+                        ([c.x, c.y], p.coords)
+                    } else {
+                        (map(&c, seed), c)
+                    }
+                };
+                sample_edge(&nurbs, e, &eval, seed, &mut pts);
+            }
+            let (Some(&first), Some(&last)) = (pts.first(), pts.last()) else {
+                return Err(self.err(*bound, "has an empty loop"));
+            };
+            let gap = (nurbs.point(first[0], first[1]) - nurbs.point(last[0], last[1])).norm();
+            let size = {
+                let (lo, hi) = nurbs.bounding_box();
+                (hi - lo).norm()
+            };
+            if gap > 1e-4 * size.max(1.0) {
+                let e = edges.last().map(|e| e.id).unwrap_or(*bound);
+                return Err(self.err(
+                    *bound,
+                    format!("is not closed: its last edge #{e} ends {gap:.3e} mm from its start"),
+                ));
+            }
+            *pts.last_mut().unwrap_or(&mut [0.0; 2]) = first;
+            if !orientation {
+                pts.reverse();
+            }
+            out.push((*bound, *declared_outer, pts));
+        }
+        Ok((surface, out))
+    }
+}
+
+/// Samples one edge into `pts`: the (u, v) images of parameters from `ta`
+/// to `tb`, bisected until the surface image of each chord's midpoint lies
+/// within the trim tolerance of the edge's point there.
+fn sample_edge(
+    nurbs: &NurbsSurface,
+    e: &EdgeUse,
+    eval: &dyn Fn(f64, Option<[f64; 2]>) -> ([f64; 2], V3),
+    seed: Option<[f64; 2]>,
+    pts: &mut Vec<[f64; 2]>,
+) {
+    let tol = DEFAULT_TOLERANCE_MM * 0.5;
+    let (mut t, (mut uv, mut p)) = (e.ta, eval(e.ta, seed));
+    push(pts, uv);
+    for k in 1..=START_PIECES {
+        let t1 = e.ta + (e.tb - e.ta) * k as f64 / START_PIECES as f64;
+        let (uv1, p1) = eval(t1, Some(uv));
+        bisect(nurbs, eval, (t, uv, p), (t1, uv1, p1), tol, 0, pts);
+        (t, uv, p) = (t1, uv1, p1);
+    }
+}
+
+fn bisect(
+    nurbs: &NurbsSurface,
+    eval: &dyn Fn(f64, Option<[f64; 2]>) -> ([f64; 2], V3),
+    a: (f64, [f64; 2], V3),
+    b: (f64, [f64; 2], V3),
+    tol: f64,
+    depth: u32,
+    pts: &mut Vec<[f64; 2]>,
+) {
+    let tm = 0.5 * (a.0 + b.0);
+    let (uvm, pm) = eval(tm, Some(a.1));
+    let chord = nurbs.point(0.5 * (a.1[0] + b.1[0]), 0.5 * (a.1[1] + b.1[1]));
+    if depth < MAX_DEPTH && (chord.coords - pm).norm() > tol {
+        bisect(nurbs, eval, a, (tm, uvm, pm), tol, depth + 1, pts);
+        bisect(nurbs, eval, (tm, uvm, pm), b, tol, depth + 1, pts);
+    } else {
+        push(pts, b.1);
+    }
+}
+
+fn push(pts: &mut Vec<[f64; 2]>, q: [f64; 2]) {
+    if pts
+        .last()
+        .is_none_or(|l| (l[0] - q[0]).abs() > 1e-14 || (l[1] - q[1]).abs() > 1e-14)
+    {
+        pts.push(q);
+    }
+}
+
+/// Twice the signed area... halved: the shoelace area of a closed polyline.
+fn shoelace(l: &[[f64; 2]]) -> f64 {
+    0.5 * l
+        .windows(2)
+        .map(|w| w[0][0] * w[1][1] - w[1][0] * w[0][1])
+        .sum::<f64>()
+}
+
+/// Bounding box of a trimmed face: its loops' points and the face's points
+/// of a 64 x 64 grid of the domain.
+fn face_box(s: &NurbsSurface) -> ([f64; 3], [f64; 3]) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    let mut add = |p: Point3<f64>| {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    };
+    if let Some(t) = s.trim() {
+        for l in t.loops() {
+            for q in l {
+                add(s.point(q[0], q[1]));
+            }
+        }
+    }
+    let ((u0, u1), (v0, v1)) = s.domain();
+    let n = 64;
+    for i in 0..=n {
+        for j in 0..=n {
+            let u = u0 + (u1 - u0) * i as f64 / n as f64;
+            let v = v0 + (v1 - v0) * j as f64 / n as f64;
+            if s.in_face(u, v) {
+                add(s.point(u, v));
+            }
+        }
+    }
+    (lo, hi)
+}

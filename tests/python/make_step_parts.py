@@ -1,0 +1,154 @@
+"""Writes the STEP parts of the import tests with Open CASCADE (cadquery-ocp)
+and their exact face areas (BRepGProp), as `parts.json` beside them.
+
+    python3 tests/python/make_step_parts.py OUT_DIR
+
+Each part is one face in its own file:
+- freeform: a bicubic B-spline face trimmed by a circle in (u, v) with a
+  circular hole (pcurves written);
+- freeform_nopcurves: the same face written without pcurves;
+- rational_reversed: a rational B-spline face with a curved outer loop,
+  its face orientation reversed;
+- plane_hole: a 100 x 60 mm plane with a hole of radius 15 mm;
+- plane_hole_inch: the same face written in inches;
+- cylinder: a 120 degree patch of a cylinder of radius 20 mm, 50 mm high.
+"""
+
+import json
+import math
+import sys
+from pathlib import Path
+
+from OCP.BRepBuilderAPI import (
+    BRepBuilderAPI_MakeEdge,
+    BRepBuilderAPI_MakeFace,
+    BRepBuilderAPI_MakeWire,
+)
+from OCP.BRepGProp import BRepGProp
+from OCP.BRepLib import BRepLib
+from OCP.BRepPrimAPI import BRepPrimAPI_MakeCylinder
+from OCP.collections import Array1_double, Array1_int, Array2_double, Array2_gp_Pnt
+from OCP.Geom import Geom_BSplineSurface
+from OCP.Geom2d import Geom2d_Circle, Geom2d_Ellipse
+from OCP.GeomAbs import GeomAbs_Cylinder
+from OCP.BRepAdaptor import BRepAdaptor_Surface
+from OCP.gp import gp_Ax2, gp_Ax22d, gp_Dir, gp_Dir2d, gp_Pnt, gp_Pnt2d
+from OCP.GProp import GProp_GProps
+from OCP.IFSelect import IFSelect_RetDone
+from OCP.Interface import Interface_Static
+from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+from OCP.TopAbs import TopAbs_FACE
+from OCP.TopExp import TopExp_Explorer
+from OCP.TopoDS import TopoDS
+
+
+def array1(values, kind=Array1_double):
+    a = kind(1, len(values))
+    for i, x in enumerate(values):
+        a.SetValue(i + 1, x)
+    return a
+
+
+def bspline_surface(rational):
+    """Clamped bicubic over [0, 1]^2, 5 x 5 poles over 100 x 80 mm."""
+    poles = Array2_gp_Pnt(1, 5, 1, 5)
+    weights = Array2_double(1, 5, 1, 5)
+    for i in range(5):
+        for j in range(5):
+            x, y = 25.0 * i, 20.0 * j
+            poles.SetValue(i + 1, j + 1, gp_Pnt(x, y, 8.0 * math.sin(x / 30.0) * math.cos(y / 25.0)))
+            weights.SetValue(i + 1, j + 1, 1.0 + 0.5 * ((i + 2 * j) % 3) / 2.0)
+    knots = array1([0.0, 0.5, 1.0])
+    mults = array1([4, 1, 4], Array1_int)
+    if rational:
+        return Geom_BSplineSurface(poles, weights, knots, knots, mults, mults, 3, 3)
+    return Geom_BSplineSurface(poles, knots, knots, mults, mults, 3, 3)
+
+
+def uv_wire(curve2d, surface):
+    edge = BRepBuilderAPI_MakeEdge(curve2d, surface).Edge()
+    return BRepBuilderAPI_MakeWire(edge).Wire()
+
+
+def circle2d(cx, cy, r):
+    return Geom2d_Circle(gp_Ax22d(gp_Pnt2d(cx, cy), gp_Dir2d(1, 0), gp_Dir2d(0, 1)), r)
+
+
+def freeform_face(rational):
+    s = bspline_surface(rational)
+    if rational:
+        outer = Geom2d_Ellipse(gp_Ax22d(gp_Pnt2d(0.5, 0.5), gp_Dir2d(1, 0), gp_Dir2d(0, 1)), 0.45, 0.35)
+    else:
+        outer = circle2d(0.5, 0.5, 0.45)
+    make = BRepBuilderAPI_MakeFace(s, uv_wire(outer, s), True)
+    if not rational:
+        hole = uv_wire(circle2d(0.6, 0.5, 0.15), s)
+        hole.Reverse()
+        make.Add(hole)
+    face = make.Face()
+    BRepLib.BuildCurves3d_s(face)
+    return face
+
+
+def plane_face():
+    w = BRepBuilderAPI_MakeWire()
+    corners = [gp_Pnt(0, 0, 0), gp_Pnt(100, 0, 0), gp_Pnt(100, 60, 0), gp_Pnt(0, 60, 0)]
+    for a, b in zip(corners, corners[1:] + corners[:1]):
+        w.Add(BRepBuilderAPI_MakeEdge(a, b).Edge())
+    make = BRepBuilderAPI_MakeFace(w.Wire(), True)
+    from OCP.gp import gp_Circ
+
+    circ = gp_Circ(gp_Ax2(gp_Pnt(35, 30, 0), gp_Dir(0, 0, 1)), 15.0)
+    hole = BRepBuilderAPI_MakeWire(BRepBuilderAPI_MakeEdge(circ).Edge()).Wire()
+    hole.Reverse()
+    make.Add(hole)
+    return make.Face()
+
+
+def cylinder_face():
+    solid = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1)), 20.0, 50.0, 2.0 * math.pi / 3.0).Shape()
+    ex = TopExp_Explorer(solid, TopAbs_FACE)
+    while ex.More():
+        f = TopoDS.Face(ex.Current())
+        if BRepAdaptor_Surface(f).GetType() == GeomAbs_Cylinder:
+            return f
+        ex.Next()
+    raise RuntimeError("no cylindrical face")
+
+
+def area(face):
+    props = GProp_GProps()
+    BRepGProp.SurfaceProperties_s(face, props)
+    return props.Mass()
+
+
+def write(face, path, unit="MM", pcurves=True):
+    Interface_Static.SetCVal_s("write.step.unit", unit)
+    Interface_Static.SetIVal_s("write.surfacecurve.mode", 1 if pcurves else 0)
+    w = STEPControl_Writer()
+    w.Transfer(face, STEPControl_AsIs)
+    if w.Write(str(path)) != IFSelect_RetDone:
+        raise RuntimeError(f"writing {path} failed")
+
+
+def main(out):
+    out.mkdir(parents=True, exist_ok=True)
+    reversed_face = freeform_face(True)
+    reversed_face.Reverse()
+    parts = {
+        "freeform": (freeform_face(False), {}),
+        "freeform_nopcurves": (freeform_face(False), {"pcurves": False}),
+        "rational_reversed": (reversed_face, {}),
+        "plane_hole": (plane_face(), {}),
+        "plane_hole_inch": (plane_face(), {"unit": "INCH"}),
+        "cylinder": (cylinder_face(), {}),
+    }
+    manifest = {}
+    for name, (face, options) in parts.items():
+        write(face, out / f"{name}.step", **options)
+        manifest[name] = {"file": f"{name}.step", "area_mm2": area(face)}
+    (out / "parts.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1] if len(sys.argv) > 1 else "."))
