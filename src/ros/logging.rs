@@ -11,9 +11,12 @@ use ros2_client::{NodeLoggingHandle, RosoutRaw};
 use std::cell::Cell;
 use std::sync::OnceLock;
 
-/// Filter of the node's log unless RUST_LOG is set.
-pub const DEFAULT_FILTER: &str =
-    "warn,rustdds=off,ros2_client::distributions=error,toolpath_planner=info";
+/// Filter of the node's log unless RUST_LOG is set. RustDDS is quiet but
+/// for its one-line reports of a peer whose QoS does not match one of the
+/// node's endpoints (target `rustdds::incompatible_qos`, a vendored patch):
+/// such a peer's data never arrives, and nothing else would say why.
+pub const DEFAULT_FILTER: &str = "warn,rustdds=off,rustdds::incompatible_qos=warn,\
+     ros2_client::distributions=error,toolpath_planner=info";
 
 /// The crate's log target: `--log-level LEVEL` sets it.
 const OWN_TARGET: &str = "toolpath_planner";
@@ -30,13 +33,51 @@ thread_local! {
     static IN_ROSOUT: Cell<bool> = const { Cell::new(false) };
 }
 
+/// RustDDS's log target of an incompatible-QoS report (vendored patch).
+const INCOMPATIBLE_QOS: &str = "rustdds::incompatible_qos";
+
+/// DDS topics the node reads with a volatile and a transient-local reader.
+static PAIRED_READERS: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+
+/// Marks the DDS topic `dds_topic` (`rt/cell_b/surface`) as read by a
+/// volatile and a transient-local reader: a volatile writer matches the
+/// first and, by design, not the second, so that mismatch is not reported.
+pub fn paired_durability_readers(dds_topic: &str) {
+    let mut v = match PAIRED_READERS.lock() {
+        Ok(g) => g,
+        Err(p) => p.into_inner(),
+    };
+    v.push(dds_topic.to_string());
+}
+
+/// Whether `record` reports the expected durability mismatch of a volatile
+/// writer with the transient-local twin of a volatile reader.
+fn expected_mismatch(record: &log::Record) -> bool {
+    if record.target() != INCOMPATIBLE_QOS {
+        return false;
+    }
+    let text = record.args().to_string();
+    if !text.contains("does not match this reader (durability: requested TransientLocal") {
+        return false;
+    }
+    let topic = text
+        .split_once("on DDS topic ")
+        .and_then(|(_, rest)| rest.split_once(':'))
+        .map(|(t, _)| t);
+    let paired = match PAIRED_READERS.lock() {
+        Ok(g) => g,
+        Err(p) => p.into_inner(),
+    };
+    topic.is_some_and(|t| paired.iter().any(|p| p == t))
+}
+
 impl log::Log for Bridge {
     fn enabled(&self, metadata: &log::Metadata) -> bool {
         self.stderr.enabled(metadata)
     }
 
     fn log(&self, record: &log::Record) {
-        if !self.stderr.matches(record) {
+        if !self.stderr.matches(record) || expected_mismatch(record) {
             return;
         }
         if self.to_stderr {

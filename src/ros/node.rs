@@ -1292,6 +1292,10 @@ pub async fn run(resolved: Resolved) -> Result<()> {
         ros.node.logging_handle(),
         super::logging::logger_name(&settings.namespace, &settings.name),
     );
+    // A volatile shape writer matches the volatile reader of each pair only.
+    for t in [topics::SURFACE, topics::POCKET] {
+        super::logging::paired_durability_readers(&format!("rt{}", ros.resolved(t)));
+    }
     let inputs = Inputs {
         name: ros.node.fully_qualified_name(),
         surfaces: ShapeReaders {

@@ -274,3 +274,23 @@ def test_a_job_for_another_node_is_ignored_and_one_for_this_node_planned(cell):
     # The other node's job was published first: by now it would have a status.
     peer.spin_until(lambda: False, 1.0)
     assert "for_other" not in cell["statuses"], cell["statuses"].get("for_other")
+
+
+def test_a_best_effort_publisher_on_a_reliable_input_is_logged_as_incompatible(cell):
+    """DDS does not match a best-effort writer with a reliable reader; the node says so on its log."""
+    peer, proc = cell["peer"], cell["proc"]
+    # A ROS-default (volatile) writer matches the volatile one of the node's two
+    # surface readers and not its transient-local one, by design: not reported.
+    default = peer.create_publisher(msgs.Surface, "surface", ROS_DEFAULT)
+    assert peer.spin_until(lambda: default.get_subscription_count() > 0, 20)
+    time.sleep(0.5)
+    assert "durability: requested TransientLocal" not in proc.log(), proc.log()[-2000:]
+    peer.create_publisher(msgs.Surface, "surface", QoSProfile(depth=10, reliable=False))
+    want = "incompatible QoS on DDS topic rt%s/surface" % NS
+    deadline = time.monotonic() + 20
+    while want not in proc.log():
+        assert time.monotonic() < deadline, "no incompatible-QoS line in the node's log:\n" + proc.log()[-2000:]
+        time.sleep(0.1)
+    line = next(ln for ln in proc.log().splitlines() if want in ln)
+    assert "remote writer" in line and "reliability: requested Reliable, offered BestEffort" in line, line
+    assert "WARN" in line, line

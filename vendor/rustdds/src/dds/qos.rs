@@ -65,6 +65,57 @@ pub enum QosPolicyId {
   Property,       // No Id in the security spec (But this is from older DDS/RTPs spec.)
 }
 
+/// toolpath_planner patch: the `log` target of the one-line report of an
+/// incompatible-QoS match, so that an application can keep it while the rest
+/// of RustDDS's log is filtered out.
+pub const INCOMPATIBLE_QOS_LOG_TARGET: &str = "rustdds::incompatible_qos";
+
+/// toolpath_planner patch: what `requested` and `offered` say about `policy`,
+/// in words (`reliability: requested Reliable, offered BestEffort`).
+pub fn incompatibility_text(
+  policy: QosPolicyId,
+  requested: &QosPolicies,
+  offered: &QosPolicies,
+) -> String {
+  fn pair(name: &str, r: Option<String>, o: Option<String>) -> String {
+    let show = |x: Option<String>| x.unwrap_or_else(|| "default".to_string());
+    format!("{name}: requested {}, offered {}", show(r), show(o))
+  }
+  fn dbg<T: std::fmt::Debug>(x: Option<T>) -> Option<String> {
+    x.map(|v| format!("{v:?}"))
+  }
+  let kind = |r: Option<policy::Reliability>| {
+    r.map(|r| match r {
+      policy::Reliability::BestEffort => "BestEffort".to_string(),
+      policy::Reliability::Reliable { .. } => "Reliable".to_string(),
+    })
+  };
+  match policy {
+    QosPolicyId::Reliability => pair(
+      "reliability",
+      kind(requested.reliability()),
+      kind(offered.reliability()),
+    ),
+    QosPolicyId::Durability => pair(
+      "durability",
+      dbg(requested.durability()),
+      dbg(offered.durability()),
+    ),
+    QosPolicyId::Deadline => pair("deadline", dbg(requested.deadline()), dbg(offered.deadline())),
+    QosPolicyId::Liveliness => pair(
+      "liveliness",
+      dbg(requested.liveliness()),
+      dbg(offered.liveliness()),
+    ),
+    QosPolicyId::Ownership => pair(
+      "ownership",
+      dbg(requested.ownership()),
+      dbg(offered.ownership()),
+    ),
+    other => format!("{other:?}"),
+  }
+}
+
 /// Utility for building [QosPolicies]
 #[derive(Default, Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct QosPolicyBuilder {

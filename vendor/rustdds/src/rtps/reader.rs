@@ -445,7 +445,15 @@ impl Reader {
           offered_qos: Box::new(offered_qos.clone()),
         });
 
-        warn!("update_writer_proxy - QoS mismatch {bad_policy_id:?}");
+        // toolpath_planner patch: one line naming the topic, the remote
+        // writer and the policy, under a target of its own.
+        warn!(
+          target: crate::dds::qos::INCOMPATIBLE_QOS_LOG_TARGET,
+          "incompatible QoS on DDS topic {}: remote writer {:?} does not match this reader ({})",
+          self.topic_name,
+          writer,
+          crate::dds::qos::incompatibility_text(bad_policy_id, &self.qos_policy, offered_qos)
+        );
         info!(
           "update_writer_proxy - QoS mismatch: topic={:?} requested={:?}  offered={:?}",
           self.topic_name, self.qos_policy, offered_qos

@@ -2054,6 +2054,15 @@ impl Writer {
           "Reader QoS={:?} Writer QoS={:?}",
           requested_qos, self.qos_policies
         );
+        // toolpath_planner patch: one line naming the topic, the remote
+        // reader and the policy, under a target of its own.
+        warn!(
+          target: crate::dds::qos::INCOMPATIBLE_QOS_LOG_TARGET,
+          "incompatible QoS on DDS topic {}: remote reader {:?} does not match this writer ({})",
+          self.topic_name(),
+          reader_proxy.remote_reader_guid,
+          crate::dds::qos::incompatibility_text(bad_policy_id, requested_qos, &self.qos_policies)
+        );
 
         self.requested_incompatible_qos_count += 1;
         self.send_status(DataWriterStatus::OfferedIncompatibleQos {
