@@ -22,7 +22,7 @@ use toolpath_planner::machines::Machines;
 use toolpath_planner::messages::follow_joint_trajectory::StringMsg;
 use toolpath_planner::messages::plan_toolpath::{Goal, GoalResult};
 use toolpath_planner::messages::{self as msgs, convert};
-use toolpath_planner::ros::fake_controller::{self, Behaviour, FakeOptions};
+use toolpath_planner::ros::fake_controller::{self, Behaviour, FakeController, FakeOptions};
 use toolpath_planner::ros::node::RosNode;
 use toolpath_planner::ros::plan_action::{self, PlanToolpathClient};
 
@@ -35,6 +35,44 @@ fn fast() -> Behaviour {
         time_scale: 0.01,
         ..Default::default()
     }
+}
+
+/// The fake controllers of both machines on `cell`: the mill's joints as
+/// configured, the belt grinder's renamed `belt_X` .. `belt_C` (the node's
+/// config in these tests names them so).
+fn spawn_controllers(cell: &mut RosNode, m: &Machines) -> (FakeController, FakeController) {
+    let spawn = |cell: &mut RosNode, action: &str, joint_names, limits, start| {
+        fake_controller::spawn(
+            cell,
+            FakeOptions {
+                action: action.into(),
+                joint_names,
+                limits,
+                start,
+                behaviour: fast(),
+            },
+        )
+        .unwrap()
+    };
+    let mill = spawn(
+        cell,
+        "mill5_controller/follow_joint_trajectory",
+        m.mill5.joint_names(),
+        m.mill5.limits(),
+        m.mill5.home(),
+    );
+    let belt_joints = ["X", "Y", "Z", "A", "B", "C"]
+        .iter()
+        .map(|j| format!("belt_{j}"))
+        .collect();
+    let belt = spawn(
+        cell,
+        "belt6_controller/follow_joint_trajectory",
+        belt_joints,
+        m.belt6.limits(),
+        m.belt6.home(),
+    );
+    (mill, belt)
 }
 
 #[test]
@@ -51,32 +89,7 @@ fn jobs_execute_pass_by_pass_and_stop_on_abort_reject_and_cancel() {
         let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
         let mut cell = RosNode::new("fake_cell", "/", d, lo).unwrap();
         let m = Machines::default();
-        let belt_joints: Vec<String> = ["X", "Y", "Z", "A", "B", "C"]
-            .iter()
-            .map(|j| format!("belt_{j}"))
-            .collect();
-        let mill = fake_controller::spawn(
-            &mut cell,
-            FakeOptions {
-                action: "mill5_controller/follow_joint_trajectory".into(),
-                joint_names: m.mill5.joint_names(),
-                limits: m.mill5.limits(),
-                start: m.mill5.home(),
-                behaviour: fast(),
-            },
-        )
-        .unwrap();
-        let belt = fake_controller::spawn(
-            &mut cell,
-            FakeOptions {
-                action: "belt6_controller/follow_joint_trajectory".into(),
-                joint_names: belt_joints.clone(),
-                limits: m.belt6.limits(),
-                start: m.belt6.home(),
-                behaviour: fast(),
-            },
-        )
-        .unwrap();
+        let (mill, belt) = spawn_controllers(&mut cell, &m);
         let (_node, ready) = NodeProcess::spawn(&config, d);
         assert!(ready.starts_with("ready"), "node said {ready:?}");
         let client = node_client::NodeClient::connect("execute_client", d).await;
@@ -294,31 +307,7 @@ fn a_goal_executes_or_plans_only_whatever_its_machine_default() {
         let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
         let mut cell = RosNode::new("fake_cell", "/", d, lo.clone()).unwrap();
         let m = Machines::default();
-        let mill = fake_controller::spawn(
-            &mut cell,
-            FakeOptions {
-                action: "mill5_controller/follow_joint_trajectory".into(),
-                joint_names: m.mill5.joint_names(),
-                limits: m.mill5.limits(),
-                start: m.mill5.home(),
-                behaviour: fast(),
-            },
-        )
-        .unwrap();
-        let belt = fake_controller::spawn(
-            &mut cell,
-            FakeOptions {
-                action: "belt6_controller/follow_joint_trajectory".into(),
-                joint_names: ["X", "Y", "Z", "A", "B", "C"]
-                    .iter()
-                    .map(|j| format!("belt_{j}"))
-                    .collect(),
-                limits: m.belt6.limits(),
-                start: m.belt6.home(),
-                behaviour: fast(),
-            },
-        )
-        .unwrap();
+        let (mill, belt) = spawn_controllers(&mut cell, &m);
         let (_node, ready) = NodeProcess::spawn(&config, d);
         assert!(ready.starts_with("ready"), "node said {ready:?}");
         let mut ros = RosNode::new("goal_client", "/", d, lo).unwrap();
