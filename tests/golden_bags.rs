@@ -5,7 +5,7 @@
 //! executed, and their trajectory meets the controller rules from home.
 
 use std::path::{Path, PathBuf};
-use toolpath_planner::formats::{Machine, Strategy};
+use toolpath_planner::formats::Strategy;
 use toolpath_planner::machines::{jtc, Machines};
 use toolpath_planner::messages::{self as msgs, convert, topics};
 use toolpath_planner::recording::runs::{self, replay, topic_specs, Recorded};
@@ -96,20 +96,9 @@ fn executed_bags_show_every_pass_executed_on_both_machines() {
         let out = rec.outputs(&job.job_id);
         let passes = out.toolpath.expect("a toolpath").passes.len();
         let (machine, trajectory) = out.trajectory.expect("a trajectory");
-        let (names, limits, home, controller) = match machine {
-            Machine::Mill5 => (
-                m.mill5.joint_names(),
-                m.mill5.limits(),
-                m.mill5.home(),
-                &m.mill5.controller,
-            ),
-            Machine::Belt6 => (
-                m.belt6.joint_names(),
-                m.belt6.limits(),
-                m.belt6.home(),
-                &m.belt6.controller,
-            ),
-        };
+        let axes = m.axes(machine);
+        let (names, limits, home, controller) =
+            (axes.joint_names, axes.limits, axes.home, axes.controller);
         let action = controller.action(machine.name());
         // One accepted goal per pass, in order, then SUCCEEDED saying so.
         let accepted: Vec<String> = rec

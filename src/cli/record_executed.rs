@@ -51,25 +51,12 @@ fn config_text(bag: &Path) -> Result<String> {
 /// limits and home pose, at the action the node calls by default.
 fn fake_options(machine: Machine) -> FakeOptions {
     let m = Machines::default();
-    let (joint_names, limits, start, controller) = match machine {
-        Machine::Mill5 => (
-            m.mill5.joint_names(),
-            m.mill5.limits(),
-            m.mill5.home(),
-            &m.mill5.controller,
-        ),
-        Machine::Belt6 => (
-            m.belt6.joint_names(),
-            m.belt6.limits(),
-            m.belt6.home(),
-            &m.belt6.controller,
-        ),
-    };
+    let axes = m.axes(machine);
     FakeOptions {
-        action: controller.action(machine.name()),
-        joint_names,
-        limits,
-        start,
+        action: axes.controller.action(machine.name()),
+        joint_names: axes.joint_names,
+        limits: axes.limits,
+        start: axes.home,
         behaviour: Behaviour {
             time_scale: TIME_SCALE,
             ..Default::default()

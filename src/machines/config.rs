@@ -326,7 +326,35 @@ pub struct Machines {
     pub belt6: Belt6Config,
 }
 
+/// What a controller and the start-pose logic need of one machine.
+pub struct MachineAxes<'a> {
+    /// The controller's joint names, in axis order.
+    pub joint_names: Vec<String>,
+    pub limits: Vec<JointLimit>,
+    /// The start pose when no joint state is known.
+    pub home: Vec<f64>,
+    pub controller: &'a ControllerConfig,
+}
+
 impl Machines {
+    /// The joint names, limits, home pose and controller of `machine`.
+    pub fn axes(&self, machine: crate::formats::Machine) -> MachineAxes<'_> {
+        match machine {
+            crate::formats::Machine::Mill5 => MachineAxes {
+                joint_names: self.mill5.joint_names(),
+                limits: self.mill5.limits(),
+                home: self.mill5.home(),
+                controller: &self.mill5.controller,
+            },
+            crate::formats::Machine::Belt6 => MachineAxes {
+                joint_names: self.belt6.joint_names(),
+                limits: self.belt6.limits(),
+                home: self.belt6.home(),
+                controller: &self.belt6.controller,
+            },
+        }
+    }
+
     pub fn validate(&self) -> Result<()> {
         self.mill5.validate()?;
         self.belt6.validate()?;

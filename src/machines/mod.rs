@@ -287,10 +287,8 @@ pub fn trajectory_from(
         .collect();
     let rotary = limits.iter().map(|l| l.rotary).collect();
     let mut timed = timing::parameterise(q, &segments, &w.stops, &limits);
-    let (controller, home) = match job.machine {
-        Machine::Mill5 => (&machines.mill5.controller, machines.mill5.home()),
-        Machine::Belt6 => (&machines.belt6.controller, machines.belt6.home()),
-    };
+    let axes = machines.axes(job.machine);
+    let (controller, home) = (axes.controller, axes.home);
     let (start, what) = match start {
         Some(s) => (s.to_vec(), "the joint state"),
         None => (home, "the home pose"),

@@ -114,15 +114,16 @@ pub const MAX_CHUNK_BYTES: u64 = 1 << 30;
 /// MCAP record opcode of a chunk.
 const CHUNK_OPCODE: u8 = 0x06;
 
-/// Checks every chunk before the mcap reader sees it: the reader reserves
-/// the sizes a chunk and the records in it claim before reading them, so a
-/// damaged size field would abort the process. Walks the top-level records
-/// (opcode, u64 length) as the reader does. Refused: a chunk claiming more
-/// than [`MAX_CHUNK_BYTES`] uncompressed, a record in a chunk reaching past
-/// the chunk's claimed size, and a whole chunk that does not decompress to
-/// that size. A chunk cut short by the end of the file is checked as far as
-/// it goes (the reader recovers the records before the cut).
-fn check_chunks(bytes: &[u8], shown: &str) -> Result<()> {
+/// The first chunk the mcap reader must not see, with why: the reader
+/// reserves the sizes a chunk and the records in it claim before reading
+/// them, so a damaged size field would abort the process. Walks the
+/// top-level records (opcode, u64 length) as the reader does. Damaged: a
+/// chunk claiming more than [`MAX_CHUNK_BYTES`] uncompressed (a writer that
+/// hit a full disk leaves its placeholder, all ones), a record in a chunk
+/// reaching past the chunk's claimed size, a whole chunk that does not
+/// decompress to that size. A chunk cut short by the end of the file is
+/// checked as far as it goes.
+fn first_damaged_chunk(bytes: &[u8]) -> Option<(usize, String)> {
     let mut at = MAGIC.len();
     while let (Some(&opcode), Some(len)) = (bytes.get(at), le_u64(bytes, at + 1)) {
         let body = at + 9;
@@ -130,16 +131,16 @@ fn check_chunks(bytes: &[u8], shown: &str) -> Result<()> {
         if opcode == CHUNK_OPCODE {
             let whole = end.and_then(|e| bytes.get(body..e));
             let chunk = whole.unwrap_or_else(|| bytes.get(body..).unwrap_or(&[]));
-            check_chunk(chunk, whole.is_some()).map_err(|why| {
-                Error::invalid(shown, format!("the chunk at byte {at} is damaged: {why}"))
-            })?;
+            if let Err(why) = check_chunk(chunk, whole.is_some()) {
+                return Some((at, why));
+            }
         }
         match end {
             Some(e) if e <= bytes.len() => at = e,
-            _ => return Ok(()),
+            _ => return None,
         }
     }
-    Ok(())
+    None
 }
 
 fn le_u64(bytes: &[u8], at: usize) -> Option<u64> {
@@ -250,10 +251,13 @@ fn read_mcap(path: &Path, bag: &mut Bag) -> Result<()> {
             "not an MCAP file (no MCAP magic at the start)",
         ));
     }
-    check_chunks(&bytes, &shown)?;
-    let complete = bytes.len() >= 2 * MAGIC.len() && bytes.ends_with(MAGIC);
+    // The reader gets the file up to its first damaged chunk, as if it were
+    // cut there, and recovers what comes before.
+    let damaged = first_damaged_chunk(&bytes);
+    let usable = damaged.as_ref().map_or(&bytes[..], |(at, _)| &bytes[..*at]);
+    let complete = damaged.is_none() && bytes.len() >= 2 * MAGIC.len() && bytes.ends_with(MAGIC);
     let reader = mcap::read::ChunkFlattener::new_with_options(
-        &bytes,
+        usable,
         mcap::read::Options::IgnoreEndMagic.into(),
     )
     .map_err(|e| Error::invalid(&shown, format!("cannot read MCAP: {e}")))?;
@@ -338,7 +342,18 @@ fn read_mcap(path: &Path, bag: &mut Bag) -> Result<()> {
             _ => {}
         }
     }
-    if !complete && bag.truncated.is_none() {
+    if let Some((at, why)) = damaged {
+        let read = bag.messages.len() - before;
+        if read == 0 && bag.topics.is_empty() {
+            return Err(Error::invalid(
+                shown,
+                format!("the chunk at byte {at} is damaged ({why}) and nothing precedes it"),
+            ));
+        }
+        bag.truncated = Some(format!(
+            "{shown} is damaged from the chunk at byte {at} ({why}); {read} messages before it recovered"
+        ));
+    } else if !complete && bag.truncated.is_none() {
         let read = bag.messages.len() - before;
         bag.truncated = Some(format!(
             "{shown} is truncated (no footer); {read} messages of its completed chunks recovered"

@@ -651,18 +651,8 @@ fn start_pose(
     machine: Machine,
     machines: &Machines,
 ) -> Result<Option<Vec<f64>>> {
-    let (names, limits, controller) = match machine {
-        Machine::Mill5 => (
-            machines.mill5.joint_names(),
-            machines.mill5.limits(),
-            &machines.mill5.controller,
-        ),
-        Machine::Belt6 => (
-            machines.belt6.joint_names(),
-            machines.belt6.limits(),
-            &machines.belt6.controller,
-        ),
-    };
+    let axes = machines.axes(machine);
+    let (names, limits, controller) = (axes.joint_names, axes.limits, axes.controller);
     joints.start_pose(
         machine.name(),
         &names,
