@@ -262,3 +262,45 @@ fn bad_step_input_is_a_clear_error_naming_the_entity() {
     let e = invalid_message(f.face(17).err().unwrap());
     assert!(e.contains("#27 HYPERBOLA"), "{e}");
 }
+
+#[test]
+fn a_job_names_a_step_face_directly() {
+    let imported = serde_json::to_value(
+        StepFile::read(&dir().join("freeform.step"))
+            .unwrap()
+            .face(17)
+            .unwrap(),
+    )
+    .unwrap();
+    let job_with = |surface: serde_json::Value| {
+        let file: JobFile = serde_json::from_value(json!({
+            "job_id": "step_face_job",
+            "surface": surface,
+            "strategy": "iso_scallop",
+            "tool": {"kind": "ball", "radius": 4.0},
+            "scallop": 0.05,
+        }))
+        .unwrap();
+        Job::from_file(file, Some(&dir()))
+    };
+    // The same geometry (trim included) as importing the face and embedding it.
+    let by_reference = job_with(json!({"file": "freeform.step", "face": 17})).unwrap();
+    let embedded = job_with(imported).unwrap();
+    assert_eq!(
+        by_reference.shape.fingerprint(),
+        embedded.shape.fingerprint()
+    );
+    assert!(by_reference.surface().unwrap().trim().is_some());
+    for (face, want) in [
+        (json!(999_999), "999999"),
+        (json!("17"), "surface.face"),
+        (json!(-3), "surface.face"),
+    ] {
+        let e = job_with(json!({"file": "freeform.step", "face": face}))
+            .err()
+            .expect("refused");
+        let text = e.to_string();
+        assert!(text.contains(want) && text.contains("surface"), "{text}");
+        assert!(!text.contains('\n'), "{text}");
+    }
+}

@@ -499,6 +499,23 @@ fn normal_jump(s: &crate::geometry::NurbsSurface, along_u: bool, t: f64, span: f
     (worst > CREASE_ANGLE).then_some(worst)
 }
 
+/// The face `face` (its STEP entity id) of the STEP file at `path`, as
+/// `toolpath import --face` writes it (docs/formats.md, "STEP import").
+fn step_face(path: &Path, face: &serde_json::Value) -> Result<Shape> {
+    let id = face.as_u64().ok_or_else(|| {
+        Error::invalid(
+            "surface.face",
+            format!("must be a STEP entity id (a whole number, as `toolpath import --list` shows), not {face}"),
+        )
+    })?;
+    let surface = super::step::StepFile::read(path)
+        .and_then(|f| f.face(id))
+        .map_err(|e| e.within("surface"))?;
+    let value =
+        serde_json::to_value(surface).map_err(|e| Error::invalid("surface.face", e.to_string()))?;
+    shape_from_value(value).map_err(|e| e.within("surface"))
+}
+
 impl Job {
     /// Validates a parsed job file. `base_dir` resolves `{"file": ...}` surfaces.
     pub fn from_file(f: JobFile, base_dir: Option<&Path>) -> Result<Self> {
@@ -515,7 +532,10 @@ impl Job {
                     Some(d) if Path::new(&file).is_relative() => d.join(&file),
                     _ => Path::new(&file).to_path_buf(),
                 };
-                super::read_shape(&path).map_err(|e| e.within("surface"))?
+                match map.get("face") {
+                    None => super::read_shape(&path).map_err(|e| e.within("surface"))?,
+                    Some(face) => step_face(&path, face)?,
+                }
             }
             serde_json::Value::Object(_) => {
                 shape_from_value(f.surface.clone()).map_err(|e| e.within("surface"))?
@@ -523,7 +543,7 @@ impl Job {
             _ => {
                 return Err(Error::invalid(
                     "surface",
-                    "must be a surface or pocket object, or {\"file\": path}",
+                    "must be a surface or pocket object, {\"file\": path}, or {\"file\": STEP path, \"face\": id}",
                 ))
             }
         };
