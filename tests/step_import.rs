@@ -296,9 +296,7 @@ fn a_job_names_a_step_face_directly() {
         (json!("17"), "surface.face"),
         (json!(-3), "surface.face"),
     ] {
-        let e = job_with(json!({"file": "freeform.step", "face": face}))
-            .err()
-            .expect("refused");
+        let e = job_with(json!({"file": "freeform.step", "face": face})).expect_err("refused");
         let text = e.to_string();
         assert!(text.contains(want) && text.contains("surface"), "{text}");
         assert!(!text.contains('\n'), "{text}");
