@@ -1135,153 +1135,161 @@ impl StepFile {
     /// the boundary's coarse samples) and the map of 3-D boundary points to
     /// its (u, v), seeded by the previous point of the loop.
     #[allow(clippy::type_complexity)]
-    fn patch(
-        &self,
-        face: u64,
-        basis: Basis,
-        coarse: &[Vec<V3>],
-    ) -> Result<(SurfaceFile, Box<dyn Fn(&V3, Option<[f64; 2]>) -> [f64; 2]>)> {
-        Ok(match basis {
-            Basis::Bspline(s) => {
-                let n = s.to_surface()?;
-                (
-                    s,
-                    Box::new(move |q: &V3, seed: Option<[f64; 2]>| {
-                        let c = match seed {
-                            Some(sd) => closest_point_near(
-                                &n,
-                                &Point3::from(*q),
-                                Vector2::new(sd[0], sd[1]),
-                            ),
-                            None => closest_point(&n, &Point3::from(*q)),
-                        };
-                        [c.uv.x, c.uv.y]
-                    }),
-                )
-            }
-            Basis::Plane(f) => {
-                let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-                for q in coarse.iter().flatten() {
-                    let r = q - f.o;
-                    for (k, a) in [f.x, f.y].iter().enumerate() {
-                        lo[k] = lo[k].min(r.dot(a));
-                        hi[k] = hi[k].max(r.dot(a));
-                    }
-                }
-                if !(hi[0] > lo[0] && hi[1] > lo[1]) {
-                    return Err(self.err(face, "has a boundary of no extent on its plane"));
-                }
-                // The patch is the boundary's box: a loop on the domain's
-                // edges is on the face (the face is closed).
-                let at = |x: f64, y: f64| {
-                    let p = f.o + f.x * x + f.y * y;
-                    [p.x, p.y, p.z]
-                };
-                (
-                    SurfaceFile {
-                        kind: "nurbs".into(),
-                        name: None,
-                        degree_u: 1,
-                        degree_v: 1,
-                        knots_u: vec![lo[0], lo[0], hi[0], hi[0]],
-                        knots_v: vec![lo[1], lo[1], hi[1], hi[1]],
-                        control_points: vec![
-                            vec![at(lo[0], lo[1]), at(lo[0], hi[1])],
-                            vec![at(hi[0], lo[1]), at(hi[0], hi[1])],
-                        ],
-                        weights: None,
-                        trim: None,
-                    },
-                    Box::new(move |q: &V3, _| {
-                        let r = q - f.o;
-                        [
-                            r.dot(&f.x).clamp(lo[0], hi[0]),
-                            r.dot(&f.y).clamp(lo[1], hi[1]),
-                        ]
-                    }),
-                )
-            }
-            Basis::Cylinder(f, r) => {
-                let angle = move |q: &V3| {
-                    let d = q - f.o;
-                    d.dot(&f.y).atan2(d.dot(&f.x))
-                };
-                let (mut t0, mut t1) = (f64::INFINITY, f64::NEG_INFINITY);
-                let (mut z0, mut z1) = (f64::INFINITY, f64::NEG_INFINITY);
-                let mut reference = None;
-                for l in coarse {
-                    let mut prev: Option<f64> = None;
-                    for q in l {
-                        let mut t = angle(q);
-                        let near = prev.or(reference);
-                        if let Some(p) = near {
-                            t += TAU * ((p - t) / TAU).round();
-                        }
-                        reference.get_or_insert(t);
-                        prev = Some(t);
-                        t0 = t0.min(t);
-                        t1 = t1.max(t);
-                        let z = (q - f.o).dot(&f.z);
-                        z0 = z0.min(z);
-                        z1 = z1.max(z);
-                    }
-                }
-                if !(t1 > t0 && z1 > z0) {
-                    return Err(self.err(face, "has a boundary of no extent on its cylinder"));
-                }
-                if t1 - t0 > TAU + 1e-6 {
-                    return Err(self.err(
-                        face,
-                        "winds round its cylinder more than once: not supported",
-                    ));
-                }
-                let t1 = t1.min(t0 + TAU);
-                let arcs = Arcs::new(t0, t1);
-                let mut rows = Vec::new();
-                let mut wrows = Vec::new();
-                let w = (0.5 * arcs.delta).cos();
-                for i in 0..=2 * arcs.n {
-                    let th = t0 + arcs.delta * i as f64 / 2.0;
-                    let (rad, wt) = if i % 2 == 1 { (r / w, w) } else { (r, 1.0) };
-                    let p = |z: f64| {
-                        let p = f.o + (f.x * th.cos() + f.y * th.sin()) * rad + f.z * z;
-                        [p.x, p.y, p.z]
-                    };
-                    rows.push(vec![p(z0), p(z1)]);
-                    wrows.push(vec![wt, wt]);
-                }
-                let mut knots_u = vec![0.0; 3];
-                for k in 1..arcs.n {
-                    let u = k as f64 / arcs.n as f64;
-                    knots_u.extend([u, u]);
-                }
-                knots_u.extend([1.0; 3]);
-                (
-                    SurfaceFile {
-                        kind: "nurbs".into(),
-                        name: None,
-                        degree_u: 2,
-                        degree_v: 1,
-                        knots_u,
-                        knots_v: vec![z0, z0, z1, z1],
-                        control_points: rows,
-                        weights: Some(wrows),
-                        trim: None,
-                    },
-                    Box::new(move |q: &V3, seed: Option<[f64; 2]>| {
-                        let mut t = angle(q);
-                        let near = seed
-                            .map(|s| arcs.theta_of(s[0]))
-                            .or(reference)
-                            .unwrap_or(t0);
-                        t += TAU * ((near - t) / TAU).round();
-                        let z = (q - f.o).dot(&f.z).clamp(z0, z1);
-                        [arcs.u_of(t.clamp(t0, t1)), z]
-                    }),
-                )
-            }
-        })
+    /// The face's surface as a NURBS patch covering its boundary (`coarse`:
+    /// the boundary's sampled loops), and the map from a 3-D boundary point
+    /// (with an optional nearby (u, v) seed) to the patch's (u, v).
+    fn patch(&self, face: u64, basis: Basis, coarse: &[Vec<V3>]) -> Result<Patch> {
+        match basis {
+            Basis::Bspline(s) => bspline_patch(s),
+            Basis::Plane(f) => self.plane_patch(face, f, coarse),
+            Basis::Cylinder(f, r) => self.cylinder_patch(face, f, r, coarse),
+        }
     }
+
+    /// A plane as the bilinear patch over its boundary's box.
+    fn plane_patch(&self, face: u64, f: Frame, coarse: &[Vec<V3>]) -> Result<Patch> {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for q in coarse.iter().flatten() {
+            let r = q - f.o;
+            for (k, a) in [f.x, f.y].iter().enumerate() {
+                lo[k] = lo[k].min(r.dot(a));
+                hi[k] = hi[k].max(r.dot(a));
+            }
+        }
+        if !(hi[0] > lo[0] && hi[1] > lo[1]) {
+            return Err(self.err(face, "has a boundary of no extent on its plane"));
+        }
+        // The patch is the boundary's box: a loop on the domain's
+        // edges is on the face (the face is closed).
+        let at = |x: f64, y: f64| {
+            let p = f.o + f.x * x + f.y * y;
+            [p.x, p.y, p.z]
+        };
+        Ok((
+            SurfaceFile {
+                kind: "nurbs".into(),
+                name: None,
+                degree_u: 1,
+                degree_v: 1,
+                knots_u: vec![lo[0], lo[0], hi[0], hi[0]],
+                knots_v: vec![lo[1], lo[1], hi[1], hi[1]],
+                control_points: vec![
+                    vec![at(lo[0], lo[1]), at(lo[0], hi[1])],
+                    vec![at(hi[0], lo[1]), at(hi[0], hi[1])],
+                ],
+                weights: None,
+                trim: None,
+            },
+            Box::new(move |q: &V3, _| {
+                let r = q - f.o;
+                [
+                    r.dot(&f.x).clamp(lo[0], hi[0]),
+                    r.dot(&f.y).clamp(lo[1], hi[1]),
+                ]
+            }),
+        ))
+    }
+
+    /// A cylinder as the exact rational quadratic patch over the angles and
+    /// heights its boundary spans (at most one turn).
+    fn cylinder_patch(&self, face: u64, f: Frame, r: f64, coarse: &[Vec<V3>]) -> Result<Patch> {
+        let angle = move |q: &V3| {
+            let d = q - f.o;
+            d.dot(&f.y).atan2(d.dot(&f.x))
+        };
+        let (mut t0, mut t1) = (f64::INFINITY, f64::NEG_INFINITY);
+        let (mut z0, mut z1) = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut reference = None;
+        for l in coarse {
+            let mut prev: Option<f64> = None;
+            for q in l {
+                let mut t = angle(q);
+                let near = prev.or(reference);
+                if let Some(p) = near {
+                    t += TAU * ((p - t) / TAU).round();
+                }
+                reference.get_or_insert(t);
+                prev = Some(t);
+                t0 = t0.min(t);
+                t1 = t1.max(t);
+                let z = (q - f.o).dot(&f.z);
+                z0 = z0.min(z);
+                z1 = z1.max(z);
+            }
+        }
+        if !(t1 > t0 && z1 > z0) {
+            return Err(self.err(face, "has a boundary of no extent on its cylinder"));
+        }
+        if t1 - t0 > TAU + 1e-6 {
+            return Err(self.err(
+                face,
+                "winds round its cylinder more than once: not supported",
+            ));
+        }
+        let t1 = t1.min(t0 + TAU);
+        let arcs = Arcs::new(t0, t1);
+        let mut rows = Vec::new();
+        let mut wrows = Vec::new();
+        let w = (0.5 * arcs.delta).cos();
+        for i in 0..=2 * arcs.n {
+            let th = t0 + arcs.delta * i as f64 / 2.0;
+            let (rad, wt) = if i % 2 == 1 { (r / w, w) } else { (r, 1.0) };
+            let p = |z: f64| {
+                let p = f.o + (f.x * th.cos() + f.y * th.sin()) * rad + f.z * z;
+                [p.x, p.y, p.z]
+            };
+            rows.push(vec![p(z0), p(z1)]);
+            wrows.push(vec![wt, wt]);
+        }
+        let mut knots_u = vec![0.0; 3];
+        for k in 1..arcs.n {
+            let u = k as f64 / arcs.n as f64;
+            knots_u.extend([u, u]);
+        }
+        knots_u.extend([1.0; 3]);
+        Ok((
+            SurfaceFile {
+                kind: "nurbs".into(),
+                name: None,
+                degree_u: 2,
+                degree_v: 1,
+                knots_u,
+                knots_v: vec![z0, z0, z1, z1],
+                control_points: rows,
+                weights: Some(wrows),
+                trim: None,
+            },
+            Box::new(move |q: &V3, seed: Option<[f64; 2]>| {
+                let mut t = angle(q);
+                let near = seed
+                    .map(|s| arcs.theta_of(s[0]))
+                    .or(reference)
+                    .unwrap_or(t0);
+                t += TAU * ((near - t) / TAU).round();
+                let z = (q - f.o).dot(&f.z).clamp(z0, z1);
+                [arcs.u_of(t.clamp(t0, t1)), z]
+            }),
+        ))
+    }
+}
+
+/// A face's NURBS patch and the map from a 3-D point near it (with an
+/// optional (u, v) seed) to its (u, v).
+type Patch = (SurfaceFile, Box<dyn Fn(&V3, Option<[f64; 2]>) -> [f64; 2]>);
+
+/// A B-spline surface is its own patch; points map by closest-point inversion.
+fn bspline_patch(s: SurfaceFile) -> Result<Patch> {
+    let n = s.to_surface()?;
+    Ok((
+        s,
+        Box::new(move |q: &V3, seed: Option<[f64; 2]>| {
+            let c = match seed {
+                Some(sd) => closest_point_near(&n, &Point3::from(*q), Vector2::new(sd[0], sd[1])),
+                None => closest_point(&n, &Point3::from(*q)),
+            };
+            [c.uv.x, c.uv.y]
+        }),
+    ))
 }
 
 /// Samples one edge into `pts`: the (u, v) images of parameters from `ta`
