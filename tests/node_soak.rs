@@ -1,6 +1,6 @@
 //! The node's memory levels off over long job streams: 2000 small jobs and
-//! 100 wing_mould jobs through one `toolpath node`, the resident set size
-//! sampled after each round of a burst; the second half of each stream may
+//! 100 wing_mould jobs through one `toolpath node`, the settled resident set
+//! size after each round of a burst; the second half of each stream may
 //! raise the peak by a small margin only.
 //!
 //! Bounded in count and time (a few minutes in all); the node runs on
@@ -34,12 +34,30 @@ fn wing_mould_load() -> BurstLoad {
     }
 }
 
-/// Runs `rounds` bursts of `n` jobs of `load` and returns the RSS after each.
+/// The node's settled RSS after a round: the least over [`SETTLE`], sampled
+/// every 50 ms. The last final status can arrive while a worker still
+/// releases its job's memory and the queue-empty trim has not run, so one
+/// sample taken at once varies by up to 100 MiB with two workers; a leak
+/// raises the settled level.
+fn settled_rss_mib(pid: u32) -> f64 {
+    let mut least = rss_mib(pid);
+    let start = std::time::Instant::now();
+    while start.elapsed() < SETTLE {
+        std::thread::sleep(Duration::from_millis(50));
+        least = least.min(rss_mib(pid));
+    }
+    least
+}
+
+const SETTLE: Duration = Duration::from_millis(1500);
+
+/// Runs `rounds` bursts of `n` jobs of `load` and returns the settled RSS
+/// after each.
 fn stream(node: &NodeProcess, d: u16, load: &BurstLoad, n: usize, rounds: usize) -> Vec<f64> {
     let pid = node.child.id();
     let mut rss = Vec::new();
     let outcomes = bench_node::burst_of(d, load, n, rounds, Duration::from_secs(600), |_, _| {
-        rss.push(rss_mib(pid))
+        rss.push(settled_rss_mib(pid))
     })
     .unwrap();
     for o in &outcomes {
