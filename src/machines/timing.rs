@@ -148,6 +148,24 @@ fn stretch_over_limit(
     }
 }
 
+/// Each segment's first duration: the longer of its Cartesian feed time and
+/// the slowest joint's time at its velocity limit, at least [`MIN_DT`].
+fn initial_durations(q: &[Vec<f64>], segments: &[Segment], limits: &[JointLimit]) -> Vec<f64> {
+    segments
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let cart = s.max_speed.map_or(0.0, |f| s.length / f);
+            let joint = limits
+                .iter()
+                .enumerate()
+                .map(|(j, l)| (q[k + 1][j] - q[k][j]).abs() / l.max_velocity)
+                .fold(0.0, f64::max);
+            cart.max(joint).max(MIN_DT)
+        })
+        .collect()
+}
+
 /// Times the path `q` (one row of joint values per waypoint). `segments[k]`
 /// joins waypoints k and k + 1; `stops[k]` forces zero velocity at waypoint k.
 pub fn parameterise(
@@ -160,19 +178,7 @@ pub fn parameterise(
     if n == 0 {
         return Timed::default();
     }
-    let mut dt: Vec<f64> = segments
-        .iter()
-        .enumerate()
-        .map(|(k, s)| {
-            let cart = s.max_speed.map_or(0.0, |f| s.length / f);
-            let joint = limits
-                .iter()
-                .enumerate()
-                .map(|(j, l)| (q[k + 1][j] - q[k][j]).abs() / l.max_velocity)
-                .fold(0.0, f64::max);
-            cart.max(joint).max(MIN_DT)
-        })
-        .collect();
+    let mut dt = initial_durations(&q, segments, limits);
     let mut v = waypoint_velocities(&q, &dt, stops);
     let (mut worst, mut per_segment) = worst_acceleration(&q, &v, &dt, limits);
     for _ in 0..60 {
@@ -283,19 +289,7 @@ mod tests {
         stops: &[bool],
         limits: &[JointLimit],
     ) -> (Vec<f64>, Vec<Vec<f64>>) {
-        let mut dt: Vec<f64> = segments
-            .iter()
-            .enumerate()
-            .map(|(k, s)| {
-                let cart = s.max_speed.map_or(0.0, |f| s.length / f);
-                let joint = limits
-                    .iter()
-                    .enumerate()
-                    .map(|(j, l)| (q[k + 1][j] - q[k][j]).abs() / l.max_velocity)
-                    .fold(0.0, f64::max);
-                cart.max(joint).max(MIN_DT)
-            })
-            .collect();
+        let mut dt = initial_durations(q, segments, limits);
         let mut v = waypoint_velocities(q, &dt, stops);
         for _ in 0..60 {
             let (worst, per_segment) = worst_acceleration(q, &v, &dt, limits);
