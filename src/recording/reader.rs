@@ -155,35 +155,31 @@ fn le_u32(bytes: &[u8], at: usize) -> Option<u32> {
 /// end time, uncompressed size and CRC, the compression name, the
 /// (compressed) records.
 fn check_chunk(chunk: &[u8], whole: bool) -> std::result::Result<(), String> {
-    let Some(size) = le_u64(chunk, 16) else {
-        return if whole {
-            Err("its header is cut short".into())
+    // A header cut by the end of the file leaves nothing for the reader to reserve.
+    let cut_short = |what: &str| {
+        if whole {
+            Err(format!("its {what} cut short"))
         } else {
             Ok(())
-        };
+        }
+    };
+    let Some(size) = le_u64(chunk, 16) else {
+        return cut_short("header is");
     };
     if size > MAX_CHUNK_BYTES {
         return Err(format!(
             "it claims {size} bytes uncompressed (more than {MAX_CHUNK_BYTES})"
         ));
     }
-    let (Some(name_len), Some(name)) = (
-        le_u32(chunk, 28),
-        le_u32(chunk, 28).and_then(|n| chunk.get(32..32 + n as usize)),
-    ) else {
-        return if whole {
-            Err("its compression name is cut short".into())
-        } else {
-            Ok(())
-        };
+    let Some(name_len) = le_u32(chunk, 28).map(|n| n as usize) else {
+        return cut_short("compression name is");
     };
-    let records_at = 32 + name_len as usize;
+    let Some(name) = chunk.get(32..32 + name_len) else {
+        return cut_short("compression name is");
+    };
+    let records_at = 32 + name_len;
     let Some(records_len) = le_u64(chunk, records_at) else {
-        return if whole {
-            Err("its records are cut short".into())
-        } else {
-            Ok(())
-        };
+        return cut_short("records are");
     };
     let from = records_at + 8;
     let records = match usize::try_from(records_len)
