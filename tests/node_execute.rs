@@ -125,15 +125,7 @@ fn jobs_execute_pass_by_pass_and_stop_on_abort_reject_and_cancel() {
             let deadline = Instant::now() + Duration::from_secs(120);
             let mut canceled = false;
             loop {
-                let left = deadline.saturating_duration_since(Instant::now());
-                let (st, _) = tokio::time::timeout(left, statuses.next())
-                    .await
-                    .unwrap_or_else(|_| panic!("no final status of {id}"))
-                    .unwrap()
-                    .unwrap();
-                if st.job_id != id {
-                    continue;
-                }
+                let st = node_client::next_status_of(&mut statuses, id, deadline).await;
                 if let (Some(text), false) = (cancel_at, canceled) {
                     if st.message.contains(text) {
                         cancel.publish(StringMsg { data: id.into() }).unwrap();

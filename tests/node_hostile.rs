@@ -107,15 +107,7 @@ fn hostile_jobs_fail_with_a_reason_and_the_node_keeps_serving() {
             let deadline = from + Duration::from_secs(120);
             let mut canceled = false;
             loop {
-                let left = deadline.saturating_duration_since(Instant::now());
-                let (st, _) = tokio::time::timeout(left, statuses.next())
-                    .await
-                    .unwrap_or_else(|_| panic!("no final status of {id}"))
-                    .unwrap()
-                    .unwrap();
-                if st.job_id != id {
-                    continue;
-                }
+                let st = node_client::next_status_of(&mut statuses, &id, deadline).await;
                 if st.state == msgs::JobStatus::RUNNING && !canceled {
                     from = Instant::now();
                     if cancel_running {

@@ -50,3 +50,28 @@ impl NodeClient {
         client
     }
 }
+
+/// The next status of job `id` on `statuses` (other jobs' are skipped),
+/// waiting until `deadline`; panics naming the job when none comes.
+pub async fn next_status_of<S, I, E>(
+    statuses: &mut S,
+    id: &str,
+    deadline: std::time::Instant,
+) -> msgs::JobStatus
+where
+    S: futures::Stream<Item = Result<(msgs::JobStatus, I), E>> + Unpin,
+    E: std::fmt::Debug,
+{
+    use futures::StreamExt;
+    loop {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        let (st, _) = tokio::time::timeout(left, statuses.next())
+            .await
+            .unwrap_or_else(|_| panic!("no final status of {id}"))
+            .unwrap()
+            .unwrap();
+        if st.job_id == id {
+            return st;
+        }
+    }
+}
