@@ -20,5 +20,6 @@ pub mod recorder;
 pub mod republish;
 pub mod ros_args;
 pub mod shape_readers;
+pub mod tf_static;
 
 pub use config::NodeConfig;
