@@ -14,6 +14,7 @@ pub mod fake_controller;
 pub mod joint_states;
 pub mod logging;
 pub mod node;
+pub mod parameter_descriptors;
 pub mod parameters;
 pub mod plan_action;
 pub mod recorder;

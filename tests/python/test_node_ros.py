@@ -131,6 +131,24 @@ def test_every_config_setting_is_a_listed_parameter(cell):
     assert len(names) == len(set(names))
 
 
+def test_describe_gives_the_config_comment_the_range_and_read_only(cell):
+    d = {x.name: x for x in cell["params"].describe(
+        "node.workers", "node.surface_timeout_s", "mill5.a.max_velocity_deg_s", "recording.zstd_level")}
+    workers = d["node.workers"]
+    assert workers.description == "planning threads; 0 = one per available core", workers
+    assert workers.type == rcl.INTEGER and workers.read_only
+    assert [(r.from_value, r.to_value, r.step) for r in workers.integer_range] == [(0, 256, 1)], workers
+    assert "read-only while the node runs" in workers.additional_constraints, workers
+    timeout = d["node.surface_timeout_s"]
+    assert not timeout.read_only and timeout.type == rcl.DOUBLE, timeout
+    assert [r.from_value for r in timeout.floating_point_range] == [0.0], timeout
+    assert d["mill5.a.max_velocity_deg_s"].description == "axis A: velocity limit, degrees/s"
+    assert [(r.from_value, r.to_value) for r in d["recording.zstd_level"].integer_range] == [(0, 19)]
+    # A name that is not a parameter: ros2-client's "unknown parameter", type NOT_SET.
+    (unknown,) = cell["params"].describe("no.such_parameter")
+    assert unknown.type == rcl.NOT_SET, unknown
+
+
 def test_values_come_from_the_params_file_and_p_rules(cell):
     got = cell["params"].get(
         "node.verify", "node.surface_timeout_s", "mill5.retract_mm", "node.name", "node.namespace",
