@@ -110,8 +110,18 @@ fn failed_start(mut c: Command) -> (i32, String) {
         std::thread::sleep(Duration::from_millis(50));
     };
     let (mut out, mut err) = (String::new(), String::new());
-    child.stdout.take().unwrap().read_to_string(&mut out).unwrap();
-    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    child
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_string(&mut out)
+        .unwrap();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
     assert!(!out.contains("ready"), "the node got ready: {out}");
     (status.code().unwrap_or(-1), err)
 }
@@ -160,12 +170,9 @@ fn an_authorised_client_is_served_and_others_get_nothing() {
         .unwrap();
     rt.block_on(async {
         let started = Instant::now();
-        let mut client = NodeClient::connect_secured(
-            "cell_client",
-            d,
-            Some(&enclave_dir(&ks, CLIENT_ENCLAVE)),
-        )
-        .await;
+        let mut client =
+            NodeClient::connect_secured("cell_client", d, Some(&enclave_dir(&ks, CLIENT_ENCLAVE)))
+                .await;
         let discovered = started.elapsed();
         let toolpaths = client
             .ros
@@ -219,7 +226,10 @@ fn an_authorised_client_is_served_and_others_get_nothing() {
                 c.status.take().unwrap().is_none(),
                 "{name} read a job status"
             );
-            assert!(toolpaths.take().unwrap().is_none(), "{name} read a toolpath");
+            assert!(
+                toolpaths.take().unwrap().is_none(),
+                "{name} read a toolpath"
+            );
         }
 
         // The node still serves the authorised client, and never saw the
@@ -249,7 +259,10 @@ fn an_authorised_client_is_served_and_others_get_nothing() {
                 c.status.take().unwrap().is_none(),
                 "{name} read a job status"
             );
-            assert!(toolpaths.take().unwrap().is_none(), "{name} read a toolpath");
+            assert!(
+                toolpaths.take().unwrap().is_none(),
+                "{name} read a toolpath"
+            );
         }
     });
 }

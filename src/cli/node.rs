@@ -53,7 +53,11 @@ fn enclave_dir(request: &security::Request) -> Result<Option<std::path::PathBuf>
         );
         return Ok(None);
     }
-    log::info!("DDS Security on: enclave {} ({})", request.enclave, dir.display());
+    log::info!(
+        "DDS Security on: enclave {} ({})",
+        request.enclave,
+        dir.display()
+    );
     Ok(Some(dir))
 }
 

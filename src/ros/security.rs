@@ -211,7 +211,9 @@ pub fn verify(dir: &Path) -> Result<()> {
     let (key_path, key_pem) = read(KEY)?;
     let key = PKey::private_key_from_pem(&key_pem)
         .map_err(|e| bad(&key_path, format!("not a PEM private key: {e}")))?;
-    let cert_key = cert.public_key().map_err(|e| bad(&cert_path, e.to_string()))?;
+    let cert_key = cert
+        .public_key()
+        .map_err(|e| bad(&cert_path, e.to_string()))?;
     if !cert_key.public_eq(&key) {
         return Err(bad(&key_path, format!("the key does not belong to {CERT}")));
     }
@@ -304,7 +306,8 @@ mod tests {
         };
         let e = enforce("/cell/nope").enclave_dir().unwrap_err().to_string();
         assert!(
-            e.contains("--enclave /cell/nope") && e.contains("enclaves/cell/nope is not a directory"),
+            e.contains("--enclave /cell/nope")
+                && e.contains("enclaves/cell/nope is not a directory"),
             "{e}"
         );
         let e = enforce("/cell/tp").enclave_dir().unwrap_err().to_string();
@@ -315,7 +318,10 @@ mod tests {
         for f in ENCLAVE_FILES {
             std::fs::write(dir.join(f), "x").unwrap();
         }
-        assert_eq!(enforce("/cell/tp").enclave_dir().unwrap(), Some(dir.clone()));
+        assert_eq!(
+            enforce("/cell/tp").enclave_dir().unwrap(),
+            Some(dir.clone())
+        );
         std::fs::remove_file(dir.join(PERMISSIONS)).unwrap();
         let e = enforce("/cell/tp").enclave_dir().unwrap_err().to_string();
         assert!(e.contains("cell/tp/permissions.p7s"), "{e}");
