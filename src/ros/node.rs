@@ -194,11 +194,32 @@ impl RosNode {
         domain_id: u16,
         interfaces: Option<Vec<std::net::IpAddr>>,
     ) -> Result<Self> {
-        let options = NodeOptions::new().enable_rosout(false);
-        Self::with_options(name, namespace, domain_id, interfaces, options, &[])
+        Self::secured(name, namespace, domain_id, interfaces, None)
     }
 
-    /// A node with `options` (parameters, rosout) and topic `remaps`.
+    /// [`RosNode::new`] with DDS Security from an SROS2 enclave directory
+    /// (`None`: unsecured); see [`super::security`].
+    pub fn secured(
+        name: &str,
+        namespace: &str,
+        domain_id: u16,
+        interfaces: Option<Vec<std::net::IpAddr>>,
+        enclave_dir: Option<&std::path::Path>,
+    ) -> Result<Self> {
+        let options = NodeOptions::new().enable_rosout(false);
+        Self::with_options(
+            name,
+            namespace,
+            domain_id,
+            interfaces,
+            options,
+            &[],
+            enclave_dir,
+        )
+    }
+
+    /// A node with `options` (parameters, rosout), topic `remaps` and DDS
+    /// Security from `enclave_dir` when given.
     pub fn with_options(
         name: &str,
         namespace: &str,
@@ -206,15 +227,23 @@ impl RosNode {
         interfaces: Option<Vec<std::net::IpAddr>>,
         options: NodeOptions,
         remaps: &[(String, String)],
+        enclave_dir: Option<&std::path::Path>,
     ) -> Result<Self> {
         let mut builder = rustdds::DomainParticipantBuilder::new(domain_id);
         if let Some(ips) = interfaces {
             check_on_this_host(&ips)?;
             builder = builder.with_only_networks(ips);
         }
-        let dp = builder
-            .build()
-            .map_err(|e| ros_err("cannot create the DDS participant", e))?;
+        if let Some(dir) = enclave_dir {
+            builder = super::security::secure(builder, dir)?;
+        }
+        let dp = builder.build().map_err(|e| match enclave_dir {
+            Some(dir) => Error::invalid(
+                dir.display().to_string(),
+                format!("DDS Security refused the enclave's files: {e}"),
+            ),
+            None => ros_err("cannot create the DDS participant", e),
+        })?;
         let context = Context::from_domain_participant(dp)
             .map_err(|e| ros_err("cannot create the context", e))?;
         let node_name = NodeName::new(namespace, name)
@@ -1068,12 +1097,21 @@ fn start_workers(
 }
 
 /// Prints the one "ready ..." line on stdout and flushes it.
-fn announce_ready(ros: &RosNode, config: &NodeConfig, domain: u16, outputs: &Outputs) {
+fn announce_ready(
+    ros: &RosNode,
+    config: &NodeConfig,
+    domain: u16,
+    outputs: &Outputs,
+    enclave_dir: Option<&std::path::Path>,
+) {
     let mut extra = outputs
         .recorder
         .as_ref()
         .map(|r| format!(", recording to {}", r.directory().display()))
         .unwrap_or_default();
+    if let Some(dir) = enclave_dir {
+        extra += &format!(", DDS Security enclave {}", dir.display());
+    }
     if config.ipc.enabled {
         extra += &format!(", iceoryx2 service {}", config.ipc.service);
     }
@@ -1281,7 +1319,9 @@ fn shut_down(
 
 /// Runs the node until SIGINT/SIGTERM. Prints one line "ready ..." on stdout
 /// once every topic exists (tests and the demo wait for it).
-pub async fn run(resolved: Resolved) -> Result<()> {
+/// `enclave_dir`: the SROS2 enclave to secure the participant with
+/// ([`super::security::Request::enclave_dir`]), `None` for none.
+pub async fn run(resolved: Resolved, enclave_dir: Option<std::path::PathBuf>) -> Result<()> {
     let config = &resolved.config;
     config.validate()?;
     large_blocks_back_to_the_system();
@@ -1297,6 +1337,7 @@ pub async fn run(resolved: Resolved) -> Result<()> {
         config.interfaces()?,
         options,
         &resolved.remaps,
+        enclave_dir.as_deref(),
     )?;
     super::logging::attach_rosout(
         ros.node.logging_handle(),
@@ -1346,7 +1387,7 @@ pub async fn run(resolved: Resolved) -> Result<()> {
     };
     let diagnostics_publisher = super::diagnostics::publisher(&mut ros.node)?;
     let diagnostics = diagnostics(&ros, diagnostics_publisher, config, &shared, &outputs);
-    announce_ready(&ros, config, domain, &outputs);
+    announce_ready(&ros, config, domain, &outputs, enclave_dir.as_deref());
     let received = tokio::select! {
         r = receive_until_signal(inputs, &shared, &outputs) => r,
         () = diagnostics => Ok(()),
