@@ -30,6 +30,9 @@ pub struct NodeSettings {
     /// Publish the frames' tree on `/tf_static` (off when the cell publishes
     /// these frames itself).
     pub tf_static: bool,
+    /// How requests and replies of the node's services and actions (and its
+    /// controller clients) travel: as the cell's RMW frames them.
+    pub service_mapping: ServiceMappingSetting,
     /// How long a job waits for its surface (or pocket) to arrive, s.
     pub surface_timeout_s: f64,
     /// Planning worker threads; 0 (the default) = one per available core
@@ -44,6 +47,26 @@ pub struct NodeSettings {
     pub job_time_limit_s: f64,
     /// Jobs estimated to need more than this are refused before planning.
     pub budget: crate::pipeline::Budget,
+}
+
+/// The request/reply mapping of services and actions on DDS (`node.service_mapping`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ServiceMappingSetting {
+    /// The request id as the DDS related-sample-identity (rmw_fastrtps,
+    /// ROS 2's default RMW; rmw_connextdds).
+    Enhanced,
+    /// A 16-byte request header in the payload (rmw_cyclonedds).
+    Cyclone,
+}
+
+impl From<ServiceMappingSetting> for ros2_client::ServiceMapping {
+    fn from(s: ServiceMappingSetting) -> Self {
+        match s {
+            ServiceMappingSetting::Enhanced => ros2_client::ServiceMapping::Enhanced,
+            ServiceMappingSetting::Cyclone => ros2_client::ServiceMapping::Cyclone,
+        }
+    }
 }
 
 /// Default `node.job_time_limit_s`: ten minutes, about a hundred times what
@@ -84,6 +107,7 @@ impl Default for NodeSettings {
             mill5_frame: "mill5_base".into(),
             belt6_frame: "belt6_base".into(),
             tf_static: true,
+            service_mapping: ServiceMappingSetting::Enhanced,
             surface_timeout_s: 10.0,
             workers: 0,
             verify: true,

@@ -184,6 +184,8 @@ pub struct RosNode {
     pub namespace: String,
     /// Topic remapping rules (`--ros-args -r from:=to`).
     remaps: Remaps,
+    /// The request/reply mapping of the services and actions it creates.
+    pub service_mapping: ros2_client::ServiceMapping,
     _context: Context,
 }
 
@@ -263,6 +265,7 @@ impl RosNode {
             node,
             namespace: namespace.to_string(),
             remaps: Remaps::new(remaps, namespace, name),
+            service_mapping: ros2_client::ServiceMapping::Enhanced,
             _context: context,
         })
     }
@@ -1339,6 +1342,7 @@ pub async fn run(resolved: Resolved, enclave_dir: Option<std::path::PathBuf>) ->
         &resolved.remaps,
         enclave_dir.as_deref(),
     )?;
+    ros.service_mapping = settings.service_mapping.into();
     super::logging::attach_rosout(
         ros.node.logging_handle(),
         super::logging::logger_name(&settings.namespace, &settings.name),

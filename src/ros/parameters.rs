@@ -410,7 +410,8 @@ pub fn node_options(
     builtin: &[(String, ParameterValue)],
     live: &Arc<LiveConfig>,
 ) -> Result<NodeOptions> {
-    let mut options = NodeOptions::new();
+    let mut options =
+        NodeOptions::new().parameter_service_mapping(config.node.service_mapping.into());
     let descriptions = super::parameter_descriptors::descriptions();
     for (name, leaf) in flatten(&to_tree(config)?)? {
         let value = to_parameter(&leaf).map_err(|e| Error::invalid(&name, e))?;

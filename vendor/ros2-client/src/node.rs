@@ -657,7 +657,8 @@ impl Node {
     self.suppress_node_info_updates(true);
 
     let parameter_servers = if self.options.start_parameter_services {
-      let service_mapping = ServiceMapping::Enhanced; //TODO: parameterize
+      // toolpath_planner patch: the mapping the node was given.
+      let service_mapping = self.options.parameter_service_mapping;
       let get_parameters_server = self.create_server(
         service_mapping,
         &Name::new(&node_name, "get_parameters").unwrap(),

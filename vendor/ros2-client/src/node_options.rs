@@ -13,6 +13,7 @@
 //! documented as no-ops there (logged once at `debug` level).
 
 use crate::parameters::{Parameter, ParameterDescriptor, ParameterValue, SetParametersResult};
+use crate::service::ServiceMapping;
 
 /// Signature of a user-supplied parameter validator / set-action callback
 /// (see [`NodeOptions::parameter_validator`] /
@@ -39,6 +40,8 @@ pub struct NodeOptions {
   pub(crate) parameter_set_action: Option<Box<ParameterFunc>>,
   // toolpath_planner patch: descriptors of declared parameters.
   pub(crate) parameter_descriptors: Vec<ParameterDescriptor>,
+  // toolpath_planner patch: the request/reply mapping of the parameter services.
+  pub(crate) parameter_service_mapping: ServiceMapping,
 }
 
 impl NodeOptions {
@@ -55,6 +58,7 @@ impl NodeOptions {
       parameter_validator: None,
       parameter_set_action: None,
       parameter_descriptors: Vec::new(),
+      parameter_service_mapping: ServiceMapping::Enhanced,
     }
   }
   pub fn enable_rosout(self, enable_rosout: bool) -> NodeOptions {
@@ -123,6 +127,13 @@ impl NodeOptions {
   // parameter (description, additional constraints, read-only, range).
   pub fn parameter_descriptor(mut self, descriptor: ParameterDescriptor) -> NodeOptions {
     self.parameter_descriptors.push(descriptor);
+    self
+  }
+
+  // toolpath_planner patch: the parameter services' request/reply mapping
+  // (Enhanced: rmw_fastrtps; Cyclone: rmw_cyclonedds).
+  pub fn parameter_service_mapping(mut self, mapping: ServiceMapping) -> NodeOptions {
+    self.parameter_service_mapping = mapping;
     self
   }
 }
