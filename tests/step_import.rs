@@ -224,15 +224,26 @@ fn bad_step_input_is_a_clear_error_naming_the_entity() {
     let e = invalid_message(parse(&garbled).err().unwrap());
     assert!(e.contains("not valid STEP"), "{e}");
     // An unsupported surface.
-    let sphere = text.replacen(
+    let offset = text.replacen(
         "CYLINDRICAL_SURFACE('',#34,20.)",
-        "SPHERICAL_SURFACE('',#34,20.)",
+        "OFFSET_SURFACE('',#34,20.,.F.)",
         1,
     );
-    let f = parse(&sphere).unwrap();
+    let f = parse(&offset).unwrap();
     let e = invalid_message(f.face(17).err().unwrap());
     assert!(
-        e.contains("#33 SPHERICAL_SURFACE") && e.contains("not a supported surface"),
+        e.contains("#33 OFFSET_SURFACE") && e.contains("not a supported surface"),
+        "{e}"
+    );
+    // A sphere of no radius.
+    let sphere = text.replacen(
+        "CYLINDRICAL_SURFACE('',#34,20.)",
+        "SPHERICAL_SURFACE('',#34,0.)",
+        1,
+    );
+    let e = invalid_message(parse(&sphere).unwrap().face(17).err().unwrap());
+    assert!(
+        e.contains("#33 SPHERICAL_SURFACE") && e.contains("not positive"),
         "{e}"
     );
     // A face id that does not exist, and one that is no face.
@@ -463,5 +474,187 @@ fn a_face_of_each_step_sample_plans_within_h() {
             (machined - a).abs() <= 0.01 * a,
             "{name}: {machined} vs {a}"
         );
+    }
+}
+
+/// Closed-form areas of the analytic parts (tests/python/make_step_parts.py).
+#[test]
+fn analytic_faces_have_their_closed_form_areas() {
+    let pi = std::f64::consts::PI;
+    let rad = |d: f64| d.to_radians();
+    let slant = (40.0f64 * 40.0 + 15.0 * 15.0).sqrt();
+    let cases = [
+        // Cone frustum, 120 degrees of radii 30 and 15, 40 high.
+        ("cone", (2.0 * pi / 3.0) / 2.0 * (30.0 + 15.0) * slant),
+        // Sphere zone: angle R² (sin b - sin a).
+        (
+            "sphere_zone",
+            pi / 2.0 * 25.0 * 25.0 * (rad(45.0).sin() - rad(-30.0).sin()),
+        ),
+        // The same sphere from latitude 30 degrees to its pole.
+        ("sphere_pole", pi / 2.0 * 25.0 * 25.0 * (1.0 - 0.5)),
+        // Torus patch: angle r (R (b - a) + r (sin b - sin a)).
+        (
+            "torus",
+            rad(100.0) * 10.0 * (40.0 * rad(140.0) + 10.0 * (rad(80.0).sin() - rad(-60.0).sin())),
+        ),
+    ];
+    for (name, exact) in cases {
+        let (_, s) = only_face(name);
+        let a = area(&s);
+        eprintln!("{name}: {a:.4} mm² (closed form {exact:.4})");
+        assert!(
+            (a - exact).abs() <= AREA_REL * exact,
+            "{name}: {a} vs {exact}"
+        );
+    }
+}
+
+/// Points of the face's domain on a grid (the face's own, trim ignored).
+fn grid_uv(s: &NurbsSurface, n: usize) -> Vec<(f64, f64)> {
+    let ((u0, u1), (v0, v1)) = s.domain();
+    let mut out = Vec::new();
+    for i in 0..=n {
+        for j in 0..=n {
+            out.push((
+                u0 + (u1 - u0) * i as f64 / n as f64,
+                v0 + (v1 - v0) * j as f64 / n as f64,
+            ));
+        }
+    }
+    out
+}
+
+fn principal(s: &NurbsSurface, u: f64, v: f64) -> (f64, f64, nalgebra::Vector3<f64>) {
+    let g = LocalGeometry::at(s, u, v).unwrap();
+    let (a, b) = (g.k_min.abs(), g.k_max.abs());
+    (a.min(b), a.max(b), g.n)
+}
+
+#[test]
+fn analytic_faces_are_exact_with_their_curvatures_and_outward_normals() {
+    // Sphere: every point at radius 25, normal radial, both curvatures 1/25.
+    let (_, s) = only_face("sphere_zone");
+    for (u, v) in grid_uv(&s, 8) {
+        let p = s.point(u, v).coords;
+        assert!((p.norm() - 25.0).abs() < 1e-9, "{p:?}");
+        let (k1, k2, n) = principal(&s, u, v);
+        assert!((n - p / 25.0).norm() < 1e-9, "{n:?} at {p:?}");
+        assert!(
+            (k1 - 0.04).abs() < 1e-9 && (k2 - 0.04).abs() < 1e-9,
+            "{k1} {k2}"
+        );
+    }
+    // Cone of semi-angle a (radius 30 at z = 0 to 15 at z = 40): on it,
+    // normal outward, curvatures 0 along the ruling and cos a / rho across.
+    let (_, s) = only_face("cone");
+    let a = (15.0f64 / 40.0).atan();
+    for (u, v) in grid_uv(&s, 8) {
+        let p = s.point(u, v).coords;
+        let rho = p.x.hypot(p.y);
+        assert!((rho - (30.0 - p.z * a.tan())).abs() < 1e-9, "{p:?}");
+        let (k1, k2, n) = principal(&s, u, v);
+        let out = nalgebra::Vector3::new(p.x / rho * a.cos(), p.y / rho * a.cos(), a.sin());
+        assert!((n - out).norm() < 1e-9, "{n:?} at {p:?}");
+        assert!(k1.abs() < 1e-9, "{k1}");
+        assert!((k2 - a.cos() / rho).abs() < 1e-9, "{k2} at {p:?}");
+    }
+    // Torus R 40, r 10: on it, normal away from the tube's centre circle; at
+    // the outer equator (z = 0, rho = 50) curvatures 1/50 and 1/10.
+    let (_, s) = only_face("torus");
+    let tube_centre = |p: &nalgebra::Vector3<f64>| {
+        let rho = p.x.hypot(p.y);
+        nalgebra::Vector3::new(p.x / rho * 40.0, p.y / rho * 40.0, 0.0)
+    };
+    for (u, v) in grid_uv(&s, 8) {
+        let p = s.point(u, v).coords;
+        let d = p - tube_centre(&p);
+        assert!((d.norm() - 10.0).abs() < 1e-9, "{p:?}");
+        let (_, _, n) = principal(&s, u, v);
+        assert!((n - d / 10.0).norm() < 1e-9, "{n:?} at {p:?}");
+    }
+    let ((u0, u1), (v0, v1)) = s.domain();
+    let u = 0.5 * (u0 + u1);
+    // The equator: z = 0 by bisection in v (z rises with v there).
+    let (mut lo, mut hi) = (v0, v1);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if s.point(u, mid).z < 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let p = s.point(u, lo).coords;
+    assert!((p.x.hypot(p.y) - 50.0).abs() < 1e-9, "{p:?}");
+    let (k1, k2, _) = principal(&s, u, lo);
+    assert!(
+        (k1 - 1.0 / 50.0).abs() < 1e-9 && (k2 - 0.1).abs() < 1e-9,
+        "{k1} {k2}"
+    );
+    // The surface of revolution keeps its profile's distance from the axis
+    // along each meridian (turning changes only the angle).
+    let (_, s) = only_face("revolution");
+    let ((u0, _), (v0, v1)) = s.domain();
+    for j in 0..=8 {
+        let v = v0 + (v1 - v0) * j as f64 / 8.0;
+        let p0 = s.point(u0, v);
+        for (u, _) in grid_uv(&s, 8).into_iter().step_by(9) {
+            let p = s.point(u, v);
+            assert!((p.x.hypot(p.y) - p0.x.hypot(p0.y)).abs() < 1e-9 && (p.z - p0.z).abs() < 1e-9);
+        }
+    }
+}
+
+#[test]
+fn the_face_through_the_pole_imports_with_a_collapsed_edge() {
+    // Latitude 30 degrees to the pole: the face's loop runs along the
+    // patch's collapsed edge, every point of which is the pole.
+    let (_, s) = only_face("sphere_pole");
+    let ((u0, u1), (_, v1)) = s.domain();
+    for k in 0..=4 {
+        let p = s.point(u0 + (u1 - u0) * k as f64 / 4.0, v1);
+        assert!(
+            (p.coords - nalgebra::Vector3::new(0.0, 0.0, 25.0)).norm() < 1e-9,
+            "{p:?}"
+        );
+    }
+    let (lo, hi) = s.bounding_box();
+    assert!(
+        (hi.z - 25.0).abs() < 1e-9 && (lo.z - 12.5).abs() < 1e-9,
+        "{lo:?} {hi:?}"
+    );
+}
+
+#[test]
+fn analytic_faces_away_from_poles_plan_within_h() {
+    let h = 0.05;
+    for name in ["sphere_zone", "torus", "cone"] {
+        let surface = serde_json::to_value(
+            StepFile::read(&dir().join(format!("{name}.step")))
+                .unwrap()
+                .face(17)
+                .unwrap(),
+        )
+        .unwrap();
+        let file: JobFile = serde_json::from_value(json!({
+            "job_id": format!("step_{name}"),
+            "surface": surface,
+            "strategy": "iso_scallop",
+            "tool": {"kind": "ball", "radius": 3.0},
+            "scallop": h,
+        }))
+        .unwrap();
+        let job = Job::from_file(file, None).unwrap();
+        let r = pipeline::run(&job, &NoProgress, RunOptions::default()).unwrap();
+        let st = &r.stats;
+        let scallop = st.max_scallop_mm.unwrap();
+        eprintln!(
+            "{name}: {:.1} mm, scallop {scallop:.5} (h {h})",
+            st.path_length_mm
+        );
+        assert_eq!(r.within_scallop, Some(true), "{name}: {scallop}");
+        assert!(scallop <= h, "{name}: {scallop}");
+        assert_eq!(st.extra["uncovered_area_mm2"], 0.0, "{name}");
     }
 }

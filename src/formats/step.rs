@@ -4,11 +4,12 @@
 //! ruststep parses the exchange structure into its generic records; the
 //! mapping of the few entities a face needs onto our shapes is written here:
 //! `ADVANCED_FACE` (or `FACE_SURFACE`) on `B_SPLINE_SURFACE_WITH_KNOTS`
-//! (rational or not), `PLANE` or `CYLINDRICAL_SURFACE` (both converted to
-//! exact NURBS), bounded by `EDGE_LOOP`s of `EDGE_CURVE`s on `LINE`,
+//! (rational or not), `PLANE`, or a surface of revolution (`CYLINDRICAL_`,
+//! `CONICAL_`, `SPHERICAL_`, `TOROIDAL_SURFACE`, `SURFACE_OF_REVOLUTION`),
+//! all converted to exact NURBS, bounded by `EDGE_LOOP`s of `EDGE_CURVE`s on `LINE`,
 //! `CIRCLE`, `ELLIPSE` and B-spline curves. On a B-spline surface an edge
 //! uses its pcurve on that surface when the file gives one; every other edge
-//! (and every edge of a plane or cylinder, whose own parametrisation differs
+//! (and every edge of a plane or revolved surface, whose own parametrisation differs
 //! from the NURBS written) is its 3-D curve projected onto the surface. Each
 //! loop is written as one closed polyline in (u, v), sampled so that the
 //! surface image of every chord stays within the trim tolerance of the edge.
@@ -31,7 +32,7 @@ use std::path::Path;
 pub const MAX_STEP_BYTES: u64 = 512 << 20;
 
 /// Surface types a face may lie on.
-pub const SUPPORTED_SURFACES: &str = "B_SPLINE_SURFACE_WITH_KNOTS, PLANE, CYLINDRICAL_SURFACE";
+pub const SUPPORTED_SURFACES: &str = "B_SPLINE_SURFACE_WITH_KNOTS, PLANE, CYLINDRICAL_SURFACE, CONICAL_SURFACE, SPHERICAL_SURFACE, TOROIDAL_SURFACE, SURFACE_OF_REVOLUTION";
 
 /// Grid cells per direction of the area integration of `--list`.
 pub const LIST_CELLS: usize = 128;
@@ -61,6 +62,7 @@ pub struct StepFile {
     stem: String,
     entities: BTreeMap<u64, Vec<Record>>,
     mm_per_unit: f64,
+    radians_per_unit: f64,
 }
 
 /// A curve in the file's space (3-D, mm) or in a surface's (u, v) (z = 0).
@@ -167,7 +169,87 @@ fn de_boor(p: usize, knots: &[f64], pts: &[[f64; 4]], t: f64) -> V3 {
 enum Basis {
     Bspline(SurfaceFile),
     Plane(Frame),
-    Cylinder(Frame, f64),
+    /// A surface of revolution about the frame's z axis (cylinder, cone,
+    /// sphere, torus, `SURFACE_OF_REVOLUTION`), named for messages.
+    Revolved(Frame, Meridian, &'static str),
+}
+
+/// The meridian of a surface of revolution in the frame's (rho, h) half
+/// plane: rho along the frame's x (distance from the axis), h along its z.
+#[derive(Clone)]
+enum Meridian {
+    /// `p + s d`: a cylinder (d = (0, 1)), a cone (d = (tan a, 1)) or a
+    /// swept line.
+    Line { p: [f64; 2], d: [f64; 2] },
+    /// `c + a cos s + b sin s`: a sphere, a torus or a swept circle or
+    /// ellipse.
+    Conic {
+        c: [f64; 2],
+        a: [f64; 2],
+        b: [f64; 2],
+    },
+    /// A swept B-spline curve: homogeneous (w rho, w h, 0, w) points.
+    Bspline(Curve),
+}
+
+impl Meridian {
+    /// The parameter of the meridian point nearest `m` = (rho, h); a conic's
+    /// angle is taken within half a turn of `seed`.
+    fn locate(&self, m: [f64; 2], seed: Option<f64>) -> f64 {
+        match self {
+            Meridian::Line { p, d } => {
+                ((m[0] - p[0]) * d[0] + (m[1] - p[1]) * d[1]) / (d[0] * d[0] + d[1] * d[1])
+            }
+            Meridian::Conic { c, a, b } => {
+                // Solve m - c = a cos s + b sin s for (cos s, sin s).
+                let (x, y) = (m[0] - c[0], m[1] - c[1]);
+                let det = a[0] * b[1] - a[1] * b[0];
+                let cs = (x * b[1] - y * b[0]) / det;
+                let sn = (a[0] * y - a[1] * x) / det;
+                let s = sn.atan2(cs);
+                match seed {
+                    Some(sd) => s + TAU * ((sd - s) / TAU).round(),
+                    None => s,
+                }
+            }
+            Meridian::Bspline(c) => c.locate(&V3::new(m[0], m[1], 0.0)),
+        }
+    }
+}
+
+/// How a meridian parameter s maps to the patch's v: itself (lines and
+/// B-splines), or through the conic's rational arcs.
+#[derive(Clone, Copy)]
+enum VMap {
+    Same,
+    Arcs(Arcs),
+}
+
+impl VMap {
+    fn v_of(&self, s: f64) -> f64 {
+        match self {
+            VMap::Same => s,
+            VMap::Arcs(a) => a.u_of(s),
+        }
+    }
+
+    fn s_of(&self, v: f64) -> f64 {
+        match self {
+            VMap::Same => v,
+            VMap::Arcs(a) => a.theta_of(v),
+        }
+    }
+}
+
+/// Knots of `n` rational quadratic arcs over [0, 1].
+fn arc_knots(n: usize) -> Vec<f64> {
+    let mut k = vec![0.0; 3];
+    for i in 1..n {
+        let u = i as f64 / n as f64;
+        k.extend([u, u]);
+    }
+    k.extend([1.0; 3]);
+    k
 }
 
 /// An `AXIS2_PLACEMENT_3D`: origin and right-handed unit axes.
@@ -188,7 +270,7 @@ struct EdgeUse {
     tb: f64,
 }
 
-/// The angle parametrisation of a cylinder's NURBS: `n` rational quadratic
+/// The angle parametrisation of a revolved NURBS: `n` rational quadratic
 /// arcs of `delta` radians each from `theta0`, u in [0, 1].
 #[derive(Clone, Copy)]
 struct Arcs {
@@ -298,8 +380,10 @@ impl StepFile {
             stem: stem.to_string(),
             entities,
             mm_per_unit: 1.0,
+            radians_per_unit: 1.0,
         };
         file.mm_per_unit = file.length_unit()?;
+        file.radians_per_unit = file.angle_unit()?;
         Ok(file)
     }
 
@@ -476,6 +560,60 @@ impl StepFile {
             }
         }
         Ok(found.map(|(_, f)| f).unwrap_or(1.0))
+    }
+
+    /// The plane angle unit in radians: an `SI_UNIT` radian, or a
+    /// `CONVERSION_BASED_UNIT` (degree) through its measure. Files naming
+    /// none are in radians.
+    fn angle_unit(&self) -> Result<f64> {
+        for (&id, records) in &self.entities {
+            let Some(r) = records
+                .iter()
+                .find(|r| r.name == "GLOBAL_UNIT_ASSIGNED_CONTEXT")
+            else {
+                continue;
+            };
+            let units = list(&r.parameter)
+                .and_then(|p| p.first())
+                .and_then(list)
+                .ok_or_else(|| {
+                    self.err(id, "GLOBAL_UNIT_ASSIGNED_CONTEXT should list its units")
+                })?;
+            for u in units {
+                let Parameter::Ref(Name::Entity(u)) = u else {
+                    continue;
+                };
+                if self.part(*u, "PLANE_ANGLE_UNIT").is_some() {
+                    return self.unit_rad(*u, 0);
+                }
+            }
+        }
+        Ok(1.0)
+    }
+
+    fn unit_rad(&self, id: u64, depth: usize) -> Result<f64> {
+        if depth > 8 {
+            return Err(self.err(id, "unit conversions nest too deeply"));
+        }
+        if let Some(p) = self.part(id, "SI_UNIT") {
+            return match self.arg(id, p, 1)? {
+                Parameter::Enumeration(e) if e.trim_matches('.') == "RADIAN" => Ok(1.0),
+                other => Err(self.err(id, format!("is not a plane angle unit ({other:?})"))),
+            };
+        }
+        if let Some(p) = self.part(id, "CONVERSION_BASED_UNIT") {
+            let m = self.reference(id, p, 1)?;
+            let records = self.records(m)?;
+            let mp = records
+                .iter()
+                .find(|r| r.name.ends_with("MEASURE_WITH_UNIT"))
+                .and_then(|r| list(&r.parameter))
+                .ok_or_else(|| self.err(m, "should be a PLANE_ANGLE_MEASURE_WITH_UNIT"))?;
+            let factor = self.real(m, mp, 0)?;
+            let base = self.unit_rad(self.reference(m, mp, 1)?, depth + 1)?;
+            return Ok(factor * base);
+        }
+        Err(self.err(id, "is a plane angle unit of an unsupported kind"))
     }
 
     fn unit_mm(&self, id: u64, depth: usize) -> Result<f64> {
@@ -768,14 +906,10 @@ impl StepFile {
             let (_, p) = self.expect(id, &["PLANE"])?;
             return Ok(Basis::Plane(self.frame(self.reference(id, p, 1)?, false)?));
         }
-        if records.len() == 1 && name == "CYLINDRICAL_SURFACE" {
-            let (_, p) = self.expect(id, &["CYLINDRICAL_SURFACE"])?;
-            let frame = self.frame(self.reference(id, p, 1)?, false)?;
-            let r = self.real(id, p, 2)? * self.mm_per_unit;
-            if r <= 0.0 {
-                return Err(self.err(id, "has a radius that is not positive"));
+        if records.len() == 1 {
+            if let Some(b) = self.revolved(id, &name)? {
+                return Ok(b);
             }
-            return Ok(Basis::Cylinder(frame, r));
         }
         // B_SPLINE_SURFACE_WITH_KNOTS alone carries the name first; in a
         // complex instance the B_SPLINE_SURFACE part holds degrees and points.
@@ -849,6 +983,168 @@ impl StepFile {
         s.to_surface()
             .map_err(|e| self.err(id, format!("is not a valid B-spline surface: {e}")))?;
         Ok(Basis::Bspline(s))
+    }
+
+    /// A cylinder, cone, sphere, torus or surface of revolution as its
+    /// frame and meridian (docs/formats.md, "STEP import"); None for other
+    /// entities.
+    fn revolved(&self, id: u64, name: &str) -> Result<Option<Basis>> {
+        let kinds = [
+            "CYLINDRICAL_SURFACE",
+            "CONICAL_SURFACE",
+            "SPHERICAL_SURFACE",
+            "TOROIDAL_SURFACE",
+            "SURFACE_OF_REVOLUTION",
+        ];
+        if !kinds.contains(&name) {
+            return Ok(None);
+        }
+        let (_, p) = self.expect(id, &kinds)?;
+        let length = |i: usize| -> Result<f64> {
+            let r = self.real(id, p, i)? * self.mm_per_unit;
+            if r > 0.0 {
+                Ok(r)
+            } else {
+                Err(self.err(
+                    id,
+                    format!("has parameter {} (a length) not positive", i + 1),
+                ))
+            }
+        };
+        if name == "SURFACE_OF_REVOLUTION" {
+            return self.surface_of_revolution(id, p).map(Some);
+        }
+        let frame = self.frame(self.reference(id, p, 1)?, false)?;
+        let (meridian, what) = match name {
+            "CYLINDRICAL_SURFACE" => (
+                Meridian::Line {
+                    p: [length(2)?, 0.0],
+                    d: [0.0, 1.0],
+                },
+                "cylinder",
+            ),
+            "CONICAL_SURFACE" => {
+                // The radius may be 0 (the placement at the apex).
+                let r = self.real(id, p, 2)? * self.mm_per_unit;
+                let a = self.real(id, p, 3)? * self.radians_per_unit;
+                if r < 0.0 || !(a > 0.0 && a < 0.5 * PI) {
+                    return Err(self.err(
+                        id,
+                        format!("has radius {r} mm and semi-angle {a} rad: expected radius >= 0 and 0 < semi-angle < pi/2"),
+                    ));
+                }
+                (
+                    Meridian::Line {
+                        p: [r, 0.0],
+                        d: [a.tan(), 1.0],
+                    },
+                    "cone",
+                )
+            }
+            "SPHERICAL_SURFACE" => {
+                let r = length(2)?;
+                (
+                    Meridian::Conic {
+                        c: [0.0, 0.0],
+                        a: [r, 0.0],
+                        b: [0.0, r],
+                    },
+                    "sphere",
+                )
+            }
+            _ => {
+                let (major, minor) = (length(2)?, length(3)?);
+                (
+                    Meridian::Conic {
+                        c: [major, 0.0],
+                        a: [minor, 0.0],
+                        b: [0.0, minor],
+                    },
+                    "torus",
+                )
+            }
+        };
+        Ok(Some(Basis::Revolved(frame, meridian, what)))
+    }
+
+    /// A `SURFACE_OF_REVOLUTION`: its swept curve (a line, circle, ellipse
+    /// or B-spline) must lie in a plane through its axis, the frame's x
+    /// pointing from the axis to the curve.
+    fn surface_of_revolution(&self, id: u64, p: &[Parameter]) -> Result<Basis> {
+        let curve = self.curve(self.reference(id, p, 1)?, false)?;
+        let axis = self.reference(id, p, 2)?;
+        let (_, ap) = self.expect(axis, &["AXIS1_PLACEMENT"])?;
+        let o = self.point3(self.reference(axis, ap, 1)?)?;
+        let z = match self.arg(axis, ap, 2)? {
+            Parameter::Ref(Name::Entity(r)) => self.direction(*r, false)?,
+            _ => V3::z(),
+        };
+        // Points that fix the curve's plane.
+        let defining: Vec<V3> = match &curve {
+            Curve::Line { p, d } => vec![*p, p + d],
+            Curve::Conic { c, x, y, a, b } => vec![*c, c + x * *a, c + y * *b],
+            Curve::Bspline { points, .. } => points
+                .iter()
+                .map(|h| V3::new(h[0] / h[3], h[1] / h[3], h[2] / h[3]))
+                .collect(),
+        };
+        let radial = |q: &V3| {
+            let d = q - o;
+            d - z * d.dot(&z)
+        };
+        let far = defining
+            .iter()
+            .map(radial)
+            .max_by(|a, b| a.norm().total_cmp(&b.norm()))
+            .unwrap_or_else(V3::zeros);
+        let size = defining.iter().map(|q| (q - o).norm()).fold(1.0, f64::max);
+        if far.norm() <= 1e-9 * size {
+            return Err(self.err(id, "has its swept curve on its axis"));
+        }
+        let x = far.normalize();
+        let y = z.cross(&x);
+        if defining.iter().any(|q| (q - o).dot(&y).abs() > 1e-7 * size) {
+            return Err(self.err(
+                id,
+                "has a swept curve that does not lie in a plane through its axis: not supported",
+            ));
+        }
+        let m2 = |q: &V3| [(q - o).dot(&x), (q - o).dot(&z)];
+        let v2 = |d: &V3| [d.dot(&x), d.dot(&z)];
+        let meridian = match &curve {
+            Curve::Line { p, d } => Meridian::Line { p: m2(p), d: v2(d) },
+            Curve::Conic {
+                c,
+                x: cx,
+                y: cy,
+                a,
+                b,
+            } => Meridian::Conic {
+                c: m2(c),
+                a: v2(&(cx * *a)),
+                b: v2(&(cy * *b)),
+            },
+            Curve::Bspline {
+                degree,
+                knots,
+                points,
+            } => Meridian::Bspline(Curve::Bspline {
+                degree: *degree,
+                knots: knots.clone(),
+                points: points
+                    .iter()
+                    .map(|h| {
+                        let q = m2(&V3::new(h[0] / h[3], h[1] / h[3], h[2] / h[3]));
+                        [q[0] * h[3], q[1] * h[3], 0.0, h[3]]
+                    })
+                    .collect(),
+            }),
+        };
+        Ok(Basis::Revolved(
+            Frame { o, x, y, z },
+            meridian,
+            "surface of revolution",
+        ))
     }
 
     fn curve(&self, id: u64, in_uv: bool) -> Result<Curve> {
@@ -1142,7 +1438,7 @@ impl StepFile {
         match basis {
             Basis::Bspline(s) => bspline_patch(s),
             Basis::Plane(f) => self.plane_patch(face, f, coarse),
-            Basis::Cylinder(f, r) => self.cylinder_patch(face, f, r, coarse),
+            Basis::Revolved(f, m, what) => self.revolved_patch(face, f, m, what, coarse),
         }
     }
 
@@ -1190,84 +1486,174 @@ impl StepFile {
         ))
     }
 
-    /// A cylinder as the exact rational quadratic patch over the angles and
-    /// heights its boundary spans (at most one turn).
-    fn cylinder_patch(&self, face: u64, f: Frame, r: f64, coarse: &[Vec<V3>]) -> Result<Patch> {
-        let angle = move |q: &V3| {
+    /// A surface of revolution as the exact rational patch over the angles
+    /// and the meridian range its boundary spans (at most one turn): the
+    /// circle's rational quadratic arcs of at most 90 degrees in u times the
+    /// meridian's NURBS in v, control point (i, j) at the meridian's point j
+    /// turned to the arc's point i, weight the product of theirs
+    /// (docs/formats.md, "STEP import").
+    /// A boundary point on the axis (a pole, an apex) takes the angle of
+    /// the loop's previous point, so a loop through a pole runs along the
+    /// patch's collapsed edge there.
+    fn revolved_patch(
+        &self,
+        face: u64,
+        f: Frame,
+        m: Meridian,
+        what: &str,
+        coarse: &[Vec<V3>],
+    ) -> Result<Patch> {
+        let size = coarse
+            .iter()
+            .flatten()
+            .map(|q| (q - f.o).norm())
+            .fold(1.0, f64::max);
+        let on_axis = 1e-9 * size;
+        let meridian = move |q: &V3| -> [f64; 2] {
             let d = q - f.o;
-            d.dot(&f.y).atan2(d.dot(&f.x))
+            let h = d.dot(&f.z);
+            [(d - f.z * h).norm(), h]
+        };
+        let angle = move |q: &V3| -> Option<f64> {
+            let d = q - f.o;
+            let (x, y) = (d.dot(&f.x), d.dot(&f.y));
+            (x.hypot(y) > on_axis).then(|| y.atan2(x))
         };
         let (mut t0, mut t1) = (f64::INFINITY, f64::NEG_INFINITY);
-        let (mut z0, mut z1) = (f64::INFINITY, f64::NEG_INFINITY);
-        let mut reference = None;
+        let (mut s0, mut s1) = (f64::INFINITY, f64::NEG_INFINITY);
+        let (mut reference, mut s_reference) = (None, None);
         for l in coarse {
-            let mut prev: Option<f64> = None;
+            let (mut prev, mut s_prev): (Option<f64>, Option<f64>) = (None, None);
+            let mut first = None;
             for q in l {
-                let mut t = angle(q);
-                let near = prev.or(reference);
-                if let Some(p) = near {
-                    t += TAU * ((p - t) / TAU).round();
+                if let Some(mut t) = angle(q) {
+                    if let Some(p) = prev.or(reference) {
+                        t += TAU * ((p - t) / TAU).round();
+                    }
+                    reference.get_or_insert(t);
+                    first.get_or_insert(t);
+                    prev = Some(t);
+                    t0 = t0.min(t);
+                    t1 = t1.max(t);
                 }
-                reference.get_or_insert(t);
-                prev = Some(t);
-                t0 = t0.min(t);
-                t1 = t1.max(t);
-                let z = (q - f.o).dot(&f.z);
-                z0 = z0.min(z);
-                z1 = z1.max(z);
+                let s = m.locate(meridian(q), s_prev.or(s_reference));
+                s_reference.get_or_insert(s);
+                s_prev = Some(s);
+                s0 = s0.min(s);
+                s1 = s1.max(s);
+            }
+            if let (Some(a), Some(b)) = (first, prev) {
+                if (b - a).abs() > PI {
+                    return Err(self.err(
+                        face,
+                        format!("has a loop that winds round the axis of its {what} (a face closed round a pole or a band without a seam edge): not supported"),
+                    ));
+                }
             }
         }
-        if !(t1 > t0 && z1 > z0) {
-            return Err(self.err(face, "has a boundary of no extent on its cylinder"));
+        if !(t1 > t0 && s1 > s0) {
+            return Err(self.err(face, format!("has a boundary of no extent on its {what}")));
         }
         if t1 - t0 > TAU + 1e-6 {
             return Err(self.err(
                 face,
-                "winds round its cylinder more than once: not supported",
+                format!("winds round its {what} more than once: not supported"),
             ));
         }
         let t1 = t1.min(t0 + TAU);
         let arcs = Arcs::new(t0, t1);
+        // The meridian as a NURBS over [s0, s1]: (rho, h) points, weights.
+        let (degree_v, knots_v, profile, vmap) = match &m {
+            Meridian::Line { p, d } => {
+                let at = |s: f64| ([p[0] + d[0] * s, p[1] + d[1] * s], 1.0);
+                (1, vec![s0, s0, s1, s1], vec![at(s0), at(s1)], VMap::Same)
+            }
+            Meridian::Conic { c, a, b } => {
+                if s1 - s0 > TAU + 1e-6 {
+                    return Err(self.err(
+                        face,
+                        format!(
+                            "winds round the meridian of its {what} more than once: not supported"
+                        ),
+                    ));
+                }
+                let va = Arcs::new(s0, s1.min(s0 + TAU));
+                let w = (0.5 * va.delta).cos();
+                let pts = (0..=2 * va.n)
+                    .map(|i| {
+                        let phi = va.theta0 + va.delta * i as f64 / 2.0;
+                        let (k, wt) = if i % 2 == 1 { (1.0 / w, w) } else { (1.0, 1.0) };
+                        let (cs, sn) = (phi.cos() * k, phi.sin() * k);
+                        (
+                            [c[0] + a[0] * cs + b[0] * sn, c[1] + a[1] * cs + b[1] * sn],
+                            wt,
+                        )
+                    })
+                    .collect();
+                (2, arc_knots(va.n), pts, VMap::Arcs(va))
+            }
+            Meridian::Bspline(Curve::Bspline {
+                degree,
+                knots,
+                points,
+            }) => {
+                // The whole curve; its range bounds s.
+                let (a, b) = (knots[*degree], knots[knots.len() - degree - 1]);
+                (s0, s1) = (a, b);
+                let pts = points
+                    .iter()
+                    .map(|h| ([h[0] / h[3], h[1] / h[3]], h[3]))
+                    .collect();
+                (*degree, knots.clone(), pts, VMap::Same)
+            }
+            Meridian::Bspline(_) => return Err(self.err(face, "has a malformed meridian")),
+        };
+        if profile.iter().any(|(q, _)| q[0] < -on_axis) {
+            return Err(self.err(
+                face,
+                format!("lies on a part of its {what} that crosses its axis: not supported"),
+            ));
+        }
+        let w = (0.5 * arcs.delta).cos();
         let mut rows = Vec::new();
         let mut wrows = Vec::new();
-        let w = (0.5 * arcs.delta).cos();
         for i in 0..=2 * arcs.n {
             let th = t0 + arcs.delta * i as f64 / 2.0;
-            let (rad, wt) = if i % 2 == 1 { (r / w, w) } else { (r, 1.0) };
-            let p = |z: f64| {
-                let p = f.o + (f.x * th.cos() + f.y * th.sin()) * rad + f.z * z;
-                [p.x, p.y, p.z]
-            };
-            rows.push(vec![p(z0), p(z1)]);
-            wrows.push(vec![wt, wt]);
+            let (k, wa) = if i % 2 == 1 { (1.0 / w, w) } else { (1.0, 1.0) };
+            let dir = (f.x * th.cos() + f.y * th.sin()) * k;
+            rows.push(
+                profile
+                    .iter()
+                    .map(|(q, _)| {
+                        let p = f.o + dir * q[0] + f.z * q[1];
+                        [p.x, p.y, p.z]
+                    })
+                    .collect(),
+            );
+            wrows.push(profile.iter().map(|(_, wp)| wa * wp).collect());
         }
-        let mut knots_u = vec![0.0; 3];
-        for k in 1..arcs.n {
-            let u = k as f64 / arcs.n as f64;
-            knots_u.extend([u, u]);
-        }
-        knots_u.extend([1.0; 3]);
+        let (v_lo, v_hi) = (vmap.v_of(s0), vmap.v_of(s1));
         Ok((
             SurfaceFile {
                 kind: "nurbs".into(),
                 name: None,
                 degree_u: 2,
-                degree_v: 1,
-                knots_u,
-                knots_v: vec![z0, z0, z1, z1],
+                degree_v,
+                knots_u: arc_knots(arcs.n),
+                knots_v,
                 control_points: rows,
                 weights: Some(wrows),
                 trim: None,
             },
             Box::new(move |q: &V3, seed: Option<[f64; 2]>| {
-                let mut t = angle(q);
                 let near = seed
                     .map(|s| arcs.theta_of(s[0]))
                     .or(reference)
                     .unwrap_or(t0);
-                t += TAU * ((near - t) / TAU).round();
-                let z = (q - f.o).dot(&f.z).clamp(z0, z1);
-                [arcs.u_of(t.clamp(t0, t1)), z]
+                let t = angle(q).map_or(near, |t| t + TAU * ((near - t) / TAU).round());
+                let s_near = seed.map(|s| vmap.s_of(s[1])).or(s_reference);
+                let s = m.locate(meridian(q), s_near).clamp(s0, s1);
+                [arcs.u_of(t.clamp(t0, t1)), vmap.v_of(s).clamp(v_lo, v_hi)]
             }),
         ))
     }

@@ -11,7 +11,16 @@ Each part is one face in its own file:
   its face orientation reversed;
 - plane_hole: a 100 x 60 mm plane with a hole of radius 15 mm;
 - plane_hole_inch: the same face written in inches;
-- cylinder: a 120 degree patch of a cylinder of radius 20 mm, 50 mm high.
+- cylinder: a 120 degree patch of a cylinder of radius 20 mm, 50 mm high;
+- cone: a 120 degree patch of a cone frustum, radii 30 and 15 mm, 40 mm high;
+- sphere_zone: a 90 degree patch of a sphere of radius 25 mm between
+  latitudes -30 and 45 degrees;
+- sphere_pole: a 90 degree patch of the same sphere from latitude 30
+  degrees up to its north pole (a loop through the pole);
+- torus: a 100 degree patch of a torus, radii 40 and 10 mm, tube angles
+  -60 to 80 degrees (its outer equator inside);
+- revolution: a cubic B-spline profile in the xz plane turned 90 degrees
+  about z (a SURFACE_OF_REVOLUTION).
 """
 
 import json
@@ -26,13 +35,21 @@ from OCP.BRepBuilderAPI import (
 )
 from OCP.BRepGProp import BRepGProp
 from OCP.BRepLib import BRepLib
-from OCP.BRepPrimAPI import BRepPrimAPI_MakeCylinder
+from OCP.BRepPrimAPI import (
+    BRepPrimAPI_MakeCone,
+    BRepPrimAPI_MakeCylinder,
+    BRepPrimAPI_MakeRevol,
+    BRepPrimAPI_MakeSphere,
+    BRepPrimAPI_MakeTorus,
+)
+from OCP.Geom import Geom_BSplineCurve
 from OCP.collections import Array1_double, Array1_int, Array2_double, Array2_gp_Pnt
 from OCP.Geom import Geom_BSplineSurface
 from OCP.Geom2d import Geom2d_Circle, Geom2d_Ellipse
-from OCP.GeomAbs import GeomAbs_Cylinder
+from OCP.GeomAbs import GeomAbs_Cone, GeomAbs_Cylinder, GeomAbs_Sphere, GeomAbs_SurfaceOfRevolution, GeomAbs_Torus
 from OCP.BRepAdaptor import BRepAdaptor_Surface
-from OCP.gp import gp_Ax2, gp_Ax22d, gp_Dir, gp_Dir2d, gp_Pnt, gp_Pnt2d
+from OCP.collections import Array1_gp_Pnt
+from OCP.gp import gp_Ax1, gp_Ax2, gp_Ax22d, gp_Dir, gp_Dir2d, gp_Pnt, gp_Pnt2d
 from OCP.GProp import GProp_GProps
 from OCP.IFSelect import IFSelect_RetDone
 from OCP.Interface import Interface_Static
@@ -116,6 +133,48 @@ def cylinder_face():
     raise RuntimeError("no cylindrical face")
 
 
+def face_of(shape, kind):
+    ex = TopExp_Explorer(shape, TopAbs_FACE)
+    while ex.More():
+        f = TopoDS.Face(ex.Current())
+        if BRepAdaptor_Surface(f).GetType() == kind:
+            return f
+        ex.Next()
+    raise RuntimeError(f"no face of type {kind}")
+
+
+def axes():
+    return gp_Ax2(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1))
+
+
+def cone_face():
+    solid = BRepPrimAPI_MakeCone(axes(), 30.0, 15.0, 40.0, 2.0 * math.pi / 3.0).Shape()
+    return face_of(solid, GeomAbs_Cone)
+
+
+def sphere_face(lat0, lat1):
+    solid = BRepPrimAPI_MakeSphere(axes(), 25.0, math.radians(lat0), math.radians(lat1), math.pi / 2.0).Shape()
+    return face_of(solid, GeomAbs_Sphere)
+
+
+def torus_face():
+    solid = BRepPrimAPI_MakeTorus(axes(), 40.0, 10.0, math.radians(-60), math.radians(80), math.radians(100)).Shape()
+    return face_of(solid, GeomAbs_Torus)
+
+
+def revolution_face():
+    pts = [(20, 0), (28, 10), (18, 25), (30, 40), (24, 50)]
+    poles = Array1_gp_Pnt(1, len(pts))
+    for i, (x, z) in enumerate(pts):
+        poles.SetValue(i + 1, gp_Pnt(x, 0, z))
+    knots = array1([0.0, 0.5, 1.0])
+    mults = array1([4, 1, 4], Array1_int)
+    curve = Geom_BSplineCurve(poles, knots, mults, 3)
+    edge = BRepBuilderAPI_MakeEdge(curve).Edge()
+    shape = BRepPrimAPI_MakeRevol(edge, gp_Ax1(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1)), math.pi / 2.0).Shape()
+    return face_of(shape, GeomAbs_SurfaceOfRevolution)
+
+
 def area(face):
     props = GProp_GProps()
     BRepGProp.SurfaceProperties_s(face, props)
@@ -142,6 +201,11 @@ def main(out):
         "plane_hole": (plane_face(), {}),
         "plane_hole_inch": (plane_face(), {"unit": "INCH"}),
         "cylinder": (cylinder_face(), {}),
+        "cone": (cone_face(), {}),
+        "sphere_zone": (sphere_face(-30, 45), {}),
+        "sphere_pole": (sphere_face(30, 90), {}),
+        "torus": (torus_face(), {}),
+        "revolution": (revolution_face(), {}),
     }
     manifest = {}
     for name, (face, options) in parts.items():
