@@ -45,14 +45,8 @@ fn plan_and_simulate(job: &Job) -> (PlanResult, ScallopReport) {
 /// partition, each offset from its field line), simulated: the tests of the
 /// partition itself, whichever candidate the strategy keeps.
 fn partitioned_and_simulate(job: &Job) -> (PlanResult, ScallopReport) {
-    let result = planners::strip_width::tensor_regions::candidates(job, &NoProgress)
+    let result = planners::strip_width::tensor_regions::candidate(job, "partitioned", &NoProgress)
         .unwrap()
-        .into_iter()
-        .find(|r| {
-            r.plan_choice
-                .as_deref()
-                .is_some_and(|c| c.starts_with("partitioned:"))
-        })
         .expect("a partitioned candidate");
     let report = simulate(
         job.surface().unwrap(),

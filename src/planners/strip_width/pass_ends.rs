@@ -404,7 +404,11 @@ impl<'a> Extension<'a> {
         // along the run.
         let heel = 0.5 * c.k.feed.max(0.0);
         let o = g.point();
-        let pen0 = disc_penetration(surface, s, &g, t, o, g.n, travel_t).max(0.0);
+        let pen0 = if s.estimate {
+            0.0
+        } else {
+            disc_penetration(surface, s, &g, t, o, g.n, travel_t).max(0.0)
+        };
         let duv = g.tangent_to_uv(t);
         for k in 1..=n {
             let d = run * k as f64 / n as f64;
@@ -439,7 +443,9 @@ impl<'a> Extension<'a> {
                 }
                 _ => (o + t * d, g.n, travel_t),
             };
-            let lift = if s.cutter.ball {
+            let lift = if s.estimate {
+                0.0
+            } else if s.cutter.ball {
                 heel * d * d
             } else {
                 // The penetration falls one for one with the lift (both

@@ -23,6 +23,10 @@ pub struct PassSettings {
     /// Longest step along a pass that keeps the chord error within the
     /// tolerance on the most curved part of the surface, mm.
     pub point_step: f64,
+    /// Passes built only for an estimate of their length: run-outs past an
+    /// edge are not lifted clear of the surface (the disc tests cost far
+    /// more than the lift adds to the length).
+    pub estimate: bool,
 }
 
 /// Share of the job's scallop the spacing is planned for: the rest absorbs
@@ -50,7 +54,22 @@ impl PassSettings {
             chord_tolerance,
             max_step,
             point_step,
+            estimate: false,
         })
+    }
+
+    /// Settings for estimating a plan's length at a fraction of its cost: a
+    /// point step `factor` times longer (at most the longest step), the
+    /// chord tolerance that step keeps, and [`PassSettings::estimate`] set.
+    pub fn coarsened(&self, factor: f64) -> Self {
+        let point_step = (self.point_step * factor).min(self.max_step);
+        let ratio = point_step / self.point_step;
+        Self {
+            point_step,
+            chord_tolerance: self.chord_tolerance * ratio * ratio,
+            estimate: true,
+            ..*self
+        }
     }
 }
 

@@ -71,81 +71,97 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     Ok(all.swap_remove(SHORTEST))
 }
 
-/// Every candidate plan that could be built, shortest first (by cl path
-/// length; equal lengths keep the build order). Whether partitioning pays
-/// is decided by what it saves: a region boundary costs run-ins, run-outs
-/// and the overlap of two covers, so the partitioned plan competes with the
+/// Candidate plans built exactly: the shortest by estimate (see
+/// [`candidates`]); one per core, so they take the time of one.
+const EXACT_BUILDS: usize = 2;
+
+/// How much coarser than the job's point step the estimates are built
+/// (docs/methods.md, "Candidate plans of tensor_regions").
+const ESTIMATE_COARSENING: f64 = 4.0;
+
+/// The candidate plans built exactly, shortest first (by cl path length;
+/// equal lengths keep the build order). Whether partitioning pays is
+/// decided by what it saves: a region boundary costs run-ins, run-outs and
+/// the overlap of two covers, so the partitioned plan competes with the
 /// whole surface offset from one field line, from either edge, and with
 /// passes along either parameter (the plans the baselines would make, built
-/// from the shared modules). Each result names its candidate and the others'
-/// lengths in `plan_choice`.
+/// from the shared modules). Every candidate is first built with a coarser
+/// point step ([`PassSettings::coarsened`]) as an estimate of its length;
+/// the [`EXACT_BUILDS`] shortest by estimate are then built at the job's
+/// settings, and with them the two plans the baselines make
+/// (`edge_offset` and `iso_curves` along the job's feed direction). Each
+/// result names its candidate, the exact lengths and every estimate in
+/// `plan_choice`.
 pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>> {
-    let surface = job.surface()?;
-    let settings = PassSettings::from_job(job)?;
-    let k_b = settings.cutter.k_b();
-    progress.check()?;
-    let analysis = degenerate_points::find(surface, DEGENERATE_GRID)?;
-    progress.set(0.1);
-    progress.check()?;
-    let mut warnings = Vec::new();
-    let step = settings.point_step.min(settings.cutter.radius);
-    let whole = whole_domain(surface);
-    let (regions, separatrices_uv) =
-        regions_of(surface, k_b, &analysis, step, &whole, &mut warnings);
-    progress.set(0.2);
-    progress.check()?;
-    let mut kinds = Vec::new();
-    if regions.len() > 1 {
-        kinds.push(Candidate::Partitioned);
-    }
-    kinds.extend([
-        Candidate::WholeField,
-        Candidate::MeanFeed,
-        Candidate::EdgeOffset(FeedDirection::U, false),
-        Candidate::EdgeOffset(FeedDirection::V, false),
-        Candidate::EdgeOffset(FeedDirection::U, true),
-        Candidate::EdgeOffset(FeedDirection::V, true),
-        Candidate::IsoCurves(FeedDirection::U),
-        Candidate::IsoCurves(FeedDirection::V),
-    ]);
-    let whole_list = [whole.clone()];
+    let setup = Setup::new(job, progress)?;
+    let surface = setup.surface;
     let checks = CheckOnly(progress);
-    let built = crate::parallel::map_chunks(&kinds, 1, |kind| -> Result<Vec<Pass>> {
+    let reach = crate::planners::trim_clip::reach(job.tool()?);
+    // Estimates: every candidate at the coarse settings, its length on the
+    // face (clipped to the trim like the exact plans).
+    let coarse = setup.settings.coarsened(ESTIMATE_COARSENING);
+    let kinds = &setup.kinds;
+    let estimated = crate::parallel::map_chunks(kinds, 1, |kind| -> Result<f64> {
         checks.check()?;
-        match kind[0] {
-            Candidate::Partitioned => {
-                cover_regions(surface, &settings, &regions, &analysis, step, &checks)
-            }
-            Candidate::MeanFeed => match mean_feed_line(surface, &settings) {
-                Some(line) => cover(surface, &settings, &whole, &line, &checks),
-                None => Ok(Vec::new()),
-            },
-            Candidate::WholeField => {
-                cover_regions(surface, &settings, &whole_list, &analysis, step, &checks)
-            }
-            Candidate::EdgeOffset(feed, far) => cover(
-                surface,
-                &settings,
-                &whole,
-                &boundary_start(surface, &settings, feed, far),
-                &checks,
-            ),
-            Candidate::IsoCurves(feed) => plan_passes(surface, &settings, feed, &checks),
-        }
+        let passes = setup.build(kind[0], &coarse, &checks)?;
+        let passes = match surface.trim() {
+            Some(_) => crate::planners::trim_clip::clip_passes(surface, &passes, reach),
+            None => passes,
+        };
+        Ok(passes.iter().map(pass_length).sum())
     });
-    // A stop ends the job, not just the candidate it hit.
-    if let Some(stop) = built.iter().find_map(|b| match b {
-        Err(e @ crate::error::Error::Stopped { .. }) => Some(e.clone()),
-        _ => None,
-    }) {
-        return Err(stop);
+    stop_if_stopped(&estimated)?;
+    progress.set(0.6);
+    progress.check()?;
+    // Shortest estimate first; candidates that could not be built coarse
+    // are still tried exactly after those (their error is the one to
+    // report); empty ones are dropped.
+    let mut order: Vec<(usize, Option<f64>)> = Vec::new();
+    for (k, e) in estimated.iter().enumerate() {
+        match e {
+            Ok(l) if *l > 0.0 => order.push((k, Some(*l))),
+            Ok(_) => {}
+            Err(_) => order.push((k, None)),
+        }
     }
+    order.sort_by(|a, b| match (a.1, b.1) {
+        (Some(x), Some(y)) => x.total_cmp(&y),
+        (x, y) => y.is_some().cmp(&x.is_some()),
+    });
+    let estimates: Vec<String> = order
+        .iter()
+        .filter_map(|&(k, e)| e.map(|l| format!("{} {l:.0} mm", kinds[k].label())))
+        .collect();
+    let mut chosen: Vec<Candidate> = order
+        .iter()
+        .take(EXACT_BUILDS)
+        .map(|&(k, _)| kinds[k])
+        .collect();
+    // The plans the baselines make are always built exactly, so the kept
+    // plan is never longer than either however the estimates err (they
+    // scatter by up to about 15 % with the point step).
+    let feed = job.feed_direction.unwrap_or(FeedDirection::U);
+    for baseline in [
+        Candidate::EdgeOffset(feed, false),
+        Candidate::IsoCurves(feed),
+    ] {
+        let listed = order.iter().any(|&(k, _)| kinds[k] == baseline);
+        if listed && !chosen.contains(&baseline) {
+            chosen.push(baseline);
+        }
+    }
+    let built = crate::parallel::map_chunks(&chosen, 1, |kind| -> Result<Vec<Pass>> {
+        checks.check()?;
+        setup.build(kind[0], &setup.settings, &checks)
+    });
+    stop_if_stopped(&built)?;
     progress.set(0.95);
     progress.check()?;
-    let bound = super::lower_bound::job_path_length_lower_bound(job, surface, &settings.cutter)?;
+    let bound = setup.bound()?;
+    let mut warnings = setup.warnings.clone();
     let mut plans: Vec<(Candidate, PlanResult, f64)> = Vec::new();
     let mut first_error = None;
-    for (kind, passes) in kinds.iter().zip(built) {
+    for (kind, passes) in chosen.iter().zip(built) {
         let passes = match passes {
             Ok(p) if !p.is_empty() => p,
             Ok(_) => continue,
@@ -155,20 +171,7 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
                 continue;
             }
         };
-        let used: &[Region] = if *kind == Candidate::Partitioned {
-            &regions
-        } else {
-            &whole_list
-        };
-        let result = candidate_result(
-            job,
-            surface,
-            passes,
-            used,
-            bound,
-            &analysis,
-            &separatrices_uv,
-        );
+        let result = setup.result(*kind, passes, bound);
         let length = result.cl_path_length();
         plans.push((*kind, result, length));
     }
@@ -177,7 +180,170 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
             crate::error::Error::planning("tensor_regions: no candidate plan has any pass")
         }));
     }
-    Ok(ranked(plans, &warnings))
+    Ok(ranked(plans, &estimates, kinds.len(), &warnings))
+}
+
+/// One candidate plan built at the job's settings, named by its label as
+/// in `plan_choice` (`partitioned`, `whole_field`, `mean_feed`,
+/// `edge_offset_u`, ..., `iso_curves_v`): for looking at a candidate the
+/// estimates did not keep. `None` when the job has no such candidate
+/// (`partitioned` needs more than one region) or it has no pass.
+pub fn candidate(job: &Job, label: &str, progress: &dyn Progress) -> Result<Option<PlanResult>> {
+    let setup = Setup::new(job, progress)?;
+    let Some(kind) = setup.kinds.iter().copied().find(|k| k.label() == label) else {
+        return Ok(None);
+    };
+    let passes = setup.build(kind, &setup.settings, progress)?;
+    if passes.is_empty() {
+        return Ok(None);
+    }
+    let mut result = setup.result(kind, passes, setup.bound()?);
+    result.plan_choice = Some(format!("{label}: built on request"));
+    result.warnings = setup.warnings.clone();
+    Ok(Some(result))
+}
+
+/// A stop ends the job, not just the candidate it hit.
+fn stop_if_stopped<T>(built: &[Result<T>]) -> Result<()> {
+    match built.iter().find_map(|b| match b {
+        Err(e @ crate::error::Error::Stopped { .. }) => Some(e.clone()),
+        _ => None,
+    }) {
+        Some(stop) => Err(stop),
+        None => Ok(()),
+    }
+}
+
+/// Length of a pass's cl polyline, mm.
+fn pass_length(pass: &Pass) -> f64 {
+    crate::formats::result::polyline_length(pass.points.iter().map(|q| q.cl))
+}
+
+/// What every candidate plan of a job is built from: its settings, the
+/// field's degenerate points, the regions and the candidates to consider.
+struct Setup<'a> {
+    job: &'a Job,
+    surface: &'a NurbsSurface,
+    settings: PassSettings,
+    analysis: Analysis,
+    whole: Region,
+    regions: Vec<Region>,
+    separatrices_uv: Vec<Vec<Vector2<f64>>>,
+    warnings: Vec<String>,
+    kinds: Vec<Candidate>,
+}
+
+impl<'a> Setup<'a> {
+    fn new(job: &'a Job, progress: &dyn Progress) -> Result<Self> {
+        let surface = job.surface()?;
+        let settings = PassSettings::from_job(job)?;
+        let k_b = settings.cutter.k_b();
+        progress.check()?;
+        let analysis = degenerate_points::find(surface, DEGENERATE_GRID)?;
+        progress.set(0.1);
+        progress.check()?;
+        let mut warnings = Vec::new();
+        let step = settings.point_step.min(settings.cutter.radius);
+        let whole = whole_domain(surface);
+        let (regions, separatrices_uv) =
+            regions_of(surface, k_b, &analysis, step, &whole, &mut warnings);
+        progress.set(0.2);
+        progress.check()?;
+        let mut kinds = Vec::new();
+        if regions.len() > 1 {
+            kinds.push(Candidate::Partitioned);
+        }
+        kinds.extend([
+            Candidate::WholeField,
+            Candidate::MeanFeed,
+            Candidate::EdgeOffset(FeedDirection::U, false),
+            Candidate::EdgeOffset(FeedDirection::V, false),
+            Candidate::EdgeOffset(FeedDirection::U, true),
+            Candidate::EdgeOffset(FeedDirection::V, true),
+            Candidate::IsoCurves(FeedDirection::U),
+            Candidate::IsoCurves(FeedDirection::V),
+        ]);
+        Ok(Self {
+            job,
+            surface,
+            settings,
+            analysis,
+            whole,
+            regions,
+            separatrices_uv,
+            warnings,
+            kinds,
+        })
+    }
+
+    fn bound(&self) -> Result<f64> {
+        super::lower_bound::job_path_length_lower_bound(
+            self.job,
+            self.surface,
+            &self.settings.cutter,
+        )
+    }
+
+    /// The passes of candidate `kind` at `settings` (the job's, or coarser
+    /// for an estimate).
+    fn build(
+        &self,
+        kind: Candidate,
+        settings: &PassSettings,
+        checks: &dyn Progress,
+    ) -> Result<Vec<Pass>> {
+        let (surface, whole) = (self.surface, &self.whole);
+        let step = settings.point_step.min(settings.cutter.radius);
+        match kind {
+            Candidate::Partitioned => cover_regions(
+                surface,
+                settings,
+                &self.regions,
+                &self.analysis,
+                step,
+                checks,
+            ),
+            Candidate::MeanFeed => match mean_feed_line(surface, settings) {
+                Some(line) => cover(surface, settings, whole, &line, checks),
+                None => Ok(Vec::new()),
+            },
+            Candidate::WholeField => cover_regions(
+                surface,
+                settings,
+                std::slice::from_ref(whole),
+                &self.analysis,
+                step,
+                checks,
+            ),
+            Candidate::EdgeOffset(feed, far) => cover(
+                surface,
+                settings,
+                whole,
+                &boundary_start(surface, settings, feed, far),
+                checks,
+            ),
+            Candidate::IsoCurves(feed) => plan_passes(surface, settings, feed, checks),
+        }
+    }
+
+    /// Candidate `kind`'s result: its passes, the lower bound, and the
+    /// analysis it shares with the others (see [`candidate_result`]).
+    fn result(&self, kind: Candidate, passes: Vec<Pass>, bound: f64) -> PlanResult {
+        let used: &[Region] = if kind == Candidate::Partitioned {
+            &self.regions
+        } else {
+            std::slice::from_ref(&self.whole)
+        };
+        candidate_result(
+            self.job,
+            self.surface,
+            passes,
+            used,
+            bound,
+            &self.analysis,
+            &self.separatrices_uv,
+        )
+    }
 }
 
 /// The regions to plan: the partition at the degenerate points when its
@@ -270,31 +436,36 @@ fn candidate_result(
 }
 
 /// The plans shortest first (stable: equal lengths keep the build order),
-/// each naming its candidate and every candidate's length in `plan_choice`.
-fn ranked(mut plans: Vec<(Candidate, PlanResult, f64)>, warnings: &[String]) -> Vec<PlanResult> {
-    // Stable: equal lengths keep the build order.
+/// each naming its candidate, the exact lengths and the `estimates` of all
+/// `considered` candidates in `plan_choice`.
+fn ranked(
+    mut plans: Vec<(Candidate, PlanResult, f64)>,
+    estimates: &[String],
+    considered: usize,
+    warnings: &[String],
+) -> Vec<PlanResult> {
     plans.sort_by(|a, b| a.2.total_cmp(&b.2));
     let summary: Vec<String> = plans
         .iter()
         .map(|(k, _, l)| format!("{} {l:.0} mm", k.label()))
         .collect();
     let n = plans.len();
+    let why = format!(
+        "{n} built of {considered} candidate plans ({}): the {EXACT_BUILDS} shortest by an estimate at {ESTIMATE_COARSENING} x the point step ({}) and the baselines' plans",
+        summary.join(", "),
+        estimates.join(", ")
+    );
     plans
         .into_iter()
         .enumerate()
         .map(|(rank, (kind, mut result, _))| {
             result.plan_choice = Some(if rank == 0 {
-                format!(
-                    "{}: the shortest of {n} candidate plans ({})",
-                    kind.label(),
-                    summary.join(", ")
-                )
+                format!("{}: the shortest of {why}", kind.label())
             } else {
                 format!(
-                    "{}: candidate {} of {n} by length ({})",
+                    "{}: candidate {} by length of {why}",
                     kind.label(),
-                    rank + 1,
-                    summary.join(", ")
+                    rank + 1
                 )
             });
             result.warnings = warnings.to_vec();
@@ -505,7 +676,7 @@ mod tests {
     }
 
     #[test]
-    fn monkey_saddle_partitioned_candidate_carries_the_partition() {
+    fn monkey_saddle_candidates_are_estimated_and_the_shortest_built() {
         let job = test_surfaces::job(
             test_surfaces::monkey_saddle([0.0, 0.0], 0.0),
             Strategy::TensorRegions,
@@ -514,38 +685,63 @@ mod tests {
             0.05,
         );
         let all = candidates(&job, &NoProgress).unwrap();
-        let labels: Vec<&str> = all
-            .iter()
-            .map(|r| r.plan_choice.as_deref().unwrap().split(':').next().unwrap())
-            .collect();
-        let mut sorted = labels.clone();
-        sorted.sort();
-        assert_eq!(
-            sorted,
-            [
-                "edge_offset_u",
-                "edge_offset_u_far",
-                "edge_offset_v",
-                "edge_offset_v_far",
-                "iso_curves_u",
-                "iso_curves_v",
-                "mean_feed",
-                "partitioned",
-                "whole_field"
-            ]
-        );
+        // The two best estimates and the baselines' two plans.
+        assert!((EXACT_BUILDS..=EXACT_BUILDS + 2).contains(&all.len()));
         // Shortest first, and plan() returns the first.
         for w in all.windows(2) {
             assert!(w[0].cl_path_length() <= w[1].cl_path_length());
         }
         let best = plan(&job, &NoProgress).unwrap();
         assert_eq!(best.passes, all[0].passes);
-        assert!(all[0]
+        let choice = all[0].plan_choice.as_deref().unwrap();
+        assert!(choice.contains("built of 9 candidate plans"), "{choice}");
+        // Every candidate has an estimate in the choice.
+        for label in [
+            "partitioned",
+            "whole_field",
+            "mean_feed",
+            "edge_offset_u",
+            "edge_offset_v",
+            "edge_offset_u_far",
+            "edge_offset_v_far",
+            "iso_curves_u",
+            "iso_curves_v",
+        ] {
+            assert!(choice.contains(&format!("{label} ")), "{label}: {choice}");
+        }
+        // The kept plan is no longer than the baselines' plans built exactly,
+        // whatever the estimates say.
+        for label in ["edge_offset_u", "iso_curves_u"] {
+            let c = candidate(&job, label, &NoProgress).unwrap().unwrap();
+            assert!(
+                all[0].cl_path_length() <= c.cl_path_length() * 1.0001,
+                "{label}: {} < {}",
+                c.cl_path_length(),
+                all[0].cl_path_length()
+            );
+        }
+    }
+
+    #[test]
+    fn monkey_saddle_partitioned_candidate_carries_the_partition() {
+        let job = test_surfaces::job(
+            test_surfaces::monkey_saddle([0.0, 0.0], 0.0),
+            Strategy::TensorRegions,
+            2.5,
+            5.0,
+            0.05,
+        );
+        let r = candidate(&job, "partitioned", &NoProgress)
+            .unwrap()
+            .unwrap();
+        assert!(r
             .plan_choice
             .as_deref()
             .unwrap()
-            .contains("the shortest of 9"));
-        let r = &all[labels.iter().position(|l| *l == "partitioned").unwrap()];
+            .starts_with("partitioned:"));
+        assert!(candidate(&job, "no_such_plan", &NoProgress)
+            .unwrap()
+            .is_none());
         let d = r.degenerate_points.as_ref().unwrap();
         assert_eq!(d.len(), 1);
         assert_eq!(d[0].kind, "trisector");
