@@ -81,10 +81,21 @@ pub fn beyond_pole(surface: &NurbsSurface, u: f64, v: f64) -> Option<SurfaceDeri
 
 fn taylor_extended(surface: &NurbsSurface, u: f64, v: f64) -> SurfaceDerivs {
     let (uc, vc) = surface.clamp_uv(u, v);
-    let d = surface.derivs(uc, vc);
+    let mut d = surface.derivs(uc, vc);
     let (du, dv) = (u - uc, v - vc);
     if du == 0.0 && dv == 0.0 {
         return d;
+    }
+    // On a surface with a pole the parameter lines near it bend sharply
+    // within the surface (geodesic curvature 1 / distance to the pole): the
+    // continuation keeps only the normal part of the second derivatives, so
+    // it stays a graph over the tangent plane instead of curling round.
+    if surface.collapsed_boundaries() != [false; 4] {
+        if let Some(n) = d.su.cross(&d.sv).try_normalize(1e-300) {
+            d.suu = n * d.suu.dot(&n);
+            d.suv = n * d.suv.dot(&n);
+            d.svv = n * d.svv.dot(&n);
+        }
     }
     SurfaceDerivs {
         p: d.p
