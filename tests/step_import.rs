@@ -14,6 +14,7 @@ use toolpath_planner::formats::{Job, JobFile};
 use toolpath_planner::geometry::{LocalGeometry, NurbsSurface};
 use toolpath_planner::pipeline::{self, RunOptions};
 use toolpath_planner::planners::NoProgress;
+use toolpath_planner::samples::step_parts;
 
 /// Relative area error the integration over the trimmed face may make: its
 /// boundary cells are counted by subcell (docs/methods.md, "Trimmed faces").
@@ -300,5 +301,167 @@ fn a_job_names_a_step_face_directly() {
         let text = e.to_string();
         assert!(text.contains(want) && text.contains("surface"), "{text}");
         assert!(!text.contains('\n'), "{text}");
+    }
+}
+
+/// Area element of the bicubic Bezier patch `cp` at (u, v), by central
+/// differences of its points (independent of the NURBS evaluation).
+fn area_element(cp: &[[[f64; 3]; 4]; 4], u: f64, v: f64) -> f64 {
+    let h = 1e-6;
+    let p = |u: f64, v: f64| nalgebra::Vector3::from(step_parts::bicubic_point(cp, u, v));
+    let su = (p(u + h, v) - p(u - h, v)) / (2.0 * h);
+    let sv = (p(u, v + h) - p(u, v - h)) / (2.0 * h);
+    su.cross(&sv).norm()
+}
+
+/// Area of the patch over the ellipse with centre `c` and semi-axes `ab`
+/// in (u, v): polar coordinates, trapezoid in the angle (periodic:
+/// spectrally accurate), Simpson in the radius.
+fn ellipse_area(cp: &[[[f64; 3]; 4]; 4], c: [f64; 2], ab: [f64; 2]) -> f64 {
+    let (nt, nr) = (256, 200);
+    let mut total = 0.0;
+    for k in 0..nt {
+        let t = std::f64::consts::TAU * k as f64 / nt as f64;
+        for i in 0..=nr {
+            let r = i as f64 / nr as f64;
+            let w = if i == 0 || i == nr {
+                1.0
+            } else if i % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
+            let (u, v) = (c[0] + ab[0] * r * t.cos(), c[1] + ab[1] * r * t.sin());
+            total += w * area_element(cp, u, v) * ab[0] * ab[1] * r;
+        }
+    }
+    total * std::f64::consts::TAU / nt as f64 / (3.0 * nr as f64)
+}
+
+/// Area of the patch over the whole unit square, composite Simpson.
+fn square_area(cp: &[[[f64; 3]; 4]; 4]) -> f64 {
+    let n = 200;
+    let w = |i: usize| {
+        if i == 0 || i == n {
+            1.0
+        } else if i % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        }
+    };
+    let mut total = 0.0;
+    for i in 0..=n {
+        for j in 0..=n {
+            let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+            total += w(i) * w(j) * area_element(cp, u, v);
+        }
+    }
+    total / (3.0 * n as f64).powi(2)
+}
+
+fn sample_part(name: &str) -> (StepFile, Vec<u64>) {
+    let part = step_parts::part(name).unwrap();
+    let file = StepFile::parse(&part.text, &format!("{name}.step"), name).unwrap();
+    (file, part.faces)
+}
+
+#[test]
+fn the_step_samples_import_with_their_exact_areas() {
+    use step_parts::*;
+    let pi = std::f64::consts::PI;
+    // The freeform face: the ellipse's area on the patch minus the hole's.
+    let cp = freeform_control_points();
+    let exact_free = ellipse_area(&cp, FREEFORM_OUTER.0, FREEFORM_OUTER.1)
+        - ellipse_area(&cp, FREEFORM_HOLE.0, [FREEFORM_HOLE.1; 2]);
+    // The multi-face part: the bicubic face over its square; the plane
+    // 40 x 80; the quarter cylinder r pi / 2 x 80; the wall under the
+    // front edge, 20 mm deep plus the mean of the edge's control heights.
+    let mean_front: f64 = MULTI_Z.iter().map(|row| row[0]).sum::<f64>() / 4.0;
+    let expect: [(&str, Vec<(&str, f64)>); 2] = [
+        (
+            "step_freeform",
+            vec![("B_SPLINE_SURFACE_WITH_KNOTS", exact_free)],
+        ),
+        (
+            "step_multi_face",
+            vec![
+                (
+                    "B_SPLINE_SURFACE_WITH_KNOTS",
+                    square_area(&multi_control_points()),
+                ),
+                ("PLANE", MULTI_PLANE_W * MULTI_Y),
+                ("CYLINDRICAL_SURFACE", MULTI_R * pi / 2.0 * MULTI_Y),
+                ("PLANE", MULTI_X * (MULTI_WALL + mean_front)),
+            ],
+        ),
+    ];
+    for (name, faces) in expect {
+        let (file, ids) = sample_part(name);
+        assert_eq!(file.face_ids(), ids, "{name}");
+        let listed = file.summaries();
+        assert_eq!(listed.len(), faces.len(), "{name}");
+        for (s, (kind, exact)) in listed.iter().zip(faces) {
+            let (a, lo, hi) = s.imported.clone().unwrap();
+            eprintln!(
+                "{name} #{}: {kind} {a:.4} mm² (exact {exact:.4}), {lo:?}..{hi:?}",
+                s.id
+            );
+            assert_eq!(s.surface_type, kind, "{name} #{}", s.id);
+            assert!(
+                (a - exact).abs() <= AREA_REL * exact,
+                "{name} #{}: {a} vs {exact}",
+                s.id
+            );
+        }
+    }
+    // The freeform sample's hole: its loop lies on the circle in (u, v).
+    let (file, ids) = sample_part("step_freeform");
+    let s = file.face(ids[0]).unwrap().to_surface().unwrap();
+    let trim = s.trim().unwrap();
+    assert_eq!(trim.holes.len(), 1);
+    let (c, r) = FREEFORM_HOLE;
+    for q in &trim.holes[0] {
+        assert!(((q[0] - c[0]).hypot(q[1] - c[1]) - r).abs() < 1e-9, "{q:?}");
+    }
+    // The cylinder's points are at radius 30 about its axis, with an
+    // outward normal and curvature 1/30 across the axis.
+    let (file, ids) = sample_part("step_multi_face");
+    let s = file.face(ids[2]).unwrap().to_surface().unwrap();
+    let ((u0, u1), (v0, v1)) = s.domain();
+    for k in 0..=8 {
+        let (u, v) = (u0 + (u1 - u0) * k as f64 / 8.0, 0.5 * (v0 + v1));
+        let p = s.point(u, v);
+        let radial = nalgebra::Vector3::new(p.x - MULTI_X, 0.0, p.z + MULTI_R);
+        assert!((radial.norm() - MULTI_R).abs() < 1e-9, "{p:?}");
+        let g = LocalGeometry::at(&s, u, v).unwrap();
+        assert!((g.n - radial / MULTI_R).norm() < 1e-9, "{:?} at {p:?}", g.n);
+        let k_abs = g.k_min.abs().max(g.k_max.abs());
+        assert!((k_abs - 1.0 / MULTI_R).abs() < 1e-9, "{k_abs}");
+    }
+}
+
+#[test]
+fn a_face_of_each_step_sample_plans_within_h() {
+    for name in step_parts::STEP_SAMPLES {
+        let job = toolpath_planner::samples::job(name).unwrap();
+        let s = job.surface().unwrap();
+        let r = pipeline::run(&job, &NoProgress, RunOptions::default()).unwrap();
+        let st = &r.stats;
+        let h = job.scallop.unwrap();
+        let scallop = st.max_scallop_mm.unwrap();
+        let machined = st.extra["machined_area_mm2"];
+        let a = area(s);
+        eprintln!(
+            "{name}: {:.1} mm, scallop {scallop:.5} (h {h}), machined {machined:.1} of {a:.1} mm²",
+            st.path_length_mm
+        );
+        assert_eq!(r.within_scallop, Some(true), "{name}: scallop {scallop}");
+        assert!(scallop <= h, "{name}: scallop {scallop}");
+        assert_eq!(st.extra["uncovered_area_mm2"], 0.0, "{name}");
+        assert!(
+            (machined - a).abs() <= 0.01 * a,
+            "{name}: {machined} vs {a}"
+        );
     }
 }

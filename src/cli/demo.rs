@@ -357,10 +357,6 @@ async fn client(domain: u16) -> Result<Vec<Row>> {
     let mut index = BTreeMap::new();
     for s in samples::list() {
         let job = samples::job(s.name)?;
-        // Surface.msg carries no trim: a trimmed sample cannot go over ROS.
-        if job.surface().is_ok_and(|f| f.trim().is_some()) {
-            continue;
-        }
         let published = match &job.shape {
             Shape::Surface(surf) => surface_pub
                 .publish(convert::surface_to_msg(s.name, surf, header()))

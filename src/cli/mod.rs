@@ -90,7 +90,7 @@ pub enum Command {
         #[arg(long, num_args = 2, value_names = ["U", "V"], allow_negative_numbers = true, required = true)]
         uv: Vec<f64>,
     },
-    /// Write a built-in sample surface or pocket (or its job) as JSON; `random --seed N` a seeded random bicubic surface.
+    /// Write a built-in sample surface or pocket (or its job) as JSON, a STEP sample as its STEP file; `random --seed N` a seeded random bicubic surface.
     Sample {
         /// Sample name (see --list), or `random`.
         name: Option<String>,

@@ -54,6 +54,14 @@ pub fn run(
     }
     if job {
         formats::write_json(output, &samples::job(name)?.to_file())
+    } else if let Some(text) = samples::step_text(name) {
+        // A STEP sample's shape is its STEP part.
+        if output == Path::new("-") {
+            print!("{text}");
+            Ok(())
+        } else {
+            std::fs::write(output, text).map_err(|e| Error::io(output.display().to_string(), e))
+        }
     } else {
         formats::write_json(output, &samples::shape(name)?.to_json())
     }

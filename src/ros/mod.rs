@@ -14,6 +14,7 @@ pub mod fake_controller;
 pub mod joint_states;
 pub mod logging;
 pub mod node;
+pub mod parameter_descriptors;
 pub mod parameters;
 pub mod plan_action;
 pub mod recorder;
@@ -21,5 +22,6 @@ pub mod republish;
 pub mod ros_args;
 pub mod security;
 pub mod shape_readers;
+pub mod tf_static;
 
 pub use config::NodeConfig;

@@ -21,6 +21,7 @@ use crate::formats::job::DEFAULT_FEED_RATE;
 use crate::formats::{Machine, PlanResult, Shape};
 use crate::ipc::ToolpathPublisher;
 use crate::machines::Machines;
+use crate::messages::frames::Frames;
 use crate::messages::{self as msgs, convert, final_state, topics, JobOutputs, RosMessage};
 use crate::pipeline::{self, RunOptions};
 use crate::planners::Progress;
@@ -940,10 +941,17 @@ fn check_job(msg: &msgs::Job, machines: &Machines) -> Result<()> {
 fn receive_job(
     shared: &Shared,
     outputs: &Outputs,
-    machines: &Machines,
+    (machines, frames): (&Machines, &Frames),
     msg: msgs::Job,
     timeout: Duration,
 ) {
+    let msg = match frames.job_in_workpiece(&msg) {
+        Ok(moved) => moved.unwrap_or(msg),
+        Err(e) => {
+            outputs.status(&msg.job_id, final_state(&e), 0.0, e.to_string());
+            return;
+        }
+    };
     if let Err(e) = check_job(&msg, machines) {
         outputs.status(&msg.job_id, final_state(&e), 0.0, e.to_string());
         return;
@@ -1001,6 +1009,8 @@ fn receive_shape(shared: &Shared, id: String, shape: Result<Shape>) {
 struct Inputs {
     /// This node's fully qualified name, which `Job.node` may name.
     name: String,
+    /// The frames inputs may be given in.
+    frames: Frames,
     surfaces: ShapeReaders<msgs::Surface>,
     pockets: ShapeReaders<msgs::Pocket>,
     jobs: Subscription<msgs::Job>,
@@ -1198,7 +1208,8 @@ async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs
                     }
                     let config = shared.live.get();
                     let timeout = Duration::from_secs_f64(config.node.surface_timeout_s);
-                    receive_job(shared, outputs, &config.machines(), msg, timeout)
+                    let machines = config.machines();
+                    receive_job(shared, outputs, (&machines, &inputs.frames), msg, timeout)
                 }
                 Err(e) => log::error!("undecodable message on topic job: {e:?}"),
             },
@@ -1207,8 +1218,13 @@ async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs
                     if let Some(rec) = recorder {
                         rec.record(topics::SURFACE, &msg);
                     }
-                    let shape = convert::surface_from_msg(&msg).map(Shape::Surface);
-                    receive_shape(shared, msg.surface_id, shape);
+                    let id = msg.surface_id.clone();
+                    let shape = inputs
+                        .frames
+                        .surface_in_workpiece(msg)
+                        .and_then(|m| convert::surface_from_msg(&m))
+                        .map(Shape::Surface);
+                    receive_shape(shared, id, shape);
                 }
                 Err(e) => log::error!("undecodable message on topic surface: {e:?}"),
             },
@@ -1217,7 +1233,11 @@ async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs
                     if let Some(rec) = recorder {
                         rec.record(topics::POCKET, &msg);
                     }
-                    let shape = convert::pocket_from_msg(&msg).map(Shape::Pocket);
+                    let shape = inputs
+                        .frames
+                        .check_pocket(&msg)
+                        .and_then(|()| convert::pocket_from_msg(&msg))
+                        .map(Shape::Pocket);
                     receive_shape(shared, msg.pocket_id, shape);
                 }
                 Err(e) => log::error!("undecodable message on topic pocket: {e:?}"),
@@ -1329,6 +1349,7 @@ pub async fn run(resolved: Resolved, enclave_dir: Option<std::path::PathBuf>) ->
     }
     let inputs = Inputs {
         name: ros.node.fully_qualified_name(),
+        frames: config.frames(),
         surfaces: ShapeReaders {
             volatile: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
             transient_local: ros.subscription(topics::SURFACE, qos::shapes_history_reader())?,
@@ -1357,8 +1378,13 @@ pub async fn run(resolved: Resolved, enclave_dir: Option<std::path::PathBuf>) ->
         shared: Arc::clone(&shared),
         outputs: Arc::downgrade(&outputs),
         machines: config.machines(),
+        frames: config.frames(),
     };
     super::plan_action::serve(&mut ros, Arc::new(queue))?;
+    let _tf_static = match settings.tf_static {
+        true => Some(super::tf_static::publish(&mut ros.node, &config.frames())?),
+        false => None,
+    };
     let diagnostics_publisher = super::diagnostics::publisher(&mut ros.node)?;
     let diagnostics = diagnostics(&ros, diagnostics_publisher, config, &shared, &outputs);
     announce_ready(&ros, config, domain, &outputs, enclave_dir.as_deref());

@@ -5,6 +5,7 @@
 
 pub mod pockets;
 pub mod random;
+pub mod step_parts;
 pub mod surfaces;
 
 use crate::error::{Error, Result};
@@ -37,6 +38,14 @@ pub const SAMPLES: &[SampleInfo] = &[
     SampleInfo {
         name: "trimmed_saddle",
         description: "monkey saddle trimmed to a round face with an off-centre round hole (tensor_regions)",
+    },
+    SampleInfo {
+        name: "step_freeform",
+        description: "STEP part: bicubic face 120 x 90 mm trimmed by an ellipse with a round hole; `-o part.step` writes the STEP file (tensor_regions)",
+    },
+    SampleInfo {
+        name: "step_multi_face",
+        description: "STEP part: a bicubic face joined to two planes and a quarter cylinder; `-o part.step` writes the STEP file (tensor_regions on the bicubic face)",
     },
     SampleInfo {
         name: "die_saddle",
@@ -96,8 +105,21 @@ pub fn surface(name: &str) -> Result<NurbsSurface> {
         "sine_wave" => sine_wave(),
         "egg_crate" => egg_crate(),
         "turbine_blade" => turbine_blade(),
-        _ => return Err(unknown(name)),
+        _ => return step_face(name),
     })
+}
+
+/// The face a STEP sample's job plans (its first face), imported from the
+/// sample's own STEP text as `toolpath import --face` would.
+fn step_face(name: &str) -> Result<NurbsSurface> {
+    let part = step_parts::part(name).ok_or_else(|| unknown(name))?;
+    let file = crate::formats::step::StepFile::parse(&part.text, &format!("{name}.step"), name)?;
+    file.face(part.faces[0])?.to_surface()
+}
+
+/// The STEP text of a STEP sample (`toolpath sample NAME -o part.step`).
+pub fn step_text(name: &str) -> Option<String> {
+    step_parts::part(name).map(|p| p.text)
 }
 
 /// The sample's shape (surface or pocket).
@@ -159,9 +181,8 @@ pub fn random_job(params: &random::RandomSurface) -> Result<Job> {
 pub fn job(name: &str) -> Result<Job> {
     let shape = shape(name)?;
     let file = match name {
-        "plane" | "concave_cylinder" | "monkey_saddle" | "trimmed_saddle" | "wing_mould" => {
-            flat_end_job(name)
-        }
+        "plane" | "concave_cylinder" | "monkey_saddle" | "trimmed_saddle" | "wing_mould"
+        | "step_freeform" | "step_multi_face" => flat_end_job(name),
         "die_saddle" => JobFile {
             tolerance: Some(0.01),
             feed_direction: Some(FeedDirection::U),

@@ -99,3 +99,67 @@ def test_bad_step_input_exits_2_naming_the_entity(parts, tmp_path):
         text=True,
     )
     assert r.returncode == 2 and "#4242" in r.stderr, r.stderr
+
+
+STEP_SAMPLES = ("step_freeform", "step_multi_face")
+
+
+def occ_face_areas(path):
+    """Areas of the faces of a STEP file as Open CASCADE reads them, in shell order."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.STEPControl import STEPControl_Reader
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+
+    reader = STEPControl_Reader()
+    assert reader.ReadFile(str(path)) == IFSelect_RetDone
+    reader.TransferRoots()
+    ex = TopExp_Explorer(reader.OneShape(), TopAbs_FACE)
+    areas = []
+    while ex.More():
+        props = GProp_GProps()
+        BRepGProp.SurfaceProperties_s(ex.Current(), props)
+        areas.append(props.Mass())
+        ex.Next()
+    return areas
+
+
+@pytest.mark.parametrize("name", STEP_SAMPLES)
+def test_step_samples_list_open_cascades_areas(name, tmp_path):
+    part = tmp_path / f"{name}.step"
+    r = subprocess.run([toolpath_bin(), "sample", name, "-o", str(part)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    again = tmp_path / "again.step"
+    subprocess.run([toolpath_bin(), "sample", name, "-o", str(again)], check=True)
+    assert part.read_bytes() == again.read_bytes()
+    rows = listed(part)
+    occ = occ_face_areas(part)
+    assert len(rows) == len(occ) == (1 if name == "step_freeform" else 4), (rows, occ)
+    for (face, kind, area), exact in zip(rows, occ):
+        assert abs(area - exact) <= AREA_REL * exact, (name, face, kind, area, exact)
+
+
+def test_a_step_sample_face_named_by_a_job_plans_within_h(tmp_path):
+    part = tmp_path / "part.step"
+    subprocess.run([toolpath_bin(), "sample", "step_multi_face", "-o", str(part)], check=True)
+    face = listed(part)[0][0]
+    job = tmp_path / "job.json"
+    job.write_text(
+        json.dumps(
+            {
+                "job_id": "step_sample_face",
+                "surface": {"file": "part.step", "face": face},
+                "strategy": "iso_scallop",
+                "tool": {"kind": "ball", "radius": 4.0},
+                "scallop": 0.05,
+            }
+        )
+    )
+    result = tmp_path / "result.json"
+    r = subprocess.run([toolpath_bin(), "plan", str(job), "-o", str(result)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    res = json.loads(result.read_text())
+    assert res["within_scallop"] is True
+    assert res["stats"]["max_scallop_mm"] <= 0.05
