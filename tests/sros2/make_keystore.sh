@@ -80,14 +80,14 @@ case "$cmd" in
     chmod 700 "$ks/private"
     make_ca identity_ca
     make_ca permissions_ca
-    # Only authenticated participants join, with join, read and write access
-    # control on every topic; discovery, liveliness and every RTPS message
-    # encrypted (AES-GCM keys exchanged with authenticated peers only).
-    # sros2's default protects each topic's data and metadata instead
-    # (rtps SIGN, metadata and data ENCRYPT): RustDDS 0.15 fails to decode
-    # protected payloads and loses large samples with protected metadata
-    # (docs/node.md, "DDS Security (SROS2)"). The *_PROTECTION variables
-    # override the kinds, for trying other combinations.
+    # sros2's default governance but for metadata protection: only
+    # authenticated participants join, with join, read and write access
+    # control on every topic; discovery and liveliness encrypted, every RTPS
+    # message signed, every sample's payload encrypted (AES-GCM, keys exchanged
+    # with authenticated peers only). sros2 also encrypts each topic's
+    # metadata (submessages): RustDDS 0.15 then loses large samples (a surface
+    # never arrives; docs/node.md, "DDS Security (SROS2)"). The *_PROTECTION
+    # variables override the kinds, for trying other combinations.
     cat > "$ks/enclaves/governance.xml" <<XML
 <?xml version="1.0" encoding="UTF-8"?>
 <dds xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xsi:noNamespaceSchemaLocation="http://www.omg.org/spec/DDS-Security/20170801/omg_shared_ca_governance.xsd">
@@ -103,7 +103,7 @@ case "$cmd" in
       <enable_join_access_control>true</enable_join_access_control>
       <discovery_protection_kind>${DISCOVERY_PROTECTION:-ENCRYPT}</discovery_protection_kind>
       <liveliness_protection_kind>${LIVELINESS_PROTECTION:-ENCRYPT}</liveliness_protection_kind>
-      <rtps_protection_kind>${RTPS_PROTECTION:-ENCRYPT}</rtps_protection_kind>
+      <rtps_protection_kind>${RTPS_PROTECTION:-SIGN}</rtps_protection_kind>
       <topic_access_rules>
         <topic_rule>
           <topic_expression>*</topic_expression>
@@ -112,7 +112,7 @@ case "$cmd" in
           <enable_read_access_control>true</enable_read_access_control>
           <enable_write_access_control>true</enable_write_access_control>
           <metadata_protection_kind>${METADATA_PROTECTION:-NONE}</metadata_protection_kind>
-          <data_protection_kind>${DATA_PROTECTION:-NONE}</data_protection_kind>
+          <data_protection_kind>${DATA_PROTECTION:-ENCRYPT}</data_protection_kind>
         </topic_rule>
       </topic_access_rules>
     </domain_rule>

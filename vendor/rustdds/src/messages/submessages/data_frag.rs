@@ -270,17 +270,25 @@ impl DataFrag {
       _ => {}
     }
 
-    let max_payload_bytes = (count_u32 as usize) * (fragment_size as usize);
-    if datafrag.serialized_payload.len() > max_payload_bytes {
-      return Err(io::Error::new(
-        io::ErrorKind::InvalidData,
-        format!(
-          "DataFrag serializedData length={} exceeds fragmentsInSubmessage={} x fragmentSize={}.",
-          datafrag.serialized_payload.len(),
-          fragments_in_submessage,
-          fragment_size
-        ),
-      ));
+    // toolpath_planner patch: with the security feature the payload may be
+    // protected (CryptoHeader + CryptoContent + CryptoFooter around the
+    // fragments), longer than the fragments it carries: the reader checks the
+    // length after decoding it (`decode_and_handle_datafrag`). Checked here,
+    // every protected DATA_FRAG run of whole fragments was dropped.
+    #[cfg(not(feature = "security"))]
+    {
+      let max_payload_bytes = (count_u32 as usize) * (fragment_size as usize);
+      if datafrag.serialized_payload.len() > max_payload_bytes {
+        return Err(io::Error::new(
+          io::ErrorKind::InvalidData,
+          format!(
+            "DataFrag serializedData length={} exceeds fragmentsInSubmessage={} x fragmentSize={}.",
+            datafrag.serialized_payload.len(),
+            fragments_in_submessage,
+            fragment_size
+          ),
+        ));
+      }
     }
 
     Ok(datafrag)
@@ -374,6 +382,7 @@ mod tests {
   }
 
   #[test]
+  #[cfg(not(feature = "security"))]
   fn deserialize_rejects_oversized_payload_for_fragment_run() {
     let df = DataFrag {
       writer_sn: SequenceNumber::new(1),

@@ -785,10 +785,15 @@ impl CryptoTransform for CryptographicBuiltin {
       return Err(security_error("Encoded payload smaller than minimum size"));
     }
     let (header_bytes, content_and_footer_bytes) = encoded_buffer.split_at(head_len);
-    let (content_bytes, footer_bytes) =
-      content_and_footer_bytes.split_at(content_and_footer_bytes.len() - foot_len);
 
-    // Deserialize crypto header and footer
+    // toolpath_planner patch: the DATA submessage pads its serialized payload
+    // to a multiple of 4 bytes (data.rs) and the reader takes the rest of the
+    // submessage as the payload, so up to 3 zero bytes may follow the footer.
+    // Upstream took the footer from the very end, so every protected payload
+    // whose length was not a multiple of 4 failed to decode ("The ring crypto
+    // library gives 'Unspecified' error"). The footer is found instead after
+    // CryptoContent's own length (encrypted), or at the end less 0..=3 zero
+    // bytes, the first whose MAC verifies (signed only).
 
     // .read_from_buffer() does not need endianness, because BuiltinCryptoHeader
     // only contains byte-oriented data, which is insensitive to endianness.
@@ -802,8 +807,6 @@ impl CryptoTransform for CryptographicBuiltin {
         },
       builtin_crypto_header_extra: BuiltinCryptoHeaderExtra(initialization_vector),
     } = crypto_header.try_into()?;
-
-    let BuiltinCryptoFooter { common_mac, .. } = BuiltinCryptoFooter::try_from(footer_bytes)?;
 
     // Get the payload decode key material
     let decode_key_material = self.session_decode_crypto_materials(
@@ -835,13 +838,36 @@ impl CryptoTransform for CryptographicBuiltin {
       }
       BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES128_GMAC
       | BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GMAC => {
-        validate_mac(decode_key, initialization_vector, content_bytes, common_mac)
-          // if validate_mac succeeds, then map result to content bytes
-          .map(|()| Vec::from(content_bytes))
+        let total = content_and_footer_bytes.len();
+        for pad in 0..=3usize {
+          if total < foot_len + pad
+            || content_and_footer_bytes[total - pad..]
+              .iter()
+              .any(|&b| b != 0)
+          {
+            break;
+          }
+          let (content_bytes, footer_bytes) =
+            content_and_footer_bytes[..total - pad].split_at(total - pad - foot_len);
+          let BuiltinCryptoFooter { common_mac, .. } =
+            BuiltinCryptoFooter::try_from(footer_bytes)?;
+          if validate_mac(decode_key, initialization_vector, content_bytes, common_mac).is_ok() {
+            return Ok(Vec::from(content_bytes));
+          }
+        }
+        Err(security_error(
+          "The MAC of the signed payload does not verify",
+        ))
       }
       BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES128_GCM
       | BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GCM => {
-        let ciphertext = CryptoContent::read_from_buffer(content_bytes)?.data;
+        let ciphertext = CryptoContent::read_from_buffer(content_and_footer_bytes)?.data;
+        // CryptoContent = a 4-byte length and the ciphertext.
+        let content_len = 4 + ciphertext.len();
+        let footer_bytes = content_and_footer_bytes
+          .get(content_len..content_len + foot_len)
+          .ok_or_else(|| security_error("Encoded payload too short for its CryptoFooter"))?;
+        let BuiltinCryptoFooter { common_mac, .. } = BuiltinCryptoFooter::try_from(footer_bytes)?;
         decrypt(decode_key, initialization_vector, &ciphertext, common_mac)
       }
     }
