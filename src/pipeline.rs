@@ -46,6 +46,66 @@ impl RunOptions {
 /// Before any of that the job's estimate is checked against
 /// `options.budget`; the job's `time_limit_s` and `options.time_limit` stop
 /// it through `progress` checks (`Error::Stopped`), as a cancel does.
+/// Plans the jobs of several faces ([`crate::formats::read_jobs`]) one after
+/// another, each within its own face's trim, into one result: the passes
+/// grouped by face in the order given (`pass_faces` gives each pass's
+/// face), the statistics summed (lengths, passes, points, times, lower
+/// bounds, areas in `extra`) or the worst taken (scallop, gouge), the
+/// shape fingerprint left out (no single shape verifies it). Passes are not
+/// stitched across faces (docs/formats.md, "Several faces").
+pub fn run_faces(jobs: &[Job], progress: &dyn Progress, options: RunOptions) -> Result<PlanResult> {
+    let [first, ..] = jobs else {
+        return Err(crate::error::Error::invalid("surface.faces", "is empty"));
+    };
+    if jobs.len() == 1 {
+        return run(first, progress, options);
+    }
+    let mut out = PlanResult::new(&first.job_id, first.strategy.name());
+    let mut faces = Vec::new();
+    let mut within = Some(true);
+    for (k, job) in jobs.iter().enumerate() {
+        let r = run(job, progress, options)?;
+        faces.extend(std::iter::repeat_n(k, r.passes.len()));
+        out.machine = r.machine.clone();
+        let (a, b) = (&mut out.stats, &r.stats);
+        a.path_length_mm += b.path_length_mm;
+        a.passes += b.passes;
+        a.compute_ms += b.compute_ms;
+        let add = |x: Option<f64>, y: Option<f64>| match (x, y) {
+            (Some(x), Some(y)) => Some(x + y),
+            (x, y) => x.or(y),
+        };
+        let max = |x: Option<f64>, y: Option<f64>| match (x, y) {
+            (Some(x), Some(y)) => Some(x.max(y)),
+            (x, y) => x.or(y),
+        };
+        a.max_scallop_mm = max(a.max_scallop_mm, b.max_scallop_mm);
+        a.max_gouge_mm = max(a.max_gouge_mm, b.max_gouge_mm);
+        a.path_length_lower_bound_mm =
+            add(a.path_length_lower_bound_mm, b.path_length_lower_bound_mm);
+        a.machining_time_min = add(a.machining_time_min, b.machining_time_min);
+        a.uncut_area_mm2 = add(a.uncut_area_mm2, b.uncut_area_mm2);
+        a.points = Some(a.points.unwrap_or(0) + b.points.unwrap_or(0));
+        for (key, v) in &b.extra {
+            if key.ends_with("_mm2") || key.ends_with("_mm") || key.ends_with("_s") {
+                *a.extra.entry(key.clone()).or_insert(0.0) += v;
+            } else {
+                a.extra.insert(format!("face{k}_{key}"), *v);
+            }
+        }
+        within = match (within, r.within_scallop) {
+            (Some(x), Some(y)) => Some(x && y),
+            _ => None,
+        };
+        out.warnings
+            .extend(r.warnings.iter().map(|w| format!("face {k}: {w}")));
+        out.passes.extend(r.passes);
+    }
+    out.within_scallop = within;
+    out.pass_faces = Some(faces);
+    Ok(out)
+}
+
 pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<PlanResult> {
     let own = job.time_limit_s.map(|seconds| TimeLimit {
         seconds,

@@ -658,3 +658,124 @@ fn analytic_faces_away_from_poles_plan_within_h() {
         assert_eq!(st.extra["uncovered_area_mm2"], 0.0, "{name}");
     }
 }
+
+/// The multi-face sample written to a directory, with a job on `faces`.
+fn multi_face_job(dir: &Path, faces: serde_json::Value) -> Result<Vec<Job>, Error> {
+    let part = step_parts::part("step_multi_face").unwrap();
+    std::fs::write(dir.join("part.step"), &part.text).unwrap();
+    let job = dir.join("job.json");
+    std::fs::write(
+        &job,
+        json!({
+            "job_id": "multi",
+            "surface": {"file": "part.step", "faces": faces},
+            "strategy": "iso_scallop",
+            "tool": {"kind": "ball", "radius": 4.0},
+            "scallop": 0.05,
+        })
+        .to_string(),
+    )
+    .unwrap();
+    toolpath_planner::formats::read_jobs(&job)
+}
+
+#[test]
+fn a_job_on_several_faces_plans_each_within_its_trim_grouped_by_face() {
+    let tmp = tempfile::tempdir().unwrap();
+    let ids = step_parts::part("step_multi_face").unwrap().faces;
+    // The plane, then the freeform face, then the cylinder: the order given.
+    let order = [ids[1], ids[0], ids[2]];
+    let jobs = multi_face_job(tmp.path(), json!(order)).unwrap();
+    assert_eq!(jobs.len(), 3);
+    let r = pipeline::run_faces(&jobs, &NoProgress, RunOptions::default()).unwrap();
+    let faces = r.pass_faces.clone().unwrap();
+    assert_eq!(faces.len(), r.passes.len());
+    assert!(faces.windows(2).all(|w| w[0] <= w[1]), "grouped: {faces:?}");
+    for k in 0..3 {
+        assert!(faces.contains(&k), "face {k} has no pass: {faces:?}");
+    }
+    // Contacts on the face are on its geometry; run-ins and run-outs (off
+    // the trim) stay within the tool's radius of it.
+    let mut on_face = [0usize; 3];
+    for (pass, &k) in r.passes.iter().zip(&faces) {
+        let s = jobs[k].surface().unwrap();
+        for q in &pass.points {
+            let c = q.cc;
+            if !s.in_face(q.uv[0], q.uv[1]) {
+                let reach = 4.0 + 1e-6;
+                let (lo, hi) = [(-40.0, 0.0), (0.0, 100.0), (100.0, 130.0)][k];
+                assert!(
+                    c[0] > lo - reach && c[0] < hi + reach,
+                    "face {k}: run-out {c:?}"
+                );
+                continue;
+            }
+            on_face[k] += 1;
+            // On the face: within h of its boundary (the planners' closure).
+            let e = 0.05;
+            let ok = match k {
+                // The plane z = 0, x in [-40, 0].
+                0 => c[2].abs() < 1e-6 && c[0] > -40.0 - e && c[0] < e,
+                // The freeform face, x in [0, 100].
+                1 => c[0] > -e && c[0] < 100.0 + e,
+                // The quarter cylinder of radius 30 about (100, y, -30).
+                _ => ((c[0] - 100.0).hypot(c[2] + 30.0) - 30.0).abs() < 1e-4 && c[0] > 100.0 - e,
+            };
+            assert!(ok, "face {k}: contact {c:?} off its face");
+        }
+    }
+    assert!(on_face.iter().all(|&n| n > 0), "{on_face:?}");
+    let length: f64 = r
+        .passes
+        .iter()
+        .map(|p| {
+            p.points
+                .windows(2)
+                .map(|w| {
+                    let (a, b) = (w[0].cl, w[1].cl);
+                    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+                })
+                .sum::<f64>()
+        })
+        .sum();
+    eprintln!(
+        "3 faces: {} passes {faces:?}, {:.1} mm, scallop {:?}",
+        r.passes.len(),
+        r.stats.path_length_mm,
+        r.stats.max_scallop_mm
+    );
+    assert!(
+        (length - r.stats.path_length_mm).abs() < 1e-6 * length,
+        "{length}"
+    );
+    assert_eq!(r.within_scallop, Some(true));
+    assert!(r.stats.max_scallop_mm.unwrap() <= 0.05);
+}
+
+#[test]
+fn bad_face_lists_are_clear_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let ids = step_parts::part("step_multi_face").unwrap().faces;
+    for (faces, want) in [
+        (json!([]), "is empty"),
+        (json!([ids[0], ids[1], ids[0]]), "repeats face"),
+        (json!([ids[0], 424242]), "#424242"),
+        (json!([ids[0], "x"]), "surface.faces[1]"),
+        (json!(17), "must be a list"),
+    ] {
+        let e = multi_face_job(tmp.path(), faces.clone()).expect_err("refused");
+        let text = invalid_message(e);
+        assert!(text.contains(want), "{faces}: {text}");
+    }
+    // One job (the node's way) refuses a face list.
+    let file: JobFile = serde_json::from_value(json!({
+        "job_id": "multi",
+        "surface": {"file": "part.step", "faces": [ids[0]]},
+        "strategy": "iso_scallop",
+        "tool": {"kind": "ball", "radius": 4.0},
+        "scallop": 0.05,
+    }))
+    .unwrap();
+    let e = Job::from_file(file, Some(tmp.path())).expect_err("refused");
+    assert!(e.to_string().contains("surface.faces"), "{e}");
+}

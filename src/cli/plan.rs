@@ -23,10 +23,11 @@ pub fn run(job_path: &Path, output: &Path, limits: Limits) -> Result<()> {
         TimeLimit::validate(s, "--time-limit")?;
     }
     limits.budget.validate("--")?;
-    let job = formats::read_job(job_path)?;
+    let jobs = formats::read_jobs(job_path)?;
+    let job = &jobs[0];
     let bar = Bar::new(&format!("planning {}", job.job_id));
-    let result = pipeline::run(
-        &job,
+    let result = pipeline::run_faces(
+        &jobs,
         &bar,
         RunOptions {
             skip_verify: limits.no_verify,
@@ -40,7 +41,7 @@ pub fn run(job_path: &Path, output: &Path, limits: Limits) -> Result<()> {
     );
     bar.finish();
     let result = result?;
-    let conformance = Conformance::of(&job, &result);
+    let conformance = Conformance::of(job, &result);
     if conformance.gouge.is_none() {
         formats::write_json(output, &result)?;
     }

@@ -516,6 +516,70 @@ fn step_face(path: &Path, face: &serde_json::Value) -> Result<Shape> {
     shape_from_value(value).map_err(|e| e.within("surface"))
 }
 
+/// The STEP face ids of a job whose surface is `{"file": STEP path,
+/// "faces": [ID, ...]}`, checked: a non-empty list of distinct whole
+/// numbers. `None` for every other surface.
+fn face_list(surface: &serde_json::Value) -> Result<Option<Vec<u64>>> {
+    let Some(faces) = surface.as_object().and_then(|m| m.get("faces")) else {
+        return Ok(None);
+    };
+    if surface.get("face").is_some() {
+        return Err(Error::invalid(
+            "surface",
+            "give either \"face\" or \"faces\", not both",
+        ));
+    }
+    let list = faces.as_array().ok_or_else(|| {
+        Error::invalid(
+            "surface.faces",
+            format!("must be a list of STEP face ids, not {faces}"),
+        )
+    })?;
+    if list.is_empty() {
+        return Err(Error::invalid(
+            "surface.faces",
+            "is empty: name at least one face",
+        ));
+    }
+    let mut ids = Vec::with_capacity(list.len());
+    for (k, v) in list.iter().enumerate() {
+        let id = v.as_u64().ok_or_else(|| {
+            Error::invalid(
+                format!("surface.faces[{k}]"),
+                format!("must be a STEP entity id (a whole number, as `toolpath import --list` shows), not {v}"),
+            )
+        })?;
+        if let Some(first) = ids.iter().position(|&x| x == id) {
+            return Err(Error::invalid(
+                format!("surface.faces[{k}]"),
+                format!("repeats face #{id} (already surface.faces[{first}])"),
+            ));
+        }
+        ids.push(id);
+    }
+    Ok(Some(ids))
+}
+
+/// The jobs of a job file: one per face, in the order given, when its
+/// surface names several STEP faces (`{"file": STEP path, "faces": [ID,
+/// ...]}`, docs/formats.md, "Several faces"), else the one job. Every face's
+/// job has the file's parameters and job id.
+pub fn jobs_from_file(f: JobFile, base_dir: Option<&Path>) -> Result<Vec<Job>> {
+    let Some(ids) = face_list(&f.surface)? else {
+        return Job::from_file(f, base_dir).map(|j| vec![j]);
+    };
+    let file = f.surface.get("file").cloned().unwrap_or_default();
+    ids.iter()
+        .map(|&id| {
+            let one = JobFile {
+                surface: serde_json::json!({"file": file, "face": id}),
+                ..f.clone()
+            };
+            Job::from_file(one, base_dir)
+        })
+        .collect()
+}
+
 impl Job {
     /// Validates a parsed job file. `base_dir` resolves `{"file": ...}` surfaces.
     pub fn from_file(f: JobFile, base_dir: Option<&Path>) -> Result<Self> {
@@ -532,6 +596,12 @@ impl Job {
                     Some(d) if Path::new(&file).is_relative() => d.join(&file),
                     _ => Path::new(&file).to_path_buf(),
                 };
+                if map.contains_key("faces") {
+                    return Err(Error::invalid(
+                        "surface.faces",
+                        "a job on several faces is planned face by face (`toolpath plan`, formats::read_jobs); here give one \"face\"",
+                    ));
+                }
                 match map.get("face") {
                     None => super::read_shape(&path).map_err(|e| e.within("surface"))?,
                     Some(face) => step_face(&path, face)?,

@@ -120,6 +120,16 @@ pub fn read_job(path: &Path) -> Result<Job> {
     parse_job(&text, path.parent()).map_err(|e| e.in_file(path))
 }
 
+/// Reads and validates a job file into one job per face (see
+/// [`job::jobs_from_file`]): several when its surface names several STEP faces.
+pub fn read_jobs(path: &Path) -> Result<Vec<Job>> {
+    let text = read_text(path)?;
+    parse_json(&text, "the job")
+        .and_then(from_value)
+        .and_then(|file: JobFile| job::jobs_from_file(file, path.parent()))
+        .map_err(|e| e.in_file(path))
+}
+
 /// Reads a result file.
 pub fn read_result(path: &Path) -> Result<PlanResult> {
     let text = read_text(path)?;

@@ -145,6 +145,10 @@ pub struct PlanResult {
     /// job's scallop height everywhere (`None` when not simulated).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub within_scallop: Option<bool>,
+    /// A job on several faces: the face (index into the job's face list)
+    /// of each pass, in pass order; the passes are grouped by face.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pass_faces: Option<Vec<usize>>,
     /// Human-readable notes (fallbacks taken, regions skipped, ...).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
