@@ -675,15 +675,20 @@ mod tests {
         );
     }
 
-    #[test]
-    fn monkey_saddle_candidates_are_estimated_and_the_shortest_built() {
-        let job = test_surfaces::job(
+    /// tensor_regions with a flat end R 2.5, lead 5 deg, h 0.05 on the monkey saddle.
+    fn monkey_saddle_job() -> Job {
+        test_surfaces::job(
             test_surfaces::monkey_saddle([0.0, 0.0], 0.0),
             Strategy::TensorRegions,
             2.5,
             5.0,
             0.05,
-        );
+        )
+    }
+
+    #[test]
+    fn monkey_saddle_candidates_are_estimated_and_the_shortest_built() {
+        let job = monkey_saddle_job();
         let all = candidates(&job, &NoProgress).unwrap();
         // The two best estimates and the baselines' two plans.
         assert!((EXACT_BUILDS..=EXACT_BUILDS + 2).contains(&all.len()));
@@ -724,13 +729,7 @@ mod tests {
 
     #[test]
     fn monkey_saddle_partitioned_candidate_carries_the_partition() {
-        let job = test_surfaces::job(
-            test_surfaces::monkey_saddle([0.0, 0.0], 0.0),
-            Strategy::TensorRegions,
-            2.5,
-            5.0,
-            0.05,
-        );
+        let job = monkey_saddle_job();
         let r = candidate(&job, "partitioned", &NoProgress)
             .unwrap()
             .unwrap();
