@@ -1,6 +1,6 @@
 use crate::error::{Error, Result};
 use crate::ros::ros_args::{self, RosArgs};
-use crate::ros::{logging, node, parameters, NodeConfig};
+use crate::ros::{logging, node, parameters, security, NodeConfig};
 use std::path::Path;
 
 /// `toolpath node [--config FILE] [--ros-args ...]`: runs the node until
@@ -22,17 +22,43 @@ pub fn run(config: Option<&Path>, ros: Option<&[String]>) -> Result<()> {
         &logging::directives(&args.log_levels, &logger),
         args.stdout_logs.unwrap_or(true),
     );
-    if let Some(enclave) = &args.enclave {
-        log::warn!(
-            "--enclave {enclave}: DDS security (SROS2 enclaves) is not supported by this node yet; it runs without security"
-        );
-    }
+    let enclave_dir = enclave_dir(&security::Request::from_env(args.enclave.as_deref()))?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()
         .map_err(|e| Error::planning(format!("cannot start the async runtime: {e}")))?;
-    runtime.block_on(node::run(resolved))
+    runtime.block_on(node::run(resolved, enclave_dir))
+}
+
+/// The enclave directory the node secures its participant with, checked
+/// before anything starts; `None` runs unsecured (the default), with a
+/// warning when an enclave was asked for but security is not enabled.
+fn enclave_dir(request: &security::Request) -> Result<Option<std::path::PathBuf>> {
+    if !request.enabled {
+        if request.enclave != "/" {
+            log::warn!(
+                "--enclave {}: DDS Security is off (it is on only with ROS_SECURITY_ENABLE=true)",
+                request.enclave
+            );
+        }
+        return Ok(None);
+    }
+    let Some(dir) = request.enclave_dir()? else {
+        return Ok(None);
+    };
+    if !security::BUILT_WITH_SECURITY && request.strategy == security::Strategy::Permissive {
+        log::warn!(
+            "DDS Security is off: this build of toolpath has no DDS Security (cargo build --features security); ROS_SECURITY_STRATEGY=Enforce refuses to start instead"
+        );
+        return Ok(None);
+    }
+    log::info!(
+        "DDS Security on: enclave {} ({})",
+        request.enclave,
+        dir.display()
+    );
+    Ok(Some(dir))
 }
 
 /// Logs to stderr with `default` as the filter unless RUST_LOG is set.

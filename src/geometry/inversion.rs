@@ -19,7 +19,67 @@ use nalgebra::{Matrix2, Point3, Vector2, Vector3};
 /// Positions and derivatives of the surface, continued past its boundary by
 /// the second-order Taylor expansion at the nearest boundary point, so that
 /// tools overhanging the edge see a smooth continuation.
+///
+/// Past a collapsed boundary (a pole) the surface continues on the other
+/// side of the pole instead ([`beyond_pole`]).
 pub fn extended_derivs(surface: &NurbsSurface, u: f64, v: f64) -> SurfaceDerivs {
+    if let Some(d) = beyond_pole(surface, u, v) {
+        return d;
+    }
+    taylor_extended(surface, u, v)
+}
+
+/// Past a collapsed boundary at parameter c, the surface at c - t is the
+/// surface at c + t turned half a turn about the pole's normal: parameter
+/// lines through a pole are diameters, and the half turn is exact for a
+/// surface of revolution and right to second order for any smooth surface
+/// (the height over the tangent plane is even to that order). `None` away
+/// from collapsed boundaries (docs/methods.md, "Degenerate boundaries").
+pub fn beyond_pole(surface: &NurbsSurface, u: f64, v: f64) -> Option<SurfaceDerivs> {
+    let c = surface.collapsed_boundaries();
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let mirror = |t: f64, lo: f64, hi: f64, at_lo: bool, at_hi: bool| -> Option<(f64, f64)> {
+        if at_lo && t < lo {
+            Some(((2.0 * lo - t).min(hi), lo))
+        } else if at_hi && t > hi {
+            Some(((2.0 * hi - t).max(lo), hi))
+        } else {
+            None
+        }
+    };
+    let mu = mirror(u, u0, u1, c[0], c[1]);
+    let mv = mirror(v, v0, v1, c[2], c[3]);
+    if mu.is_none() && mv.is_none() {
+        return None;
+    }
+    let (pu, su) = match mu {
+        Some((m, pole)) => (pole, m),
+        None => (u, u),
+    };
+    let (pv, sv) = match mv {
+        Some((m, pole)) => (pole, m),
+        None => (v, v),
+    };
+    // The pole and its normal (the limit of the neighbouring normals).
+    let pole = surface.point(pu, pv);
+    let n = surface.normal(pu, pv)?;
+    let turn = |x: Vector3<f64>| n * (2.0 * n.dot(&x)) - x;
+    let d = taylor_extended(surface, su, sv);
+    let (fu, fv) = (
+        if mu.is_some() { -1.0 } else { 1.0 },
+        if mv.is_some() { -1.0 } else { 1.0 },
+    );
+    Some(SurfaceDerivs {
+        p: pole + turn(d.p - pole),
+        su: turn(d.su) * fu,
+        sv: turn(d.sv) * fv,
+        suu: turn(d.suu),
+        suv: turn(d.suv) * (fu * fv),
+        svv: turn(d.svv),
+    })
+}
+
+fn taylor_extended(surface: &NurbsSurface, u: f64, v: f64) -> SurfaceDerivs {
     let (uc, vc) = surface.clamp_uv(u, v);
     let d = surface.derivs(uc, vc);
     let (du, dv) = (u - uc, v - vc);

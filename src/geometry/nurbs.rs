@@ -40,7 +40,28 @@ pub struct NurbsSurface {
     /// The trimmed face, where only part of the domain is the surface
     /// (`None`: the whole domain).
     trim: Option<std::sync::Arc<super::trim::Trim>>,
+    /// Which boundaries `[u0, u1, v0, v1]` are collapsed to a point (a pole
+    /// or the apex of a triangular patch): S_v = 0 along u = u0 or u1,
+    /// S_u = 0 along v = v0 or v1 (docs/methods.md, "Degenerate boundaries").
+    collapsed: [bool; 4],
 }
+
+/// Share of the parameter span next to a collapsed boundary inside which the
+/// derivatives are taken at that distance from it: the limit of the
+/// neighbouring tangent planes and curvatures (docs/methods.md, "Degenerate
+/// boundaries"). The normal moves by about this share of the span's length
+/// over the radius of curvature; rounding in S_vv (1e-16 relative) over
+/// |S_v|^2 (this share squared) keeps curvatures to about 1e-8 relative.
+pub const POLE_NUDGE: f64 = 1e-5;
+
+/// A boundary whose points all lie within this share of the control net's
+/// diagonal of each other is collapsed.
+const COLLAPSE_TOLERANCE: f64 = 1e-9;
+
+/// Weights whose largest value lies outside [2^-64, 2^64] are scaled by a
+/// power of two (exact, the same surface: weights are homogeneous) so that
+/// products with small basis values do not underflow.
+const WEIGHT_RANGE: f64 = 18446744073709551616.0;
 
 fn check_knots(name: &str, degree: usize, count: usize, knots: &[f64]) -> Result<()> {
     if degree == 0 {
@@ -163,6 +184,7 @@ impl NurbsSurface {
         check_knots("v", degree_v, count_v, &knots_v)?;
         let mut homogeneous = Vec::with_capacity(count_u * count_v);
         let mut rational = false;
+        let mut weight_scale = 1.0;
         if let Some(w) = weights {
             if w.len() != count_u {
                 return Err(Error::invalid(
@@ -180,6 +202,19 @@ impl NurbsSurface {
                         ),
                     ));
                 }
+                for (j, &x) in row.iter().enumerate() {
+                    if !x.is_finite() || x <= 0.0 {
+                        return Err(Error::invalid(
+                            format!("weights[{i}][{j}]"),
+                            format!("weight {x} must be a positive finite number"),
+                        ));
+                    }
+                }
+            }
+            let max = w.iter().flatten().fold(0.0f64, |a, &b| a.max(b));
+            if !(1.0 / WEIGHT_RANGE..=WEIGHT_RANGE).contains(&max) {
+                // 2^-e with max in [2^e, 2^(e+1)): the largest weight becomes [1, 2).
+                weight_scale = 2f64.powi(-(max.log2().floor() as i32));
             }
         }
         for i in 0..count_u {
@@ -188,20 +223,15 @@ impl NurbsSurface {
                     Some(w) => w[i][j],
                     None => 1.0,
                 };
-                if !w.is_finite() || w <= 0.0 {
-                    return Err(Error::invalid(
-                        format!("weights[{i}][{j}]"),
-                        format!("weight {w} must be a positive finite number"),
-                    ));
-                }
                 if w != 1.0 {
                     rational = true;
                 }
+                let w = w * weight_scale;
                 let p = control_points[i][j];
                 homogeneous.push([p[0] * w, p[1] * w, p[2] * w, w]);
             }
         }
-        Ok(Self {
+        let mut surface = Self {
             degree_u,
             degree_v,
             knots_u,
@@ -211,7 +241,72 @@ impl NurbsSurface {
             homogeneous,
             rational,
             trim: None,
-        })
+            collapsed: [false; 4],
+        };
+        surface.collapsed = surface.find_collapsed();
+        Ok(surface)
+    }
+
+    /// Which boundaries are a single point: sampled at a few points per
+    /// knot span (a non-constant spline of that degree cannot pass through
+    /// them all at one point).
+    fn find_collapsed(&self) -> [bool; 4] {
+        let (lo, hi) = self.bounding_box();
+        let tol = COLLAPSE_TOLERANCE * (hi - lo).norm();
+        let ((u0, u1), (v0, v1)) = self.domain();
+        let samples = |knots: &[f64], degree: usize, count: usize| -> Vec<f64> {
+            let mut t = Vec::new();
+            for k in degree..count {
+                let (a, b) = (knots[k], knots[k + 1]);
+                if b > a {
+                    t.extend(
+                        (0..=degree + 1).map(|i| a + (b - a) * i as f64 / (degree + 1) as f64),
+                    );
+                }
+            }
+            t
+        };
+        let along_v = samples(&self.knots_v, self.degree_v, self.count_v);
+        let along_u = samples(&self.knots_u, self.degree_u, self.count_u);
+        let is_point = |pts: Vec<Point3<f64>>| {
+            pts.first()
+                .is_some_and(|f| pts.iter().all(|p| (p - f).norm() <= tol))
+        };
+        [
+            is_point(along_v.iter().map(|&v| self.point(u0, v)).collect()),
+            is_point(along_v.iter().map(|&v| self.point(u1, v)).collect()),
+            is_point(along_u.iter().map(|&u| self.point(u, v0)).collect()),
+            is_point(along_u.iter().map(|&u| self.point(u, v1)).collect()),
+        ]
+    }
+
+    /// Which boundaries `[u0, u1, v0, v1]` are collapsed to a point.
+    pub fn collapsed_boundaries(&self) -> [bool; 4] {
+        self.collapsed
+    }
+
+    /// `(u, v)` (clamped) moved off any collapsed boundary by
+    /// [`POLE_NUDGE`] of the span: where the derivatives are taken.
+    pub fn off_collapsed(&self, u: f64, v: f64) -> (f64, f64) {
+        let (mut u, mut v) = self.clamp_uv(u, v);
+        if self.collapsed == [false; 4] {
+            return (u, v);
+        }
+        let ((u0, u1), (v0, v1)) = self.domain();
+        let (du, dv) = (POLE_NUDGE * (u1 - u0), POLE_NUDGE * (v1 - v0));
+        if self.collapsed[0] {
+            u = u.max(u0 + du);
+        }
+        if self.collapsed[1] {
+            u = u.min(u1 - du);
+        }
+        if self.collapsed[2] {
+            v = v.max(v0 + dv);
+        }
+        if self.collapsed[3] {
+            v = v.min(v1 - dv);
+        }
+        (u, v)
     }
 
     /// The surface trimmed to a face ([`Trim::new`](super::trim::Trim::new)
@@ -315,7 +410,25 @@ impl NurbsSurface {
     /// [`Self::derivs_with`] with the degrees and order as constants for the
     /// common bicubic surface, so that the compiler unrolls its loops: the
     /// same operations in the same order, hence the same bits, only faster.
+    ///
+    /// Next to a collapsed boundary the derivatives are those at
+    /// [`Self::off_collapsed`] and only the point is the exact one: on the
+    /// boundary itself S_u x S_v = 0 and curvature from rounding noise
+    /// (docs/methods.md, "Degenerate boundaries").
     fn derivs_order(&self, u: f64, v: f64, order: usize) -> SurfaceDerivs {
+        if order > 0 && self.collapsed != [false; 4] {
+            let (u, v) = self.clamp_uv(u, v);
+            let (nu, nv) = self.off_collapsed(u, v);
+            if (nu, nv) != (u, v) {
+                let mut d = self.derivs_exact(nu, nv, order);
+                d.p = self.derivs_exact(u, v, 0).p;
+                return d;
+            }
+        }
+        self.derivs_exact(u, v, order)
+    }
+
+    fn derivs_exact(&self, u: f64, v: f64, order: usize) -> SurfaceDerivs {
         match (self.degree_u, self.degree_v, order) {
             (3, 3, 2) => self.derivs_with(u, v, 3, 3, 2),
             (3, 3, 1) => self.derivs_with(u, v, 3, 3, 1),

@@ -4,7 +4,9 @@
 //! the contact point towards the wheel centre), y = z x x (the belt's running
 //! direction at the contact). Its orientation is `Rz(C) Ry(B) Rx(A)` (fixed-axis
 //! roll A, pitch B, yaw C); X Y Z place the wheel centre:
-//! `xyz = origin + wheel_centre` (workpiece and machine frames parallel).
+//! `xyz = origin + R wheel_centre`, R the workpiece frame's rotation in the
+//! machine ([`super::Placement`]; identity by default); the wheel frame is
+//! rotated by R too.
 
 use super::config::Belt6Config;
 use super::mill5::unwrap_near;
@@ -43,11 +45,11 @@ pub fn wheel_frame(axis: [f64; 3], normal: [f64; 3]) -> Result<Matrix3<f64>> {
 pub fn forward(cfg: &Belt6Config, q: &[f64; 6]) -> ([f64; 3], [f64; 3], [f64; 3]) {
     let r = Rotation3::from_euler_angles(q[3], q[4], q[5]);
     let m = r.matrix();
-    let o = cfg.workpiece_origin_mm;
+    let placement = cfg.placement();
     (
-        [q[0] - o[0], q[1] - o[1], q[2] - o[2]],
-        [m[(0, 0)], m[(1, 0)], m[(2, 0)]],
-        [m[(0, 2)], m[(1, 2)], m[(2, 2)]],
+        placement.point_to_workpiece([q[0], q[1], q[2]]),
+        placement.vector_to_workpiece([m[(0, 0)], m[(1, 0)], m[(2, 0)]]),
+        placement.vector_to_workpiece([m[(0, 2)], m[(1, 2)], m[(2, 2)]]),
     )
 }
 
@@ -65,9 +67,12 @@ pub fn inverse(
             "belt6: wheel centre {centre:?} is not finite"
         )));
     }
-    let m = wheel_frame(axis, normal)?;
-    let o = cfg.workpiece_origin_mm;
-    let xyz = [o[0] + centre[0], o[1] + centre[1], o[2] + centre[2]];
+    let placement = cfg.placement();
+    let m = wheel_frame(
+        placement.vector_to_machine(axis),
+        placement.vector_to_machine(normal),
+    )?;
+    let xyz = placement.point_to_machine(centre);
     let sb = (-m[(2, 0)]).clamp(-1.0, 1.0);
     let cb = m[(0, 0)].hypot(m[(1, 0)]);
     let (pa, pb, pc) = match prev {
@@ -132,6 +137,7 @@ pub fn inverse_path(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::FRAC_PI_2;
 
     /// Independent FK: rotate the wheel-frame basis vectors one elementary
     /// rotation at a time (x first, then y, then z, all about fixed axes).
@@ -168,6 +174,38 @@ mod tests {
 
     fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
         (0..3).all(|k| (a[k] - b[k]).abs() <= tol)
+    }
+
+    #[test]
+    fn a_workpiece_rolled_a_quarter_about_x_rolls_the_wheel() {
+        // Roll 90 deg: workpiece +y is machine +z, workpiece +z is machine -y.
+        let cfg = Belt6Config {
+            workpiece_origin_mm: [800.0, 900.0, 300.0],
+            workpiece_rpy_deg: [90.0, 0.0, 0.0],
+            ..Belt6Config::default()
+        };
+        // Wheel axis workpiece +x, normal workpiece +z = machine -y: the wheel
+        // frame is Rx(90 deg) of the machine's, so A = 90 deg, B = C = 0;
+        // centre workpiece (0, 10, 20) = machine origin + (0, -20, 10).
+        let q = inverse(
+            &cfg,
+            [0.0, 10.0, 20.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0],
+            None,
+        )
+        .unwrap();
+        assert!(
+            close([q[0], q[1], q[2]], [800.0, 880.0, 310.0], 1e-9),
+            "{q:?}"
+        );
+        assert!(
+            close([q[3], q[4], q[5]], [FRAC_PI_2, 0.0, 0.0], 1e-12),
+            "{q:?}"
+        );
+        let (centre, axis, normal) = forward(&cfg, &q);
+        assert!(close(centre, [0.0, 10.0, 20.0], 1e-9));
+        assert!(close(axis, [1.0, 0.0, 0.0], 1e-12) && close(normal, [0.0, 0.0, 1.0], 1e-12));
     }
 
     #[test]

@@ -3,6 +3,7 @@
 //! mm and radians by [`JointLimit`].
 
 use super::controller::ControllerConfig;
+use super::placement::Placement;
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 
@@ -149,8 +150,11 @@ pub struct Mill5Config {
     pub pivot_length_mm: f64,
     /// Machine X Y Z of the pivot when the tool tip is at the workpiece origin
     /// with the tool vertical, minus the pivot length: i.e. the machine
-    /// coordinates of the workpiece frame's origin. Frames are parallel.
+    /// coordinates of the workpiece frame's origin.
     pub workpiece_origin_mm: [f64; 3],
+    /// Orientation of the workpiece frame in the machine frame: ROS roll,
+    /// pitch, yaw (fixed x, y, z axes), degrees; zero = frames parallel.
+    pub workpiece_rpy_deg: [f64; 3],
     pub max_feed_rate_mm_min: f64,
     /// Retract along the tool axis before and after each pass, mm.
     pub retract_mm: f64,
@@ -168,6 +172,7 @@ impl Default for Mill5Config {
         Self {
             pivot_length_mm: 250.0,
             workpiece_origin_mm: [2500.0, 1000.0, 300.0],
+            workpiece_rpy_deg: [0.0; 3],
             max_feed_rate_mm_min: 4000.0,
             retract_mm: 10.0,
             x: LinearAxis::new(0.0, 6000.0, 500.0, 2000.0),
@@ -181,10 +186,21 @@ impl Default for Mill5Config {
 }
 
 impl Mill5Config {
+    /// The pose of the workpiece frame in the machine frame.
+    pub fn placement(&self) -> Placement {
+        Placement::new(
+            self.workpiece_origin_mm,
+            self.workpiece_rpy_deg.map(f64::to_radians),
+        )
+    }
+
     pub fn validate(&self) -> Result<()> {
         positive("mill5.pivot_length_mm", self.pivot_length_mm)?;
         for (k, v) in self.workpiece_origin_mm.iter().enumerate() {
             finite(&format!("mill5.workpiece_origin_mm[{k}]"), *v)?;
+        }
+        for (k, v) in self.workpiece_rpy_deg.iter().enumerate() {
+            finite(&format!("mill5.workpiece_rpy_deg[{k}]"), *v)?;
         }
         positive("mill5.max_feed_rate_mm_min", self.max_feed_rate_mm_min)?;
         if !self.retract_mm.is_finite() || self.retract_mm < 0.0 {
@@ -234,9 +250,12 @@ impl Mill5Config {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Belt6Config {
-    /// Machine X Y Z of the workpiece frame's origin (frames parallel); the
-    /// joints X Y Z place the contact-wheel centre.
+    /// Machine X Y Z of the workpiece frame's origin; the joints X Y Z place
+    /// the contact-wheel centre.
     pub workpiece_origin_mm: [f64; 3],
+    /// Orientation of the workpiece frame in the machine frame: ROS roll,
+    /// pitch, yaw (fixed x, y, z axes), degrees; zero = frames parallel.
+    pub workpiece_rpy_deg: [f64; 3],
     pub max_feed_rate_mm_min: f64,
     /// Lift-off along the contact normal before and after each pass, mm.
     pub retract_mm: f64,
@@ -254,6 +273,7 @@ impl Default for Belt6Config {
     fn default() -> Self {
         Self {
             workpiece_origin_mm: [1500.0, 1000.0, 400.0],
+            workpiece_rpy_deg: [0.0; 3],
             max_feed_rate_mm_min: 6000.0,
             retract_mm: 10.0,
             x: LinearAxis::new(0.0, 4000.0, 400.0, 1500.0),
@@ -268,9 +288,20 @@ impl Default for Belt6Config {
 }
 
 impl Belt6Config {
+    /// The pose of the workpiece frame in the machine frame.
+    pub fn placement(&self) -> Placement {
+        Placement::new(
+            self.workpiece_origin_mm,
+            self.workpiece_rpy_deg.map(f64::to_radians),
+        )
+    }
+
     pub fn validate(&self) -> Result<()> {
         for (k, v) in self.workpiece_origin_mm.iter().enumerate() {
             finite(&format!("belt6.workpiece_origin_mm[{k}]"), *v)?;
+        }
+        for (k, v) in self.workpiece_rpy_deg.iter().enumerate() {
+            finite(&format!("belt6.workpiece_rpy_deg[{k}]"), *v)?;
         }
         positive("belt6.max_feed_rate_mm_min", self.max_feed_rate_mm_min)?;
         if !self.retract_mm.is_finite() || self.retract_mm < 0.0 {

@@ -5,7 +5,8 @@
 //! `Rz(C) Rx(A) (0, 0, 1) = (sin A sin C, -sin A cos C, cos A)`. The joints
 //! X Y Z place the pivot (where the A and C axes meet), which sits the pivot
 //! length L above the tool tip along the axis:
-//! `pivot = origin + tip + L axis` (workpiece and machine frames parallel).
+//! `pivot = origin + R tip + L R axis`, R the workpiece frame's rotation in
+//! the machine ([`super::Placement`]; identity by default).
 
 use super::config::Mill5Config;
 use crate::error::{Error, Result};
@@ -18,12 +19,13 @@ pub const SINGULAR_SIN_A: f64 = 1e-9;
 pub fn forward(cfg: &Mill5Config, pivot_length: f64, q: &[f64; 5]) -> ([f64; 3], [f64; 3]) {
     let (sa, ca) = q[3].sin_cos();
     let (sc, cc) = q[4].sin_cos();
-    let axis = [sa * sc, -sa * cc, ca];
-    let o = cfg.workpiece_origin_mm;
+    let placement = cfg.placement();
+    let axis = placement.vector_to_workpiece([sa * sc, -sa * cc, ca]);
+    let pivot = placement.point_to_workpiece([q[0], q[1], q[2]]);
     let tip = [
-        q[0] - o[0] - pivot_length * axis[0],
-        q[1] - o[1] - pivot_length * axis[1],
-        q[2] - o[2] - pivot_length * axis[2],
+        pivot[0] - pivot_length * axis[0],
+        pivot[1] - pivot_length * axis[1],
+        pivot[2] - pivot_length * axis[2],
     ];
     (tip, axis)
 }
@@ -52,12 +54,13 @@ pub fn inverse(
             "mill5: cannot pose the tool at tip {tip:?} with axis {axis:?} (not a finite unit axis)"
         )));
     }
-    let a = [axis[0] / n, axis[1] / n, axis[2] / n];
-    let o = cfg.workpiece_origin_mm;
+    let placement = cfg.placement();
+    let a = placement.vector_to_machine([axis[0] / n, axis[1] / n, axis[2] / n]);
+    let tip = placement.point_to_machine(tip);
     let xyz = [
-        o[0] + tip[0] + pivot_length * a[0],
-        o[1] + tip[1] + pivot_length * a[1],
-        o[2] + tip[2] + pivot_length * a[2],
+        tip[0] + pivot_length * a[0],
+        tip[1] + pivot_length * a[1],
+        tip[2] + pivot_length * a[2],
     ];
     let (ang_a, ang_c) = tilt_and_turn(a, head_turn(a), prev.map(|p| (p[3], p[4])), c_hint);
     Ok([xyz[0], xyz[1], xyz[2], ang_a, ang_c])
@@ -137,6 +140,7 @@ pub fn inverse_path(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::FRAC_PI_2;
 
     /// Independent forward kinematics: compose the head's homogeneous
     /// transforms (translate to the pivot, rotate C about z, A about x, go
@@ -158,6 +162,38 @@ mod tests {
 
     fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
         (0..3).all(|k| (a[k] - b[k]).abs() <= tol)
+    }
+
+    #[test]
+    fn a_workpiece_turned_a_quarter_about_z_turns_the_pose() {
+        // Yaw 90 deg: workpiece +x is machine +y, workpiece +y is machine -x.
+        let cfg = Mill5Config {
+            workpiece_origin_mm: [1000.0, 500.0, 200.0],
+            workpiece_rpy_deg: [0.0, 0.0, 90.0],
+            ..Mill5Config::default()
+        };
+        let l = 300.0;
+        // Tool vertical over workpiece (10, 0, 5): pivot at machine
+        // (1000, 510, 205 + 300).
+        let q = inverse(&cfg, l, [10.0, 0.0, 5.0], [0.0, 0.0, 1.0], None, 0.0).unwrap();
+        assert!(
+            close([q[0], q[1], q[2]], [1000.0, 510.0, 505.0], 1e-9),
+            "{q:?}"
+        );
+        // Tool axis along workpiece +x = machine +y: A = 90 deg, C = 180 deg
+        // ((sin A sin C, -sin A cos C, cos A) = (0, 1, 0)); pivot 300 mm along
+        // machine +y from the tip at the workpiece origin.
+        let q = inverse(&cfg, l, [0.0; 3], [1.0, 0.0, 0.0], None, 0.0).unwrap();
+        assert!(
+            close([q[0], q[1], q[2]], [1000.0, 800.0, 200.0], 1e-9),
+            "{q:?}"
+        );
+        assert!(
+            (q[3] - FRAC_PI_2).abs() < 1e-12 && (q[4].abs() - PI).abs() < 1e-12,
+            "{q:?}"
+        );
+        let (tip, axis) = forward(&cfg, l, &q);
+        assert!(close(tip, [0.0; 3], 1e-9) && close(axis, [1.0, 0.0, 0.0], 1e-12));
     }
 
     #[test]

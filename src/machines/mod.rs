@@ -15,11 +15,13 @@ pub mod controller;
 pub mod five_axis;
 pub mod jtc;
 pub mod mill5;
+pub mod placement;
 pub mod timing;
 
 pub use config::{Belt6Config, JointLimit, Machines, Mill5Config};
 pub use controller::{ControllerConfig, Stamp, StampPolicy};
 pub use five_axis::{FiveAxis, FiveAxisConfig, Kinematics};
+pub use placement::Placement;
 
 use crate::error::{Error, Result};
 use crate::formats::{Job, Machine, PlanResult};

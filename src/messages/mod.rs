@@ -11,6 +11,7 @@
 pub mod convert;
 pub mod diagnostics;
 pub mod follow_joint_trajectory;
+pub mod frames;
 mod msgs;
 pub mod outputs;
 pub mod plan_toolpath;

@@ -95,6 +95,10 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
         include_str!("defs/geometry_msgs/Transform.msg"),
     ),
     (
+        "geometry_msgs/TransformStamped",
+        include_str!("defs/geometry_msgs/TransformStamped.msg"),
+    ),
+    (
         "geometry_msgs/Twist",
         include_str!("defs/geometry_msgs/Twist.msg"),
     ),
@@ -116,6 +120,10 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
     ),
     ("std_msgs/Header", include_str!("defs/std_msgs/Header.msg")),
     ("std_msgs/String", include_str!("defs/std_msgs/String.msg")),
+    (
+        "tf2_msgs/TFMessage",
+        include_str!("defs/tf2_msgs/TFMessage.msg"),
+    ),
     (
         "toolpath_msgs/GrindingParams",
         include_str!("../../msg/msg/GrindingParams.msg"),
@@ -811,6 +819,9 @@ mod tests {
         check::<diag::DiagnosticArray>();
         check::<diag::DiagnosticStatus>();
         check::<diag::KeyValue>();
+        use super::super::frames;
+        check::<frames::TransformStamped>();
+        check::<frames::TfMessage>();
     }
 
     #[test]

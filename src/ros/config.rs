@@ -2,6 +2,7 @@
 
 use crate::error::{Error, Result};
 use crate::machines::{Belt6Config, Machines, Mill5Config};
+use crate::messages::frames::Frames;
 use serde::{Deserialize, Serialize};
 use std::net::IpAddr;
 use std::path::Path;
@@ -21,6 +22,17 @@ pub struct NodeSettings {
     pub interfaces: Vec<String>,
     /// frame_id of every output: the workpiece frame.
     pub frame_id: String,
+    /// The mill's base frame (its machine coordinates), parent of the
+    /// workpiece frame on `/tf_static`.
+    pub mill5_frame: String,
+    /// The grinder's base frame, a child of the workpiece frame on `/tf_static`.
+    pub belt6_frame: String,
+    /// Publish the frames' tree on `/tf_static` (off when the cell publishes
+    /// these frames itself).
+    pub tf_static: bool,
+    /// How requests and replies of the node's services and actions (and its
+    /// controller clients) travel: as the cell's RMW frames them.
+    pub service_mapping: ServiceMappingSetting,
     /// How long a job waits for its surface (or pocket) to arrive, s.
     pub surface_timeout_s: f64,
     /// Planning worker threads; 0 (the default) = one per available core
@@ -35,6 +47,26 @@ pub struct NodeSettings {
     pub job_time_limit_s: f64,
     /// Jobs estimated to need more than this are refused before planning.
     pub budget: crate::pipeline::Budget,
+}
+
+/// The request/reply mapping of services and actions on DDS (`node.service_mapping`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ServiceMappingSetting {
+    /// The request id as the DDS related-sample-identity (rmw_fastrtps,
+    /// ROS 2's default RMW; rmw_connextdds).
+    Enhanced,
+    /// A 16-byte request header in the payload (rmw_cyclonedds).
+    Cyclone,
+}
+
+impl From<ServiceMappingSetting> for ros2_client::ServiceMapping {
+    fn from(s: ServiceMappingSetting) -> Self {
+        match s {
+            ServiceMappingSetting::Enhanced => ros2_client::ServiceMapping::Enhanced,
+            ServiceMappingSetting::Cyclone => ros2_client::ServiceMapping::Cyclone,
+        }
+    }
 }
 
 /// Default `node.job_time_limit_s`: ten minutes, about a hundred times what
@@ -72,6 +104,10 @@ impl Default for NodeSettings {
             domain_id: None,
             interfaces: vec!["127.0.0.1".into()],
             frame_id: "workpiece".into(),
+            mill5_frame: "mill5_base".into(),
+            belt6_frame: "belt6_base".into(),
+            tf_static: true,
+            service_mapping: ServiceMappingSetting::Enhanced,
             surface_timeout_s: 10.0,
             workers: 0,
             verify: true,
@@ -79,6 +115,30 @@ impl Default for NodeSettings {
             budget: crate::pipeline::Budget::DEFAULT,
         }
     }
+}
+
+/// The three frame names: TF names (no leading slash, no spaces), distinct.
+fn check_frames(n: &NodeSettings) -> Result<()> {
+    let frames = [
+        ("node.frame_id", &n.frame_id),
+        ("node.mill5_frame", &n.mill5_frame),
+        ("node.belt6_frame", &n.belt6_frame),
+    ];
+    for (k, (field, name)) in frames.iter().enumerate() {
+        if name.is_empty() || name.starts_with('/') || name.chars().any(char::is_whitespace) {
+            return Err(Error::invalid(
+                *field,
+                format!("\"{name}\" is not a TF frame name (not empty, no leading '/', no spaces)"),
+            ));
+        }
+        if let Some((other, _)) = frames[..k].iter().find(|(_, o)| o == name) {
+            return Err(Error::invalid(
+                *field,
+                format!("\"{name}\" is already {other}: the three frames must differ"),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Recording of the node's runs as rosbag2 bags (the `recording:` section).
@@ -244,6 +304,7 @@ impl NodeConfig {
         if n.name.is_empty() {
             return Err(Error::invalid("node.name", "must not be empty"));
         }
+        check_frames(n)?;
         if !n.surface_timeout_s.is_finite() || n.surface_timeout_s < 0.0 {
             return Err(Error::invalid(
                 "node.surface_timeout_s",
@@ -284,6 +345,15 @@ impl NodeConfig {
             return Err(Error::invalid("ipc.service", "must not be empty"));
         }
         self.machines().validate()
+    }
+
+    /// The workpiece frame and the machines' base frames with their poses.
+    pub fn frames(&self) -> Frames {
+        Frames {
+            workpiece: self.node.frame_id.clone(),
+            mill5: (self.node.mill5_frame.clone(), self.mill5.placement()),
+            belt6: (self.node.belt6_frame.clone(), self.belt6.placement()),
+        }
     }
 
     pub fn machines(&self) -> Machines {
@@ -373,6 +443,38 @@ mod tests {
     fn defaults_equal_the_default_config_file() {
         let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("launch_configs/default.yaml");
         assert_eq!(NodeConfig::read(&p).unwrap(), NodeConfig::default());
+    }
+
+    #[test]
+    fn frame_names_are_tf_names_and_distinct() {
+        for (yaml, field, why) in [
+            (
+                "node:\n  frame_id: ''\n",
+                "node.frame_id",
+                "not a TF frame name",
+            ),
+            (
+                "node:\n  mill5_frame: /mill\n",
+                "node.mill5_frame",
+                "not a TF frame name",
+            ),
+            (
+                "node:\n  belt6_frame: mill5_base\n",
+                "node.belt6_frame",
+                "is already node.mill5_frame",
+            ),
+            (
+                "node:\n  mill5_frame: workpiece\n",
+                "node.mill5_frame",
+                "is already node.frame_id",
+            ),
+        ] {
+            let e = NodeConfig::parse(yaml).unwrap_err().to_string();
+            assert!(e.contains(field) && e.contains(why), "{yaml}: {e}");
+        }
+        let turned = NodeConfig::parse("mill5:\n  workpiece_rpy_deg: [0, 0, .nan]\n");
+        let e = turned.unwrap_err().to_string();
+        assert!(e.contains("mill5.workpiece_rpy_deg[2]"), "{e}");
     }
 
     #[test]

@@ -17,7 +17,7 @@ use ros2_client::action::{ActionClient, ActionClientQosPolicies, ActionServerQos
 use ros2_client::action_msgs::GoalStatusEnum;
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::ros2::QosProfile;
-use ros2_client::{ActionTypeName, ServiceMapping};
+use ros2_client::ActionTypeName;
 use std::collections::BTreeSet;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -70,12 +70,7 @@ pub fn action_type() -> ActionTypeName {
 pub fn client(ros: &mut RosNode, action: &str) -> Result<FollowJointTrajectoryClient> {
     let name = super::node::topic_name(&ros.namespace, action)?;
     ros.node
-        .create_action_client(
-            ServiceMapping::Enhanced,
-            &name,
-            &action_type(),
-            client_qos(),
-        )
+        .create_action_client(ros.service_mapping, &name, &action_type(), client_qos())
         .map_err(|e| {
             Error::planning(format!(
                 "ROS 2: cannot create action client {action}: {e:?}"

@@ -15,7 +15,7 @@ use futures::FutureExt;
 use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus};
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::ros2::QosProfile;
-use ros2_client::{Publisher, ServiceMapping};
+use ros2_client::Publisher;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -178,7 +178,7 @@ pub fn spawn(ros: &mut RosNode, options: FakeOptions) -> Result<FakeController> 
     let server = ros
         .node
         .create_action_server::<Goal, GoalResult, Feedback>(
-            ServiceMapping::Enhanced,
+            ros.service_mapping,
             &name,
             &action_type(),
             server_qos(),

@@ -5,7 +5,7 @@
 //! replay of a bag's inputs to a running node, `ros_args` the `--ros-args`
 //! block, `parameters` the config as ROS parameters, `logging` the log on
 //! stderr and `/rosout`, `shape_readers` the QoS-tolerant shape inputs, `diagnostics` the
-//! node's health on `/diagnostics`.
+//! node's health on `/diagnostics`, `security` DDS Security from an SROS2 enclave.
 
 pub mod config;
 pub mod diagnostics;
@@ -14,11 +14,14 @@ pub mod fake_controller;
 pub mod joint_states;
 pub mod logging;
 pub mod node;
+pub mod parameter_descriptors;
 pub mod parameters;
 pub mod plan_action;
 pub mod recorder;
 pub mod republish;
 pub mod ros_args;
+pub mod security;
 pub mod shape_readers;
+pub mod tf_static;
 
 pub use config::NodeConfig;

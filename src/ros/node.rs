@@ -21,6 +21,7 @@ use crate::formats::job::DEFAULT_FEED_RATE;
 use crate::formats::{Machine, PlanResult, Shape};
 use crate::ipc::ToolpathPublisher;
 use crate::machines::Machines;
+use crate::messages::frames::Frames;
 use crate::messages::{self as msgs, convert, final_state, topics, JobOutputs, RosMessage};
 use crate::pipeline::{self, RunOptions};
 use crate::planners::Progress;
@@ -183,6 +184,8 @@ pub struct RosNode {
     pub namespace: String,
     /// Topic remapping rules (`--ros-args -r from:=to`).
     remaps: Remaps,
+    /// The request/reply mapping of the services and actions it creates.
+    pub service_mapping: ros2_client::ServiceMapping,
     _context: Context,
 }
 
@@ -193,11 +196,32 @@ impl RosNode {
         domain_id: u16,
         interfaces: Option<Vec<std::net::IpAddr>>,
     ) -> Result<Self> {
-        let options = NodeOptions::new().enable_rosout(false);
-        Self::with_options(name, namespace, domain_id, interfaces, options, &[])
+        Self::secured(name, namespace, domain_id, interfaces, None)
     }
 
-    /// A node with `options` (parameters, rosout) and topic `remaps`.
+    /// [`RosNode::new`] with DDS Security from an SROS2 enclave directory
+    /// (`None`: unsecured); see [`super::security`].
+    pub fn secured(
+        name: &str,
+        namespace: &str,
+        domain_id: u16,
+        interfaces: Option<Vec<std::net::IpAddr>>,
+        enclave_dir: Option<&std::path::Path>,
+    ) -> Result<Self> {
+        let options = NodeOptions::new().enable_rosout(false);
+        Self::with_options(
+            name,
+            namespace,
+            domain_id,
+            interfaces,
+            options,
+            &[],
+            enclave_dir,
+        )
+    }
+
+    /// A node with `options` (parameters, rosout), topic `remaps` and DDS
+    /// Security from `enclave_dir` when given.
     pub fn with_options(
         name: &str,
         namespace: &str,
@@ -205,15 +229,23 @@ impl RosNode {
         interfaces: Option<Vec<std::net::IpAddr>>,
         options: NodeOptions,
         remaps: &[(String, String)],
+        enclave_dir: Option<&std::path::Path>,
     ) -> Result<Self> {
         let mut builder = rustdds::DomainParticipantBuilder::new(domain_id);
         if let Some(ips) = interfaces {
             check_on_this_host(&ips)?;
             builder = builder.with_only_networks(ips);
         }
-        let dp = builder
-            .build()
-            .map_err(|e| ros_err("cannot create the DDS participant", e))?;
+        if let Some(dir) = enclave_dir {
+            builder = super::security::secure(builder, dir)?;
+        }
+        let dp = builder.build().map_err(|e| match enclave_dir {
+            Some(dir) => Error::invalid(
+                dir.display().to_string(),
+                format!("DDS Security refused the enclave's files: {e}"),
+            ),
+            None => ros_err("cannot create the DDS participant", e),
+        })?;
         let context = Context::from_domain_participant(dp)
             .map_err(|e| ros_err("cannot create the context", e))?;
         let node_name = NodeName::new(namespace, name)
@@ -233,6 +265,7 @@ impl RosNode {
             node,
             namespace: namespace.to_string(),
             remaps: Remaps::new(remaps, namespace, name),
+            service_mapping: ros2_client::ServiceMapping::Enhanced,
             _context: context,
         })
     }
@@ -911,10 +944,17 @@ fn check_job(msg: &msgs::Job, machines: &Machines) -> Result<()> {
 fn receive_job(
     shared: &Shared,
     outputs: &Outputs,
-    machines: &Machines,
+    (machines, frames): (&Machines, &Frames),
     msg: msgs::Job,
     timeout: Duration,
 ) {
+    let msg = match frames.job_in_workpiece(&msg) {
+        Ok(moved) => moved.unwrap_or(msg),
+        Err(e) => {
+            outputs.status(&msg.job_id, final_state(&e), 0.0, e.to_string());
+            return;
+        }
+    };
     if let Err(e) = check_job(&msg, machines) {
         outputs.status(&msg.job_id, final_state(&e), 0.0, e.to_string());
         return;
@@ -972,6 +1012,8 @@ fn receive_shape(shared: &Shared, id: String, shape: Result<Shape>) {
 struct Inputs {
     /// This node's fully qualified name, which `Job.node` may name.
     name: String,
+    /// The frames inputs may be given in.
+    frames: Frames,
     surfaces: ShapeReaders<msgs::Surface>,
     pockets: ShapeReaders<msgs::Pocket>,
     jobs: Subscription<msgs::Job>,
@@ -1058,12 +1100,21 @@ fn start_workers(
 }
 
 /// Prints the one "ready ..." line on stdout and flushes it.
-fn announce_ready(ros: &RosNode, config: &NodeConfig, domain: u16, outputs: &Outputs) {
+fn announce_ready(
+    ros: &RosNode,
+    config: &NodeConfig,
+    domain: u16,
+    outputs: &Outputs,
+    enclave_dir: Option<&std::path::Path>,
+) {
     let mut extra = outputs
         .recorder
         .as_ref()
         .map(|r| format!(", recording to {}", r.directory().display()))
         .unwrap_or_default();
+    if let Some(dir) = enclave_dir {
+        extra += &format!(", DDS Security enclave {}", dir.display());
+    }
     if config.ipc.enabled {
         extra += &format!(", iceoryx2 service {}", config.ipc.service);
     }
@@ -1160,7 +1211,8 @@ async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs
                     }
                     let config = shared.live.get();
                     let timeout = Duration::from_secs_f64(config.node.surface_timeout_s);
-                    receive_job(shared, outputs, &config.machines(), msg, timeout)
+                    let machines = config.machines();
+                    receive_job(shared, outputs, (&machines, &inputs.frames), msg, timeout)
                 }
                 Err(e) => log::error!("undecodable message on topic job: {e:?}"),
             },
@@ -1169,8 +1221,13 @@ async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs
                     if let Some(rec) = recorder {
                         rec.record(topics::SURFACE, &msg);
                     }
-                    let shape = convert::surface_from_msg(&msg).map(Shape::Surface);
-                    receive_shape(shared, msg.surface_id, shape);
+                    let id = msg.surface_id.clone();
+                    let shape = inputs
+                        .frames
+                        .surface_in_workpiece(msg)
+                        .and_then(|m| convert::surface_from_msg(&m))
+                        .map(Shape::Surface);
+                    receive_shape(shared, id, shape);
                 }
                 Err(e) => log::error!("undecodable message on topic surface: {e:?}"),
             },
@@ -1179,7 +1236,11 @@ async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs
                     if let Some(rec) = recorder {
                         rec.record(topics::POCKET, &msg);
                     }
-                    let shape = convert::pocket_from_msg(&msg).map(Shape::Pocket);
+                    let shape = inputs
+                        .frames
+                        .check_pocket(&msg)
+                        .and_then(|()| convert::pocket_from_msg(&msg))
+                        .map(Shape::Pocket);
                     receive_shape(shared, msg.pocket_id, shape);
                 }
                 Err(e) => log::error!("undecodable message on topic pocket: {e:?}"),
@@ -1261,7 +1322,9 @@ fn shut_down(
 
 /// Runs the node until SIGINT/SIGTERM. Prints one line "ready ..." on stdout
 /// once every topic exists (tests and the demo wait for it).
-pub async fn run(resolved: Resolved) -> Result<()> {
+/// `enclave_dir`: the SROS2 enclave to secure the participant with
+/// ([`super::security::Request::enclave_dir`]), `None` for none.
+pub async fn run(resolved: Resolved, enclave_dir: Option<std::path::PathBuf>) -> Result<()> {
     let config = &resolved.config;
     config.validate()?;
     large_blocks_back_to_the_system();
@@ -1277,7 +1340,9 @@ pub async fn run(resolved: Resolved) -> Result<()> {
         config.interfaces()?,
         options,
         &resolved.remaps,
+        enclave_dir.as_deref(),
     )?;
+    ros.service_mapping = settings.service_mapping.into();
     super::logging::attach_rosout(
         ros.node.logging_handle(),
         super::logging::logger_name(&settings.namespace, &settings.name),
@@ -1288,6 +1353,7 @@ pub async fn run(resolved: Resolved) -> Result<()> {
     }
     let inputs = Inputs {
         name: ros.node.fully_qualified_name(),
+        frames: config.frames(),
         surfaces: ShapeReaders {
             volatile: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
             transient_local: ros.subscription(topics::SURFACE, qos::shapes_history_reader())?,
@@ -1316,11 +1382,16 @@ pub async fn run(resolved: Resolved) -> Result<()> {
         shared: Arc::clone(&shared),
         outputs: Arc::downgrade(&outputs),
         machines: config.machines(),
+        frames: config.frames(),
     };
     super::plan_action::serve(&mut ros, Arc::new(queue))?;
+    let _tf_static = match settings.tf_static {
+        true => Some(super::tf_static::publish(&mut ros.node, &config.frames())?),
+        false => None,
+    };
     let diagnostics_publisher = super::diagnostics::publisher(&mut ros.node)?;
     let diagnostics = diagnostics(&ros, diagnostics_publisher, config, &shared, &outputs);
-    announce_ready(&ros, config, domain, &outputs);
+    announce_ready(&ros, config, domain, &outputs, enclave_dir.as_deref());
     let received = tokio::select! {
         r = receive_until_signal(inputs, &shared, &outputs) => r,
         () = diagnostics => Ok(()),

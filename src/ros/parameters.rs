@@ -39,7 +39,7 @@ pub const RUNTIME: &[&str] = &[
 ];
 
 /// Why a setting outside [`RUNTIME`] cannot change while the node runs.
-fn read_only_reason(name: &str) -> String {
+pub(crate) fn read_only_reason(name: &str) -> String {
     let why = if name == "node.workers" {
         "the planning threads are started once, when the node starts"
     } else if name.starts_with("mill5.controller.") || name.starts_with("belt6.controller.") {
@@ -410,10 +410,15 @@ pub fn node_options(
     builtin: &[(String, ParameterValue)],
     live: &Arc<LiveConfig>,
 ) -> Result<NodeOptions> {
-    let mut options = NodeOptions::new();
+    let mut options =
+        NodeOptions::new().parameter_service_mapping(config.node.service_mapping.into());
+    let descriptions = super::parameter_descriptors::descriptions();
     for (name, leaf) in flatten(&to_tree(config)?)? {
         let value = to_parameter(&leaf).map_err(|e| Error::invalid(&name, e))?;
-        options = options.declare_parameter(&name, value);
+        let descriptor = super::parameter_descriptors::descriptor(&name, &value, &descriptions);
+        options = options
+            .declare_parameter(&name, value)
+            .parameter_descriptor(descriptor);
     }
     for (name, value) in builtin {
         options = options.declare_parameter(name, value.clone());

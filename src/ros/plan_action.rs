@@ -23,7 +23,7 @@ use ros2_client::action::ActionClient;
 use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus, GoalId};
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::ros2::QosProfile;
-use ros2_client::{ActionTypeName, Client, Server, ServiceMapping, ServiceTypeName};
+use ros2_client::{ActionTypeName, Client, Server, ServiceTypeName};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -37,9 +37,6 @@ impl ros2_client::Message for Feedback {}
 pub const ACTION: &str = "plan_toolpath";
 /// The service's name (services and actions have separate names in ROS 2).
 pub const SERVICE: &str = "plan_toolpath";
-
-/// The mapping of requests onto DDS, as the node's action client uses.
-pub const SERVICE_MAPPING: ServiceMapping = ServiceMapping::Enhanced;
 
 /// How long a finished goal waits for its client to ask for the result.
 pub const RESULT_WAIT: Duration = Duration::from_secs(300);
@@ -67,7 +64,7 @@ pub type PlanToolpathClient = ActionClient<Goal, GoalResult, Feedback>;
 pub fn action_client(ros: &mut RosNode) -> Result<PlanToolpathClient> {
     let name = topic_name(&ros.namespace, ACTION)?;
     ros.node
-        .create_action_client(SERVICE_MAPPING, &name, &action_type(), client_qos())
+        .create_action_client(ros.service_mapping, &name, &action_type(), client_qos())
         .map_err(|e| {
             Error::planning(format!(
                 "ROS 2: cannot create action client {ACTION}: {e:?}"
@@ -80,7 +77,7 @@ pub fn service_client(ros: &mut RosNode) -> Result<Client<Goal, GoalResult>> {
     let name = topic_name(&ros.namespace, SERVICE)?;
     ros.node
         .create_client(
-            SERVICE_MAPPING,
+            ros.service_mapping,
             &name,
             &service_type(),
             service_qos(),
@@ -427,7 +424,7 @@ pub fn serve(ros: &mut RosNode, queue: Arc<dyn GoalQueue>) -> Result<()> {
     let server = ros
         .node
         .create_action_server::<Goal, GoalResult, Feedback>(
-            SERVICE_MAPPING,
+            ros.service_mapping,
             &action,
             &action_type(),
             server_qos(),
@@ -438,7 +435,7 @@ pub fn serve(ros: &mut RosNode, queue: Arc<dyn GoalQueue>) -> Result<()> {
     let service_server = ros
         .node
         .create_server::<Goal, GoalResult>(
-            SERVICE_MAPPING,
+            ros.service_mapping,
             &service,
             &service_type(),
             service_qos(),

@@ -229,3 +229,106 @@ pub fn turbine_blade() -> NurbsSurface {
         None,
     ))
 }
+
+/// Radius of the sphere cap sample.
+pub const SPHERE_CAP_RADIUS: f64 = 60.0;
+
+/// Revolves the rational profile `(r, z, weight)` (control points in the
+/// xz half-plane, `r >= 0`) about the z axis by `sweep_deg` (at most 90,
+/// one rational quadratic arc): u along the profile, v around the axis from
+/// the +x axis. A profile point with r = 0 becomes a row of coincident
+/// control points, a pole.
+pub fn revolve(
+    degree_u: usize,
+    knots_u: Vec<f64>,
+    profile: &[([f64; 2], f64)],
+    sweep_deg: f64,
+) -> crate::error::Result<NurbsSurface> {
+    let half = (0.5 * sweep_deg).to_radians();
+    let (s2, c2) = (2.0 * half).sin_cos();
+    // The arc's middle control point lies on the bisector at 1 / cos(half).
+    let dirs = [
+        ([1.0, 0.0], 1.0),
+        ([1.0, half.tan()], half.cos()),
+        ([c2, s2], 1.0),
+    ];
+    let cps: Vec<Vec<[f64; 3]>> = profile
+        .iter()
+        .map(|&([r, z], _)| dirs.iter().map(|(d, _)| [r * d[0], r * d[1], z]).collect())
+        .collect();
+    let ws: Vec<Vec<f64>> = profile
+        .iter()
+        .map(|&(_, wp)| dirs.iter().map(|(_, w)| wp * w).collect())
+        .collect();
+    NurbsSurface::new(
+        degree_u,
+        2,
+        knots_u,
+        vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0],
+        &cps,
+        Some(&ws),
+    )
+}
+
+/// Quarter of a spherical cap of radius 60 centred at the origin: polar
+/// angle 0 to 60 deg (u, one exact rational quadratic arc), azimuth 0 to 90
+/// deg (v). Its u = 0 row of control points is the pole (0, 0, 60): a
+/// degenerate boundary where S_v = 0. Convex towards the tool (+z):
+/// kappa = -1/60 everywhere, the pole included.
+pub fn sphere_cap() -> NurbsSurface {
+    built(sphere_cap_scaled(1.0))
+}
+
+/// [`sphere_cap`] with every weight multiplied by `scale` (the same surface:
+/// weights are homogeneous), for the tiny- and huge-weight cases.
+pub fn sphere_cap_scaled(scale: f64) -> crate::error::Result<NurbsSurface> {
+    let r = SPHERE_CAP_RADIUS;
+    let half = 30f64.to_radians();
+    let profile = [
+        ([0.0, r], scale),
+        ([r * half.tan(), r], scale * half.cos()),
+        ([r * (2.0 * half).sin(), r * (2.0 * half).cos()], scale),
+    ];
+    revolve(2, vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0], &profile, 90.0)
+}
+
+/// Control points (r, z) of [`revolved_profile`]'s cubic profile: the first
+/// leg is horizontal, so the surface has a tangent plane on the axis.
+pub const REVOLVED_PROFILE: [[f64; 2]; 5] = [
+    [0.0, 25.0],
+    [12.0, 25.0],
+    [25.0, 18.0],
+    [38.0, 8.0],
+    [50.0, 5.0],
+];
+
+/// Knots of [`revolved_profile`]'s profile.
+pub const REVOLVED_PROFILE_KNOTS: [f64; 9] = [0.0, 0.0, 0.0, 0.0, 0.5, 1.0, 1.0, 1.0, 1.0];
+
+/// A freeform cubic profile ([`REVOLVED_PROFILE`]) revolved by 90 deg
+/// about the z axis, the axis on its u = 0 boundary (a pole at (0, 0, 25)).
+pub fn revolved_profile() -> NurbsSurface {
+    let profile = REVOLVED_PROFILE.map(|p| (p, 1.0));
+    built(revolve(3, REVOLVED_PROFILE_KNOTS.to_vec(), &profile, 90.0))
+}
+
+/// Height of [`triangle_patch`]: a quadratic saddle, tilted.
+pub fn triangle_patch_height(x: f64, y: f64) -> f64 {
+    0.002 * x * x - 0.003 * y * y + 0.001 * x * y + 0.1 * x + 0.05 * y
+}
+
+/// A triangular patch with a collapsed edge: the sector of the height field
+/// [`triangle_patch_height`] with apex at the origin, x = 100 u,
+/// y = 100 u (v - 0.5), exact biquadratic. Its u = 0 edge is the apex.
+pub fn triangle_patch() -> NurbsSurface {
+    built(crate::geometry::interpolation::interpolate_surface(
+        |u, v| {
+            let (x, y) = (100.0 * u, 100.0 * u * (v - 0.5));
+            [x, y, triangle_patch_height(x, y)]
+        },
+        2,
+        vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0],
+        2,
+        vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0],
+    ))
+}

@@ -23,18 +23,17 @@ impl NodeClient {
     /// A client named `name` on `domain` (loopback), once the node's job and
     /// cancel readers are discovered (20 s at most each).
     pub async fn connect(name: &str, domain: u16) -> NodeClient {
-        let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
-        let mut ros = RosNode::new(name, "/", domain, lo).unwrap();
-        let client = NodeClient {
-            surfaces: ros.publisher(topics::SURFACE, qos::shapes()).unwrap(),
-            pockets: ros.publisher(topics::POCKET, qos::shapes()).unwrap(),
-            jobs: ros.publisher(topics::JOB, qos::job()).unwrap(),
-            cancel: ros.publisher(topics::CANCEL, qos::job()).unwrap(),
-            status: ros
-                .subscription(topics::JOB_STATUS, qos::status_reader())
-                .unwrap(),
-            ros,
-        };
+        Self::connect_secured(name, domain, None).await
+    }
+
+    /// [`NodeClient::connect`] with DDS Security from an SROS2 enclave
+    /// directory (`None`: unsecured).
+    pub async fn connect_secured(
+        name: &str,
+        domain: u16,
+        enclave_dir: Option<&std::path::Path>,
+    ) -> NodeClient {
+        let client = Self::unconnected(name, domain, enclave_dir);
         tokio::time::timeout(
             Duration::from_secs(20),
             client.jobs.wait_for_subscription(&client.ros.node),
@@ -48,6 +47,26 @@ impl NodeClient {
         .await
         .expect("the node's cancel reader was not discovered");
         client
+    }
+
+    /// The client's publishers and reader, without waiting for the node.
+    pub fn unconnected(
+        name: &str,
+        domain: u16,
+        enclave_dir: Option<&std::path::Path>,
+    ) -> NodeClient {
+        let lo = Some(vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
+        let mut ros = RosNode::secured(name, "/", domain, lo, enclave_dir).unwrap();
+        NodeClient {
+            surfaces: ros.publisher(topics::SURFACE, qos::shapes()).unwrap(),
+            pockets: ros.publisher(topics::POCKET, qos::shapes()).unwrap(),
+            jobs: ros.publisher(topics::JOB, qos::job()).unwrap(),
+            cancel: ros.publisher(topics::CANCEL, qos::job()).unwrap(),
+            status: ros
+                .subscription(topics::JOB_STATUS, qos::status_reader())
+                .unwrap(),
+            ros,
+        }
     }
 }
 

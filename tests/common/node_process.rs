@@ -23,6 +23,7 @@ pub struct NodeProcess {
 impl NodeProcess {
     /// `toolpath node --config CONFIG` on `domain`, and its first stdout
     /// line (the ready line).
+    #[allow(dead_code)]
     pub fn spawn(config: &Path, domain: u16) -> (NodeProcess, String) {
         let mut child = Command::new(env!("CARGO_BIN_EXE_toolpath"))
             .args(["node", "--config", config.to_str().unwrap()])

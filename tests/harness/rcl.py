@@ -104,6 +104,47 @@ class SetParameters_Response(IdlStruct, typename="rcl_interfaces::srv::dds_::Set
 
 @annotate.final
 @dataclass
+class FloatingPointRange(IdlStruct, typename="rcl_interfaces::msg::dds_::FloatingPointRange_"):
+    from_value: float64 = 0.0
+    to_value: float64 = 0.0
+    step: float64 = 0.0
+
+
+@annotate.final
+@dataclass
+class IntegerRange(IdlStruct, typename="rcl_interfaces::msg::dds_::IntegerRange_"):
+    from_value: int64 = 0
+    to_value: int64 = 0
+    step: uint64 = 0
+
+
+@annotate.final
+@dataclass
+class ParameterDescriptor(IdlStruct, typename="rcl_interfaces::msg::dds_::ParameterDescriptor_"):
+    name: str = ""
+    type: uint8 = 0
+    description: str = ""
+    additional_constraints: str = ""
+    read_only: bool = False
+    dynamic_typing: bool = False
+    floating_point_range: sequence[FloatingPointRange, 1] = field(default_factory=list)
+    integer_range: sequence[IntegerRange, 1] = field(default_factory=list)
+
+
+@annotate.final
+@dataclass
+class DescribeParameters_Request(IdlStruct, typename="rcl_interfaces::srv::dds_::DescribeParameters_Request_"):
+    names: sequence[str] = field(default_factory=list)
+
+
+@annotate.final
+@dataclass
+class DescribeParameters_Response(IdlStruct, typename="rcl_interfaces::srv::dds_::DescribeParameters_Response_"):
+    descriptors: sequence[ParameterDescriptor] = field(default_factory=list)
+
+
+@annotate.final
+@dataclass
 class Log(IdlStruct, typename="rcl_interfaces::msg::dds_::Log_"):
     stamp: msgs.Time = field(default_factory=msgs.Time)
     level: uint8 = 0
@@ -192,9 +233,11 @@ class ParameterClient:
         self.list_client = ServiceClient(dp, node_fq, "list_parameters", ListParameters_Request, ListParameters_Response)
         self.get_client = ServiceClient(dp, node_fq, "get_parameters", GetParameters_Request, GetParameters_Response)
         self.set_client = ServiceClient(dp, node_fq, "set_parameters", SetParameters_Request, SetParameters_Response)
+        self.describe_client = ServiceClient(dp, node_fq, "describe_parameters", DescribeParameters_Request,
+                                             DescribeParameters_Response)
 
     def wait(self, timeout=20.0):
-        for c in (self.list_client, self.get_client, self.set_client):
+        for c in (self.list_client, self.get_client, self.set_client, self.describe_client):
             c.wait_for_service(timeout)
 
     def list(self):
@@ -203,6 +246,10 @@ class ParameterClient:
     def get(self, *names):
         r = self.get_client.call(GetParameters_Request(names=list(names)))
         return [python(v) for v in r.values]
+
+    def describe(self, *names):
+        """`ros2 param describe`: one ParameterDescriptor per name."""
+        return list(self.describe_client.call(DescribeParameters_Request(names=list(names))).descriptors)
 
     def set(self, name, v):
         """(successful, reason) of setting one parameter."""

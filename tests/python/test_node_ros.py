@@ -131,6 +131,24 @@ def test_every_config_setting_is_a_listed_parameter(cell):
     assert len(names) == len(set(names))
 
 
+def test_describe_gives_the_config_comment_the_range_and_read_only(cell):
+    d = {x.name: x for x in cell["params"].describe(
+        "node.workers", "node.surface_timeout_s", "mill5.a.max_velocity_deg_s", "recording.zstd_level")}
+    workers = d["node.workers"]
+    assert workers.description == "planning threads; 0 = one per available core", workers
+    assert workers.type == rcl.INTEGER and workers.read_only
+    assert [(r.from_value, r.to_value, r.step) for r in workers.integer_range] == [(0, 256, 1)], workers
+    assert "read-only while the node runs" in workers.additional_constraints, workers
+    timeout = d["node.surface_timeout_s"]
+    assert not timeout.read_only and timeout.type == rcl.DOUBLE, timeout
+    assert [r.from_value for r in timeout.floating_point_range] == [0.0], timeout
+    assert d["mill5.a.max_velocity_deg_s"].description == "axis A: velocity limit, degrees/s"
+    assert [(r.from_value, r.to_value) for r in d["recording.zstd_level"].integer_range] == [(0, 19)]
+    # A name that is not a parameter: ros2-client's "unknown parameter", type NOT_SET.
+    (unknown,) = cell["params"].describe("no.such_parameter")
+    assert unknown.type == rcl.NOT_SET, unknown
+
+
 def test_values_come_from_the_params_file_and_p_rules(cell):
     got = cell["params"].get(
         "node.verify", "node.surface_timeout_s", "mill5.retract_mm", "node.name", "node.namespace",
@@ -294,3 +312,63 @@ def test_a_best_effort_publisher_on_a_reliable_input_is_logged_as_incompatible(c
     line = next(ln for ln in proc.log().splitlines() if want in ln)
     assert "remote writer" in line and "reliability: requested Reliable, offered BestEffort" in line, line
     assert "WARN" in line, line
+
+
+def test_tf_static_places_the_workpiece_for_a_late_listener(cell):
+    """/tf_static as tf2's static listener reads it (reliable, transient-local,
+    keep last 1), joining long after the node published: mill5_base ->
+    workpiece -> belt6_base with the default config's poses, in metres."""
+    from cyclonedds.core import Policy, Qos
+    from cyclonedds.sub import DataReader
+    from cyclonedds.topic import Topic
+    from cyclonedds.util import duration
+
+    peer = cell["peer"]
+    reader = DataReader(
+        peer._dp,
+        Topic(peer._dp, "rt/tf_static", msgs.get("tf2_msgs/TFMessage")),
+        qos=Qos(Policy.Reliability.Reliable(duration(seconds=5)), Policy.Durability.TransientLocal,
+                Policy.History.KeepLast(1)),
+    )
+    got, deadline = [], time.monotonic() + 10.0
+    while not got and time.monotonic() < deadline:
+        got = reader.take(N=10)
+        time.sleep(0.05)
+    assert len(got) == 1, "%d TFMessage on /tf_static" % len(got)
+    tf = {(t.header.frame_id, t.child_frame_id): t.transform for t in got[0].transforms}
+    assert sorted(tf) == [("mill5_base", "workpiece"), ("workpiece", "belt6_base")], sorted(tf)
+    # default.yaml: mill5 workpiece_origin_mm [2500, 1000, 300], belt6 [1500, 1000, 400], no turn.
+    for key, want in ((("mill5_base", "workpiece"), (2.5, 1.0, 0.3)), (("workpiece", "belt6_base"), (-1.5, -1.0, -0.4))):
+        t = tf[key]
+        assert (t.translation.x, t.translation.y, t.translation.z) == pytest.approx(want, abs=1e-12), key
+        assert (t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w) == (0.0, 0.0, 0.0, 1.0), key
+
+
+def test_inputs_in_a_machine_frame_are_moved_and_unknown_frames_refused(cell):
+    peer = cell["peer"]
+    pub = peer.create_publisher(msgs.Surface, "surface", ROS_DEFAULT)
+    assert peer.spin_until(lambda: pub.get_subscription_count() > 0, 20), "surface writer not matched"
+    # The same patch in mill5's machine coordinates (workpiece origin at 2500, 1000, 300).
+    in_machine = quadratic_surface("machine_frame_surface", 0, 40, -20, 20, ky=0.01)
+    in_machine.header.frame_id = "mill5_base"
+    for p in in_machine.control_points:
+        p.x, p.y, p.z = p.x + 2500.0, p.y + 1000.0, p.z + 300.0
+    pub.publish(in_machine)
+    fixture = quadratic_surface("fixture_frame_surface", 0, 40, -20, 20, ky=0.01)
+    fixture.header.frame_id = "fixture"
+    pub.publish(fixture)
+    cell["job_pub"].publish(job("on_machine_frame", "machine_frame_surface", "iso_scallop", tool("ball", radius=3.0),
+                                scallop=0.05))
+    cell["job_pub"].publish(job("on_fixture_frame", "fixture_frame_surface", "iso_scallop", tool("ball", radius=3.0),
+                                scallop=0.05))
+    in_world = job("job_in_world", "machine_frame_surface", "iso_scallop", tool("ball", radius=3.0), scallop=0.05)
+    in_world.header.frame_id = "world"
+    cell["job_pub"].publish(in_world)
+    final = wait_final(cell, "on_fixture_frame")
+    assert final.state == msgs.JobStatus.REJECTED, final.message
+    assert "surface.header.frame_id" in final.message and '"fixture"' in final.message, final.message
+    final = wait_final(cell, "job_in_world")
+    assert final.state == msgs.JobStatus.REJECTED, final.message
+    assert "job.header.frame_id" in final.message and "mill5_base" in final.message, final.message
+    final = wait_final(cell, "on_machine_frame", timeout=120)
+    assert final.state == msgs.JobStatus.SUCCEEDED, final.message

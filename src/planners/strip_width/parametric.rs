@@ -60,7 +60,7 @@ pub fn plan_passes(
             return Err(too_many());
         }
         let step = span / count as f64;
-        let mut passes = Vec::with_capacity(count + 1);
+        let mut runs: Vec<Vec<Contact>> = Vec::with_capacity(count + 1);
         let mut ok = true;
         for k in 0..=count {
             let across = if k == count { c1 } else { c0 + step * k as f64 };
@@ -74,26 +74,80 @@ pub fn plan_passes(
                     break;
                 }
             }
-            let mut pass = Pass {
-                region: 0,
-                points: Vec::with_capacity(contacts.len() + 1),
-                min_strip_width: None,
-            };
-            for c in &contacts {
-                pass.points.push(c.path_point(s)?);
-            }
-            extend_pass(surface, &mut pass.points, s)?;
-            passes.push(pass);
+            runs.push(contacts);
             progress.set((0.5 + 0.45 * k as f64 / count as f64) as f32);
             progress.check()?;
         }
         if ok {
+            if converges_on_pole(surface, feed) {
+                trim_at_pole(s, &mut runs)?;
+            }
+            let mut passes = Vec::with_capacity(runs.len());
+            for contacts in runs.iter().filter(|r| !r.is_empty()) {
+                let mut pass = Pass {
+                    region: 0,
+                    points: Vec::with_capacity(contacts.len() + 1),
+                    min_strip_width: None,
+                };
+                for c in contacts {
+                    pass.points.push(c.path_point(s)?);
+                }
+                extend_pass(surface, &mut pass.points, s)?;
+                passes.push(pass);
+            }
             return Ok(passes);
         }
     }
     Err(Error::planning(
         "iso_parametric: the constant parameter step did not settle (the required step varies too fast)",
     ))
+}
+
+/// Do the passes (iso-curves along the feed parameter) run into a pole:
+/// a collapsed boundary across the feed (docs/methods.md, "Degenerate
+/// boundaries")?
+fn converges_on_pole(surface: &NurbsSurface, feed: FeedDirection) -> bool {
+    let c = surface.collapsed_boundaries();
+    match feed {
+        FeedDirection::U => c[0] || c[1],
+        FeedDirection::V => c[2] || c[3],
+    }
+}
+
+/// Share of a contact's strip width within which a point of an earlier
+/// pass already covers it.
+const POLE_COVER_SHARE: f64 = 0.25;
+
+/// Passes that all run into a pole would pile up there: from each end of
+/// every pass after the first, contacts are dropped while one of an
+/// earlier pass lies within [`POLE_COVER_SHARE`] of their strip width (that
+/// pass's strip covers them), so only the first pass reaches the pole.
+fn trim_at_pole(s: &PassSettings, runs: &mut [Vec<Contact>]) -> Result<()> {
+    let mut kept: Vec<nalgebra::Point3<f64>> = Vec::new();
+    for run in runs.iter_mut() {
+        let covered = |c: &Contact| -> Result<bool> {
+            let w = c.path_point(s)?.strip_width.unwrap_or(0.0);
+            let reach = POLE_COVER_SHARE * w;
+            Ok(kept.iter().any(|p| (p - c.point()).norm() < reach))
+        };
+        let mut start = 0;
+        while start < run.len() && covered(&run[start])? {
+            start += 1;
+        }
+        let mut end = run.len();
+        while end > start && covered(&run[end - 1])? {
+            end -= 1;
+        }
+        // A pass left with fewer than two contacts is dropped whole.
+        let trimmed: Vec<Contact> = if end >= start + 2 {
+            run[start..end].to_vec()
+        } else {
+            Vec::new()
+        };
+        *run = trimmed;
+        kept.extend(run.iter().map(|c| c.point()));
+    }
+    Ok(())
 }
 
 fn too_many() -> Error {

@@ -425,8 +425,13 @@ impl<'a> Extension<'a> {
                 }
             });
             let below = (ext.p - (o + t * d)).dot(&g.n);
+            // The continued surface is followed only while it stays near the
+            // straight run: next to a pole the parameter step of a tangent
+            // (through |S_v| -> 0) is far from linear, and the point it gives
+            // far from the run.
+            let near = (ext.p - (o + t * d)).norm() <= 0.5 * d;
             let (mut cc, n_pose, travel_k) = match n_ext {
-                Some(m) if !s.cutter.ball && below < 0.0 => {
+                Some(m) if !s.cutter.ball && below < 0.0 && near => {
                     let tk = (travel_t - m * travel_t.dot(&m))
                         .try_normalize(1e-12)
                         .unwrap_or(travel_t);

@@ -6,6 +6,7 @@ use super::{check_job, Admission, Outputs, Pending, ShapeEntry, Shared};
 use crate::error::{Error, Result};
 use crate::formats::Shape;
 use crate::machines::Machines;
+use crate::messages::frames::Frames;
 use crate::messages::plan_toolpath::Goal;
 use crate::messages::{self as msgs, convert, final_state, topics};
 use crate::ros::plan_action::{GoalLink, GoalQueue};
@@ -18,6 +19,8 @@ pub(super) struct NodeQueue {
     /// shutdown drops the outputs to close the iceoryx2 channel.
     pub outputs: Weak<Outputs>,
     pub machines: Machines,
+    /// The frames a goal's job and shapes may be given in.
+    pub frames: Frames,
 }
 
 impl NodeQueue {
@@ -70,6 +73,21 @@ impl NodeQueue {
         }
     }
 
+    /// The goal with its job and inline shapes in the workpiece frame.
+    fn in_workpiece(&self, mut goal: Goal) -> Result<Goal> {
+        if let Some(job) = self.frames.job_in_workpiece(&goal.job)? {
+            goal.job = job;
+        }
+        goal.surface = std::mem::take(&mut goal.surface)
+            .into_iter()
+            .map(|s| self.frames.surface_in_workpiece(s))
+            .collect::<Result<_>>()?;
+        for p in &goal.pocket {
+            self.frames.check_pocket(p)?;
+        }
+        Ok(goal)
+    }
+
     /// Checks the goal; its shape when the job may be queued.
     fn admit(&self, goal: &Goal) -> Result<Arc<Shape>> {
         check_job(&goal.job, &self.machines)?;
@@ -106,7 +124,10 @@ impl GoalQueue for NodeQueue {
                 rec.record(topics::POCKET, p);
             }
         }
-        let shape = match self.admit(&goal) {
+        let admitted = self
+            .in_workpiece(goal)
+            .and_then(|goal| self.admit(&goal).map(|shape| (goal, shape)));
+        let (goal, shape) = match admitted {
             Ok(s) => s,
             Err(e) => {
                 outputs.status(&job_id, final_state(&e), 0.0, e.to_string());
