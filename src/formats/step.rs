@@ -40,6 +40,12 @@ pub const LIST_CELLS: usize = 128;
 /// Deepest bisection of an edge's parameter range when sampling it.
 const MAX_DEPTH: u32 = 18;
 
+/// Pieces per edge of the samples that bound a plane's or revolved
+/// surface's patch: fine enough that a curved edge's bulge between two of
+/// them stays far below the trim tolerance (a boundary point outside the
+/// patch would be clamped onto it and never meet the tolerance).
+const COARSE: usize = 256;
+
 /// Uniform pieces an edge starts from before bisection.
 const START_PIECES: usize = 8;
 
@@ -1380,7 +1386,10 @@ impl StepFile {
                     .iter()
                     .filter(|e| !e.in_uv)
                     .flat_map(|e| {
-                        (0..=32).map(move |k| e.curve.point(e.ta + (e.tb - e.ta) * k as f64 / 32.0))
+                        (0..=COARSE).map(move |k| {
+                            e.curve
+                                .point(e.ta + (e.tb - e.ta) * k as f64 / COARSE as f64)
+                        })
                     })
                     .collect()
             })
@@ -1455,6 +1464,7 @@ impl StepFile {
         if !(hi[0] > lo[0] && hi[1] > lo[1]) {
             return Err(self.err(face, "has a boundary of no extent on its plane"));
         }
+
         // The patch is the boundary's box: a loop on the domain's
         // edges is on the face (the face is closed).
         let at = |x: f64, y: f64| {
