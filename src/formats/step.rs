@@ -1496,6 +1496,69 @@ impl StepFile {
         ))
     }
 
+    /// The meridian of a surface of revolution as a NURBS over [s0, s1]:
+    /// degree, knots, (rho, h) points with weights, the map between its
+    /// parameter and the meridian's, and the s range it spans (a B-spline
+    /// meridian spans its whole curve).
+    fn meridian_profile(
+        &self,
+        face: u64,
+        m: &Meridian,
+        what: &str,
+        (s0, s1): (f64, f64),
+    ) -> Result<MeridianProfile> {
+        Ok(match m {
+            Meridian::Line { p, d } => {
+                let at = |s: f64| ([p[0] + d[0] * s, p[1] + d[1] * s], 1.0);
+                (
+                    1,
+                    vec![s0, s0, s1, s1],
+                    vec![at(s0), at(s1)],
+                    VMap::Same,
+                    (s0, s1),
+                )
+            }
+            Meridian::Conic { c, a, b } => {
+                if s1 - s0 > TAU + 1e-6 {
+                    return Err(self.err(
+                        face,
+                        format!(
+                            "winds round the meridian of its {what} more than once: not supported"
+                        ),
+                    ));
+                }
+                let va = Arcs::new(s0, s1.min(s0 + TAU));
+                let w = (0.5 * va.delta).cos();
+                let pts = (0..=2 * va.n)
+                    .map(|i| {
+                        let phi = va.theta0 + va.delta * i as f64 / 2.0;
+                        let (k, wt) = if i % 2 == 1 { (1.0 / w, w) } else { (1.0, 1.0) };
+                        let (cs, sn) = (phi.cos() * k, phi.sin() * k);
+                        (
+                            [c[0] + a[0] * cs + b[0] * sn, c[1] + a[1] * cs + b[1] * sn],
+                            wt,
+                        )
+                    })
+                    .collect();
+                (2, arc_knots(va.n), pts, VMap::Arcs(va), (s0, s1))
+            }
+            Meridian::Bspline(Curve::Bspline {
+                degree,
+                knots,
+                points,
+            }) => {
+                // The whole curve; its range bounds s.
+                let range = (knots[*degree], knots[knots.len() - degree - 1]);
+                let pts = points
+                    .iter()
+                    .map(|h| ([h[0] / h[3], h[1] / h[3]], h[3]))
+                    .collect();
+                (*degree, knots.clone(), pts, VMap::Same, range)
+            }
+            Meridian::Bspline(_) => return Err(self.err(face, "has a malformed meridian")),
+        })
+    }
+
     /// A surface of revolution as the exact rational patch over the angles
     /// and the meridian range its boundary spans (at most one turn): the
     /// circle's rational quadratic arcs of at most 90 degrees in u times the
@@ -1572,52 +1635,8 @@ impl StepFile {
         }
         let t1 = t1.min(t0 + TAU);
         let arcs = Arcs::new(t0, t1);
-        // The meridian as a NURBS over [s0, s1]: (rho, h) points, weights.
-        let (degree_v, knots_v, profile, vmap) = match &m {
-            Meridian::Line { p, d } => {
-                let at = |s: f64| ([p[0] + d[0] * s, p[1] + d[1] * s], 1.0);
-                (1, vec![s0, s0, s1, s1], vec![at(s0), at(s1)], VMap::Same)
-            }
-            Meridian::Conic { c, a, b } => {
-                if s1 - s0 > TAU + 1e-6 {
-                    return Err(self.err(
-                        face,
-                        format!(
-                            "winds round the meridian of its {what} more than once: not supported"
-                        ),
-                    ));
-                }
-                let va = Arcs::new(s0, s1.min(s0 + TAU));
-                let w = (0.5 * va.delta).cos();
-                let pts = (0..=2 * va.n)
-                    .map(|i| {
-                        let phi = va.theta0 + va.delta * i as f64 / 2.0;
-                        let (k, wt) = if i % 2 == 1 { (1.0 / w, w) } else { (1.0, 1.0) };
-                        let (cs, sn) = (phi.cos() * k, phi.sin() * k);
-                        (
-                            [c[0] + a[0] * cs + b[0] * sn, c[1] + a[1] * cs + b[1] * sn],
-                            wt,
-                        )
-                    })
-                    .collect();
-                (2, arc_knots(va.n), pts, VMap::Arcs(va))
-            }
-            Meridian::Bspline(Curve::Bspline {
-                degree,
-                knots,
-                points,
-            }) => {
-                // The whole curve; its range bounds s.
-                let (a, b) = (knots[*degree], knots[knots.len() - degree - 1]);
-                (s0, s1) = (a, b);
-                let pts = points
-                    .iter()
-                    .map(|h| ([h[0] / h[3], h[1] / h[3]], h[3]))
-                    .collect();
-                (*degree, knots.clone(), pts, VMap::Same)
-            }
-            Meridian::Bspline(_) => return Err(self.err(face, "has a malformed meridian")),
-        };
+        let (degree_v, knots_v, profile, vmap, (s0, s1)) =
+            self.meridian_profile(face, &m, what, (s0, s1))?;
         if profile.iter().any(|(q, _)| q[0] < -on_axis) {
             return Err(self.err(
                 face,
@@ -1668,6 +1687,10 @@ impl StepFile {
         ))
     }
 }
+
+/// A meridian as [`StepFile::meridian_profile`] gives it: degree, knots,
+/// (rho, h) points with weights, parameter map, s range.
+type MeridianProfile = (usize, Vec<f64>, Vec<([f64; 2], f64)>, VMap, (f64, f64));
 
 /// A face's NURBS patch and the map from a 3-D point near it (with an
 /// optional (u, v) seed) to its (u, v).

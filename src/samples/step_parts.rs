@@ -39,7 +39,7 @@ pub fn part(name: &str) -> Option<StepPart> {
     }
 }
 
-/// Control heights (mm) of the freeform sample's bicubic patch, [i][j]
+/// Control heights (mm) of the freeform sample's bicubic patch, `[i][j]`
 /// with x = 40 i, y = 30 j.
 pub const FREEFORM_Z: [[f64; 4]; 4] = [
     [0.0, 3.0, 5.0, 2.0],
@@ -57,7 +57,7 @@ pub const FREEFORM_OUTER: ([f64; 2], [f64; 2]) = ([0.5, 0.5], [0.46, 0.42]);
 /// The freeform sample's hole: the circle centre and radius in (u, v).
 pub const FREEFORM_HOLE: ([f64; 2], f64) = ([0.62, 0.44], 0.13);
 
-/// Control heights (mm) of the multi-face part's bicubic face, [i][j] with
+/// Control heights (mm) of the multi-face part's bicubic face, `[i][j]` with
 /// x = 100 i / 3, y = 80 j / 3; the rows i = 0 and 3 are flat at z = 0.
 pub const MULTI_Z: [[f64; 4]; 4] = [
     [0.0, 0.0, 0.0, 0.0],
