@@ -533,36 +533,19 @@ impl StepFile {
     /// (inch, foot, ...) through its measure. Files naming none are in mm.
     fn length_unit(&self) -> Result<f64> {
         let mut found: Option<(u64, f64)> = None;
-        for (&id, records) in &self.entities {
-            let Some(r) = records
-                .iter()
-                .find(|r| r.name == "GLOBAL_UNIT_ASSIGNED_CONTEXT")
-            else {
+        for u in self.context_units()? {
+            if self.part(u, "LENGTH_UNIT").is_none() {
                 continue;
-            };
-            let units = list(&r.parameter)
-                .and_then(|p| p.first())
-                .and_then(list)
-                .ok_or_else(|| {
-                    self.err(id, "GLOBAL_UNIT_ASSIGNED_CONTEXT should list its units")
-                })?;
-            for u in units {
-                let Parameter::Ref(Name::Entity(u)) = u else {
-                    continue;
-                };
-                if self.part(*u, "LENGTH_UNIT").is_none() {
-                    continue;
+            }
+            let mm = self.unit_mm(u, 0)?;
+            match found {
+                Some((other, f)) if (f - mm).abs() > 1e-12 * f => {
+                    return Err(self.err(
+                        u,
+                        format!("disagrees with the length unit #{other} ({f} mm): one length unit per file is supported"),
+                    ))
                 }
-                let mm = self.unit_mm(*u, 0)?;
-                match found {
-                    Some((other, f)) if (f - mm).abs() > 1e-12 * f => {
-                        return Err(self.err(
-                            *u,
-                            format!("disagrees with the length unit #{other} ({f} mm): one length unit per file is supported"),
-                        ))
-                    }
-                    _ => found = Some((*u, mm)),
-                }
+                _ => found = Some((u, mm)),
             }
         }
         Ok(found.map(|(_, f)| f).unwrap_or(1.0))
@@ -572,6 +555,18 @@ impl StepFile {
     /// `CONVERSION_BASED_UNIT` (degree) through its measure. Files naming
     /// none are in radians.
     fn angle_unit(&self) -> Result<f64> {
+        for u in self.context_units()? {
+            if self.part(u, "PLANE_ANGLE_UNIT").is_some() {
+                return self.unit_rad(u, 0);
+            }
+        }
+        Ok(1.0)
+    }
+
+    /// The unit entities every `GLOBAL_UNIT_ASSIGNED_CONTEXT` lists, in
+    /// entity order.
+    fn context_units(&self) -> Result<Vec<u64>> {
+        let mut out = Vec::new();
         for (&id, records) in &self.entities {
             let Some(r) = records
                 .iter()
@@ -585,16 +580,12 @@ impl StepFile {
                 .ok_or_else(|| {
                     self.err(id, "GLOBAL_UNIT_ASSIGNED_CONTEXT should list its units")
                 })?;
-            for u in units {
-                let Parameter::Ref(Name::Entity(u)) = u else {
-                    continue;
-                };
-                if self.part(*u, "PLANE_ANGLE_UNIT").is_some() {
-                    return self.unit_rad(*u, 0);
-                }
-            }
+            out.extend(units.iter().filter_map(|u| match u {
+                Parameter::Ref(Name::Entity(u)) => Some(*u),
+                _ => None,
+            }));
         }
-        Ok(1.0)
+        Ok(out)
     }
 
     fn unit_rad(&self, id: u64, depth: usize) -> Result<f64> {
