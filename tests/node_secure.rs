@@ -18,7 +18,7 @@ mod node_process;
 use futures::StreamExt;
 use node_client::{next_status_of, NodeClient};
 use node_process::NodeProcess;
-use std::io::{BufRead, BufReader, Read};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -138,16 +138,7 @@ fn an_authorised_client_is_served_and_others_get_nothing() {
     let foreign_ks = keystore(&foreign, d);
 
     let config = config(dir.path());
-    let mut child = node_command(&config, d, &ks, "Enforce", NODE_ENCLAVE)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut ready = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut ready)
-        .unwrap();
-    let _node = NodeProcess { child };
+    let (_node, ready) = NodeProcess::start(node_command(&config, d, &ks, "Enforce", NODE_ENCLAVE));
     assert!(
         ready.starts_with("ready") && ready.contains("DDS Security enclave"),
         "node said {ready:?}"
@@ -330,16 +321,9 @@ fn an_enclave_the_keystore_lacks_stops_the_node() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("must be absolute"), "{err}");
     // Not enforced: the node starts, unsecured.
-    let mut child = node_command(&config, d, &ks, "Permissive", "/no_such_node")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut ready = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut ready)
-        .unwrap();
-    drop(NodeProcess { child });
+    let (node, ready) =
+        NodeProcess::start(node_command(&config, d, &ks, "Permissive", "/no_such_node"));
+    drop(node);
     assert!(
         ready.starts_with("ready") && !ready.contains("DDS Security"),
         "node said {ready:?}"

@@ -25,10 +25,19 @@ impl NodeProcess {
     /// line (the ready line).
     #[allow(dead_code)]
     pub fn spawn(config: &Path, domain: u16) -> (NodeProcess, String) {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_toolpath"))
+        let mut command = Command::new(env!("CARGO_BIN_EXE_toolpath"));
+        command
             .args(["node", "--config", config.to_str().unwrap()])
             .env("ROS_DOMAIN_ID", domain.to_string())
-            .env("RUST_LOG", "off")
+            .env("RUST_LOG", "off");
+        Self::start(command)
+    }
+
+    /// Starts `command` (a `toolpath node` command line) with stdout piped
+    /// and stderr dropped; the process and its first stdout line.
+    #[allow(dead_code)]
+    pub fn start(mut command: Command) -> (NodeProcess, String) {
+        let mut child = command
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
