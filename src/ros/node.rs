@@ -1351,9 +1351,10 @@ pub async fn run(resolved: Resolved, enclave_dir: Option<std::path::PathBuf>) ->
     for t in [topics::SURFACE, topics::POCKET] {
         super::logging::paired_durability_readers(&format!("rt{}", ros.resolved(t)));
     }
+    let frames = config.frames();
     let inputs = Inputs {
         name: ros.node.fully_qualified_name(),
-        frames: config.frames(),
+        frames: frames.clone(),
         surfaces: ShapeReaders {
             volatile: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
             transient_local: ros.subscription(topics::SURFACE, qos::shapes_history_reader())?,
@@ -1382,11 +1383,11 @@ pub async fn run(resolved: Resolved, enclave_dir: Option<std::path::PathBuf>) ->
         shared: Arc::clone(&shared),
         outputs: Arc::downgrade(&outputs),
         machines: config.machines(),
-        frames: config.frames(),
+        frames: frames.clone(),
     };
     super::plan_action::serve(&mut ros, Arc::new(queue))?;
     let _tf_static = match settings.tf_static {
-        true => Some(super::tf_static::publish(&mut ros.node, &config.frames())?),
+        true => Some(super::tf_static::publish(&mut ros.node, &frames)?),
         false => None,
     };
     let diagnostics_publisher = super::diagnostics::publisher(&mut ros.node)?;
