@@ -38,14 +38,6 @@ impl RunOptions {
     };
 }
 
-/// Plans `job` and fills the statistics every result carries. Flat-end
-/// milling plans are verified by the simulator and repaired (see
-/// [`verify_and_repair`]); of several candidate plans (tensor_regions) the
-/// shortest after repair is kept, preferring one within the scallop height.
-///
-/// Before any of that the job's estimate is checked against
-/// `options.budget`; the job's `time_limit_s` and `options.time_limit` stop
-/// it through `progress` checks (`Error::Stopped`), as a cancel does.
 /// Plans the jobs of several faces ([`crate::formats::read_jobs`]) one after
 /// another, each within its own face's trim, into one result: the passes
 /// grouped by face in the order given (`pass_faces` gives each pass's
@@ -63,6 +55,14 @@ pub fn run_faces(jobs: &[Job], progress: &dyn Progress, options: RunOptions) -> 
     let mut out = PlanResult::new(&first.job_id, first.strategy.name());
     let mut faces = Vec::new();
     let mut within = Some(true);
+    let add = |x: Option<f64>, y: Option<f64>| match (x, y) {
+        (Some(x), Some(y)) => Some(x + y),
+        (x, y) => x.or(y),
+    };
+    let max = |x: Option<f64>, y: Option<f64>| match (x, y) {
+        (Some(x), Some(y)) => Some(x.max(y)),
+        (x, y) => x.or(y),
+    };
     for (k, job) in jobs.iter().enumerate() {
         let r = run(job, progress, options)?;
         faces.extend(std::iter::repeat_n(k, r.passes.len()));
@@ -71,14 +71,6 @@ pub fn run_faces(jobs: &[Job], progress: &dyn Progress, options: RunOptions) -> 
         a.path_length_mm += b.path_length_mm;
         a.passes += b.passes;
         a.compute_ms += b.compute_ms;
-        let add = |x: Option<f64>, y: Option<f64>| match (x, y) {
-            (Some(x), Some(y)) => Some(x + y),
-            (x, y) => x.or(y),
-        };
-        let max = |x: Option<f64>, y: Option<f64>| match (x, y) {
-            (Some(x), Some(y)) => Some(x.max(y)),
-            (x, y) => x.or(y),
-        };
         a.max_scallop_mm = max(a.max_scallop_mm, b.max_scallop_mm);
         a.max_gouge_mm = max(a.max_gouge_mm, b.max_gouge_mm);
         a.path_length_lower_bound_mm =
@@ -106,6 +98,14 @@ pub fn run_faces(jobs: &[Job], progress: &dyn Progress, options: RunOptions) -> 
     Ok(out)
 }
 
+/// Plans `job` and fills the statistics every result carries. Flat-end
+/// milling plans are verified by the simulator and repaired (see
+/// [`verify_and_repair`]); of several candidate plans (tensor_regions) the
+/// shortest after repair is kept, preferring one within the scallop height.
+///
+/// Before any of that the job's estimate is checked against
+/// `options.budget`; the job's `time_limit_s` and `options.time_limit` stop
+/// it through `progress` checks (`Error::Stopped`), as a cancel does.
 pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<PlanResult> {
     let own = job.time_limit_s.map(|seconds| TimeLimit {
         seconds,
