@@ -19,13 +19,25 @@ pub trait RosMessage:
 {
     const PACKAGE: &'static str;
     const NAME: &'static str;
+    /// `msg`, or `action` for the messages rosidl derives from a .action
+    /// file (the action's topics carry them).
+    const INTERFACE: &'static str = "msg";
     /// `pkg/Type`, the name used in schemas and `MSG:` lines.
     fn full_name() -> String {
         format!("{}/{}", Self::PACKAGE, Self::NAME)
     }
+    /// `pkg/msg/Type` (or `pkg/action/Type`): the name in bags' schemas and metadata.
+    fn type_name() -> String {
+        format!("{}/{}/{}", Self::PACKAGE, Self::INTERFACE, Self::NAME)
+    }
     /// DDS type name as rmw writes it: `pkg::msg::dds_::Type_`.
     fn dds_type_name() -> String {
-        format!("{}::msg::dds_::{}_", Self::PACKAGE, Self::NAME)
+        format!(
+            "{}::{}::dds_::{}_",
+            Self::PACKAGE,
+            Self::INTERFACE,
+            Self::NAME
+        )
     }
     /// The .msg text of this type alone.
     fn definition() -> &'static str {
@@ -41,11 +53,30 @@ macro_rules! ros_message {
             const NAME: &'static str = $name;
         }
     };
+    ($ty:ident, $pkg:literal, $interface:literal, $name:literal) => {
+        impl $crate::messages::RosMessage for $ty {
+            const PACKAGE: &'static str = $pkg;
+            const INTERFACE: &'static str = $interface;
+            const NAME: &'static str = $name;
+        }
+    };
 }
 pub(crate) use ros_message;
 
 /// Every .msg text this crate knows, by `pkg/Type`, sorted by name.
 pub const DEFINITIONS: &[(&str, &str)] = &[
+    (
+        "action_msgs/GoalInfo",
+        include_str!("defs/action_msgs/GoalInfo.msg"),
+    ),
+    (
+        "action_msgs/GoalStatus",
+        include_str!("defs/action_msgs/GoalStatus.msg"),
+    ),
+    (
+        "action_msgs/GoalStatusArray",
+        include_str!("defs/action_msgs/GoalStatusArray.msg"),
+    ),
     (
         "builtin_interfaces/Duration",
         include_str!("defs/builtin_interfaces/Duration.msg"),
@@ -191,6 +222,10 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
         include_str!("defs/trajectory_msgs/MultiDOFJointTrajectoryPoint.msg"),
     ),
     (
+        "unique_identifier_msgs/UUID",
+        include_str!("defs/unique_identifier_msgs/UUID.msg"),
+    ),
+    (
         "visualization_msgs/Marker",
         include_str!("defs/visualization_msgs/Marker.msg"),
     ),
@@ -208,12 +243,13 @@ pub const DEFINITIONS: &[(&str, &str)] = &[
     ),
 ];
 
-/// The .msg text of `pkg/Type`.
+/// The .msg text of `pkg/Type` (the action's derived types included).
 pub fn definition(full_name: &str) -> Option<&'static str> {
     DEFINITIONS
         .iter()
         .find(|(n, _)| *n == full_name)
         .map(|(_, d)| *d)
+        .or_else(|| super::plan_toolpath::derived_definition(full_name))
 }
 
 const PRIMITIVES: &[&str] = &[
@@ -321,6 +357,48 @@ impl Duration {
         self.sec as f64 + self.nanosec as f64 * 1e-9
     }
 }
+
+/// unique_identifier_msgs/UUID: an action's goal id.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct Uuid {
+    pub uuid: [u8; 16],
+}
+ros_message!(Uuid, "unique_identifier_msgs", "UUID");
+
+/// action_msgs/GoalInfo.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GoalInfo {
+    pub goal_id: Uuid,
+    /// When the goal was accepted.
+    pub stamp: Time,
+}
+ros_message!(GoalInfo, "action_msgs", "GoalInfo");
+
+/// action_msgs/GoalStatus: one goal's state.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GoalStatus {
+    pub goal_info: GoalInfo,
+    pub status: i8,
+}
+ros_message!(GoalStatus, "action_msgs", "GoalStatus");
+
+impl GoalStatus {
+    pub const STATUS_UNKNOWN: i8 = 0;
+    pub const STATUS_ACCEPTED: i8 = 1;
+    pub const STATUS_EXECUTING: i8 = 2;
+    pub const STATUS_CANCELING: i8 = 3;
+    pub const STATUS_SUCCEEDED: i8 = 4;
+    pub const STATUS_CANCELED: i8 = 5;
+    pub const STATUS_ABORTED: i8 = 6;
+}
+
+/// action_msgs/GoalStatusArray: what an action server publishes on
+/// `_action/status` at every state change of its goals.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GoalStatusArray {
+    pub status_list: Vec<GoalStatus>,
+}
+ros_message!(GoalStatusArray, "action_msgs", "GoalStatusArray");
 
 impl Time {
     pub const ZERO: Time = Time { sec: 0, nanosec: 0 };

@@ -4,8 +4,9 @@
 //! goal and result carry, so one pair of structs serves both (CDR has no
 //! type names).
 
-use super::msgs::{Job, JobStatus, Pocket, Surface, Toolpath, ToolpathStats};
+use super::msgs::{ros_message, Job, JobStatus, Pocket, Surface, Toolpath, ToolpathStats, Uuid};
 use serde::{Deserialize, Serialize};
+use std::sync::LazyLock;
 
 /// Package and name of the action and of the service type.
 pub const PACKAGE: &str = "toolpath_msgs";
@@ -90,6 +91,44 @@ pub struct Feedback {
     pub progress: f32,
 }
 
+/// What the action's feedback topic (`plan_toolpath/_action/feedback`)
+/// carries: the feedback and the goal it belongs to, as rosidl derives
+/// `PlanToolpath_FeedbackMessage` from the .action file.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FeedbackMessage {
+    pub goal_id: Uuid,
+    pub feedback: Feedback,
+}
+ros_message!(
+    FeedbackMessage,
+    "toolpath_msgs",
+    "action",
+    "PlanToolpath_FeedbackMessage"
+);
+
+/// The .msg text rosidl generates for `PlanToolpath_FeedbackMessage`; the
+/// feedback's type is named with its `action` namespace, as readers resolve it.
+const FEEDBACK_MESSAGE_DEFINITION: &str =
+    "unique_identifier_msgs/UUID goal_id\ntoolpath_msgs/action/PlanToolpath_Feedback feedback\n";
+
+/// The feedback section of the .action text: `PlanToolpath_Feedback`'s fields.
+static FEEDBACK_DEFINITION: LazyLock<String> = LazyLock::new(|| {
+    sections(ACTION_DEFINITION)
+        .into_iter()
+        .nth(2)
+        .unwrap_or_default()
+});
+
+/// The .msg texts of the types rosidl derives from the .action file: the
+/// feedback message by `pkg/Type`, the feedback by `pkg/action/Type`.
+pub fn derived_definition(full_name: &str) -> Option<&'static str> {
+    match full_name {
+        "toolpath_msgs/action/PlanToolpath_Feedback" => Some(FEEDBACK_DEFINITION.as_str()),
+        "toolpath_msgs/PlanToolpath_FeedbackMessage" => Some(FEEDBACK_MESSAGE_DEFINITION),
+        _ => None,
+    }
+}
+
 /// The sections of an .action or .srv text, split at its `---` lines.
 pub fn sections(text: &str) -> Vec<String> {
     let mut out = vec![String::new()];
@@ -102,4 +141,33 @@ pub fn sections(text: &str) -> Vec<String> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::messages::{schema_text, RosMessage};
+
+    #[test]
+    fn the_feedback_message_schema_is_the_goal_id_and_the_action_feedback_section() {
+        assert_eq!(
+            FeedbackMessage::type_name(),
+            "toolpath_msgs/action/PlanToolpath_FeedbackMessage"
+        );
+        let text = schema_text(&FeedbackMessage::full_name()).unwrap();
+        let sep = "=".repeat(80);
+        let parts: Vec<&str> = text.split(&sep).collect();
+        assert_eq!(parts.len(), 3, "{text}");
+        assert!(parts[1].starts_with("\nMSG: unique_identifier_msgs/UUID\n"));
+        assert!(parts[1].contains("\nuint8[16] uuid\n"));
+        // The feedback's fields as the .action file writes them, comments kept.
+        assert!(parts[2].starts_with("\nMSG: toolpath_msgs/action/PlanToolpath_Feedback\n"));
+        let fields: Vec<&str> = parts[2]
+            .lines()
+            .skip(2)
+            .map(|l| l.split('#').next().unwrap_or("").trim())
+            .filter(|l| !l.is_empty())
+            .collect();
+        assert_eq!(fields, ["string stage", "float32 progress"]);
+    }
 }

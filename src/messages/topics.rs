@@ -27,6 +27,12 @@ pub const BELT6_TRAJECTORY: &str = "belt6/joint_trajectory";
 pub const JOB_STATUS: &str = "job_status";
 /// Output: RViz markers of the passes, degenerate points and separatrices.
 pub const MARKERS: &str = "markers";
+/// The PlanToolpath action (and the service of the same name).
+pub const PLAN_TOOLPATH: &str = "plan_toolpath";
+/// Output: the action's feedback, per goal (PlanToolpath_FeedbackMessage).
+pub const PLAN_TOOLPATH_FEEDBACK: &str = "plan_toolpath/_action/feedback";
+/// Output: the action's goal states (action_msgs/GoalStatusArray).
+pub const PLAN_TOOLPATH_STATUS: &str = "plan_toolpath/_action/status";
 
 /// The topic a joint trajectory of `machine` is published on.
 pub fn trajectory(machine: Machine) -> &'static str {

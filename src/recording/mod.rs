@@ -122,10 +122,16 @@ impl TopicSpec {
             ));
         }
         let parts: Vec<&str> = self.type_name.split('/').collect();
-        if parts.len() != 3 || parts[1] != "msg" || parts.iter().any(|p| p.is_empty()) {
+        if parts.len() != 3
+            || !matches!(parts[1], "msg" | "action")
+            || parts.iter().any(|p| p.is_empty())
+        {
             return Err(Error::invalid(
                 "type_name",
-                format!("\"{}\" is not of the form pkg/msg/Type", self.type_name),
+                format!(
+                    "\"{}\" is not of the form pkg/msg/Type (or pkg/action/Type)",
+                    self.type_name
+                ),
             ));
         }
         if self.definition.trim().is_empty() {
@@ -207,4 +213,30 @@ pub fn normalize_definition(text: &str) -> String {
         .filter(|l| !l.is_empty())
         .collect::<Vec<_>>()
         .join("\n")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::messages::plan_toolpath::{Feedback, FeedbackMessage};
+    use crate::messages::Uuid;
+
+    #[test]
+    fn a_feedback_message_is_sixteen_goal_id_bytes_then_the_feedback() {
+        let msg = FeedbackMessage {
+            goal_id: Uuid {
+                uuid: std::array::from_fn(|i| i as u8 + 1),
+            },
+            feedback: Feedback {
+                stage: "planning".into(),
+                progress: 0.5,
+            },
+        };
+        let bytes = to_cdr(&msg).unwrap();
+        // Header, 16 id bytes, then the string's length (9 with its NUL).
+        assert_eq!(&bytes[4..20], &msg.goal_id.uuid);
+        assert_eq!(&bytes[20..24], &9u32.to_le_bytes());
+        assert_eq!(&bytes[24..33], b"planning\0");
+        assert_eq!(from_cdr::<FeedbackMessage>(&bytes).unwrap(), msg);
+    }
 }

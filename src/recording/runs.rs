@@ -9,6 +9,7 @@ use super::{read_bag, ros2_type_name, Bag, BagWriter, Qos, TopicSpec, WriterOpti
 use crate::error::{Error, Result};
 use crate::formats::{Job, Machine, Shape};
 use crate::machines::Machines;
+use crate::messages::plan_toolpath::FeedbackMessage;
 use crate::messages::{self as msgs, convert, final_state, job_outputs, topics};
 use crate::messages::{JobOutputs, RosMessage};
 use crate::pipeline::{self, RunOptions};
@@ -25,7 +26,7 @@ fn spec<M: RosMessage>(topic: &str, qos: Qos) -> TopicSpec {
     let full = M::full_name();
     TopicSpec::new(
         topic,
-        &ros2_type_name(&full),
+        &M::type_name(),
         &msgs::schema_text(&full).unwrap_or_else(|| M::definition().to_string()),
         qos,
     )
@@ -57,6 +58,12 @@ pub fn topic_specs_in(namespace: &str) -> Vec<TopicSpec> {
         spec::<msgs::JointTrajectory>(&t(topics::BELT6_TRAJECTORY), results),
         spec::<msgs::JobStatus>(&t(topics::JOB_STATUS), Qos::reliable_transient_local(1000)),
         spec::<msgs::MarkerArray>(&t(topics::MARKERS), results),
+        // The action's topics with the QoS rcl_action gives them.
+        spec::<FeedbackMessage>(&t(topics::PLAN_TOOLPATH_FEEDBACK), Qos::DEFAULT),
+        spec::<msgs::GoalStatusArray>(
+            &t(topics::PLAN_TOOLPATH_STATUS),
+            Qos::reliable_transient_local(1),
+        ),
     ]
 }
 

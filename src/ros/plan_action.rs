@@ -17,7 +17,7 @@
 use super::execute::{client_qos, server_qos};
 use super::node::{topic_name, RosNode};
 use crate::error::{Error, Result};
-use crate::messages::plan_toolpath::{Feedback, Goal, GoalResult, NAME, PACKAGE};
+use crate::messages::plan_toolpath::{Feedback, FeedbackMessage, Goal, GoalResult, NAME, PACKAGE};
 use crate::messages::{self as msgs, final_state, topics};
 use ros2_client::action::ActionClient;
 use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus, GoalId};
@@ -34,9 +34,9 @@ impl ros2_client::Message for GoalResult {}
 impl ros2_client::Message for Feedback {}
 
 /// The action's and the service's name, relative to the node's namespace.
-pub const ACTION: &str = "plan_toolpath";
+pub const ACTION: &str = topics::PLAN_TOOLPATH;
 /// The service's name (services and actions have separate names in ROS 2).
-pub const SERVICE: &str = "plan_toolpath";
+pub const SERVICE: &str = topics::PLAN_TOOLPATH;
 
 /// How long a finished goal waits for its client to ask for the result.
 pub const RESULT_WAIT: Duration = Duration::from_secs(300);
@@ -199,6 +199,40 @@ pub trait GoalQueue: Send + Sync {
     /// CANCELED) when it has not started, else stopped by its progress
     /// checks or at the controller.
     fn cancel(&self, link: &Arc<GoalLink>);
+    /// The action published `msg` on its feedback topic (for the recording).
+    fn feedback_published(&self, _msg: &FeedbackMessage) {}
+    /// The action published `msg` on its status topic (for the recording).
+    fn status_published(&self, _msg: &msgs::GoalStatusArray) {}
+}
+
+/// ros2-client's goal id as the message type.
+fn goal_uuid(id: &GoalId) -> msgs::Uuid {
+    msgs::Uuid {
+        uuid: id.uuid.into_bytes(),
+    }
+}
+
+/// ros2-client's status array as the message type (the same CDR bytes).
+fn status_array(a: &ros2_client::action_msgs::GoalStatusArray) -> msgs::GoalStatusArray {
+    msgs::GoalStatusArray {
+        status_list: a
+            .status_list
+            .iter()
+            .map(|s| msgs::GoalStatus {
+                goal_info: msgs::GoalInfo {
+                    goal_id: goal_uuid(&s.goal_info.goal_id),
+                    stamp: {
+                        let ns = s.goal_info.stamp.to_nanos();
+                        msgs::Time {
+                            sec: i32::try_from(ns.div_euclid(1_000_000_000)).unwrap_or(i32::MAX),
+                            nanosec: ns.rem_euclid(1_000_000_000) as u32,
+                        }
+                    },
+                },
+                status: s.status as i8,
+            })
+            .collect(),
+    }
 }
 
 type PlanServer = AsyncActionServer<Goal, GoalResult, Feedback>;
@@ -215,8 +249,14 @@ async fn run_job(
 ) -> GoalResult {
     let on_feedback = async |f: Feedback| {
         if let Some((server, handle)) = &action {
+            let msg = FeedbackMessage {
+                goal_id: goal_uuid(&handle.goal_id()),
+                feedback: f.clone(),
+            };
             // A goal being canceled takes no feedback: ignore the refusal.
-            let _ = server.publish_feedback(handle.clone(), f).await;
+            if server.publish_feedback(handle.clone(), f).await.is_ok() {
+                queue.feedback_published(&msg);
+            }
         }
     };
     if let Err(e) = queue.submit(goal, link) {
@@ -430,7 +470,13 @@ pub fn serve(ros: &mut RosNode, queue: Arc<dyn GoalQueue>) -> Result<()> {
             server_qos(),
         )
         .map_err(|e| Error::planning(format!("ROS 2: cannot serve action {ACTION}: {e:?}")))?;
-    let server = Arc::new(AsyncActionServer::new(server));
+    let observer = {
+        let queue = Arc::clone(&queue);
+        move |a: &ros2_client::action_msgs::GoalStatusArray| {
+            queue.status_published(&status_array(a))
+        }
+    };
+    let server = Arc::new(AsyncActionServer::new(server).with_status_observer(Box::new(observer)));
     let service = topic_name(&ros.namespace, SERVICE)?;
     let service_server = ros
         .node

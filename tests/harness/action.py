@@ -56,6 +56,7 @@ CancelGoal_Response = msgs.struct("CancelGoal_Response", "action_msgs::srv::dds_
                                   [("return_code", t.int8, int), ("goals_canceling", t.sequence[GoalInfo], list)])
 
 # action_msgs/GoalStatus
+STATUS_ACCEPTED, STATUS_EXECUTING = 1, 2
 STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED = 4, 5, 6
 # action_msgs/srv/CancelGoal return codes
 CANCEL_NONE, CANCEL_REJECTED, CANCEL_UNKNOWN_GOAL, CANCEL_TERMINATED = 0, 1, 2, 3

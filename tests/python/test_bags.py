@@ -1,7 +1,9 @@
-"""Every message of every golden bag, and of a bag recorded by the node itself,
-decodes with the independent readers: `mcap` + `mcap-ros2-support`, and
-`rosbags` (bag directory and bare .mcap)."""
+"""Every message of every golden bag, and of a bag recorded by the node itself
+(topic jobs and a PlanToolpath goal, whose feedback and goal statuses are
+recorded on the action's topics), decodes with the independent readers:
+`mcap` + `mcap-ros2-support`, and `rosbags` (bag directory and bare .mcap)."""
 
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -10,16 +12,24 @@ from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore, get_types_from_msg
 
-from harness import msgs
+from harness import action, msgs
 from harness.client import Client, job, quadratic_surface, tool
 from harness.process import NodeProcess
+from toolpath_bin import toolpath_bin
 
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = sorted(p for p in (ROOT / "bags").iterdir() if (p / "metadata.yaml").is_file())
 
 
+# mcap-ros2-support (0.6) parses schemas with the .msg grammar, whose type names
+# have no underscore: it cannot decode the types rosidl derives for an action's
+# topics (`pkg/action/Type_FeedbackMessage`); rosbags decodes them.
+DERIVED_TYPES = ("toolpath_msgs/action/PlanToolpath_FeedbackMessage",)
+
+
 def decode_with_mcap_ros2(bag):
-    """[(topic, message)] of the bag's .mcap, decoded by mcap-ros2-support."""
+    """[(topic, message)] of the bag's .mcap, decoded by mcap-ros2-support
+    (the action's feedback topic left out: see DERIVED_TYPES)."""
     mcap_file = bag / f"{bag.name}_0.mcap"
     out = []
     with open(mcap_file, "rb") as f:
@@ -31,11 +41,14 @@ def decode_with_mcap_ros2(bag):
         for channel in summary.channels.values():
             assert channel.message_encoding == "cdr"
             assert "offered_qos_profiles" in channel.metadata
-        for schema, channel, message, msg in reader.iter_decoded_messages():
+        decodable = {c.topic for c in summary.channels.values()
+                     if summary.schemas[c.schema_id].name not in DERIVED_TYPES}
+        for schema, channel, message, msg in reader.iter_decoded_messages(topics=sorted(decodable)):
             out.append((channel.topic, msg))
             if channel.topic == "/toolpath":
                 assert sum(len(p.points) for p in msg.passes) == msg.stats.points
-        assert len(out) == summary.statistics.message_count
+        counts = summary.statistics.channel_message_counts
+        assert len(out) == sum(n for cid, n in counts.items() if summary.channels[cid].topic in decodable)
     return out
 
 
@@ -93,16 +106,41 @@ def test_a_bag_recorded_by_the_node_decodes(tmp_path):
         got = c.wait_final(["rec_ok", "rec_bad"], timeout=120)
         assert got["rec_ok"].state == msgs.JobStatus.SUCCEEDED, got["rec_ok"].message
         assert got["rec_bad"].state == msgs.JobStatus.REJECTED
+        goals = action.ActionClient(c.node._dp, "/")
+        goals.wait()
+        goal_id, accepted = goals.send(action.Goal(
+            job=job("rec_goal", "rec_trough", "iso_parametric", tool("flat_end", radius=2.5), scallop=0.5,
+                    lead_angle_deg=5.0, feed_direction="u"), surface=[]))
+        assert accepted
+        status, result = goals.result(goal_id)
+        assert status == action.STATUS_SUCCEEDED, result.reason
     finally:
         c.close()
         proc.stop()  # SIGTERM: the node writes metadata.yaml
     bag = tmp_path / "node_run"
     assert (bag / "metadata.yaml").is_file()
-    for decoded in (decode_with_mcap_ros2(bag), decode_with_rosbags(bag)):
+    # rosbags reads the bag twice: as a directory and as its bare .mcap.
+    for decoded, copies in ((decode_with_mcap_ros2(bag), 1), (decode_with_rosbags(bag), 2)):
         topics = {t for t, _ in decoded}
         assert {"/surface", "/job", "/toolpath", "/tool_poses", "/mill5/joint_trajectory", "/markers",
                 "/job_status"} <= topics
         finals = {m.job_id: m.state for t, m in decoded if t == "/job_status" and m.state >= 2}
-        assert finals == {"rec_ok": 2, "rec_bad": 4}
+        assert finals == {"rec_ok": 2, "rec_bad": 4, "rec_goal": 2}
         jobs = [m.job_id for t, m in decoded if t == "/job"]
-        assert sorted(set(jobs)) == ["rec_bad", "rec_ok"]
+        assert sorted(set(jobs)) == ["rec_bad", "rec_goal", "rec_ok"]
+        # The goal's states in order: accepted, executing, succeeded (each array lists
+        # every goal the server holds, so a state may repeat).
+        states = [s.status for t, m in decoded if t == "/plan_toolpath/_action/status"
+                  for s in m.status_list if bytes(s.goal_info.goal_id.uuid) == bytes(goal_id.uuid)]
+        changes = [s for k, s in enumerate(states) if k == 0 or states[k - 1] != s]
+        assert changes == [action.STATUS_ACCEPTED, action.STATUS_EXECUTING, action.STATUS_SUCCEEDED] * copies, states
+    # The goal's feedback, tagged with its id, from "queued" on.
+    feedback = [m for t, m in decode_with_rosbags(bag) if t == "/plan_toolpath/_action/feedback"]
+    assert feedback and all(bytes(m.goal_id.uuid) == bytes(goal_id.uuid) for m in feedback)
+    assert feedback[0].feedback.stage == "queued"
+    assert {"planning"} <= {m.feedback.stage for m in feedback}
+    assert all(0.0 <= m.feedback.progress <= 1.0 for m in feedback)
+    # Replay knows the action's topics and re-plans the three jobs alike.
+    replay = subprocess.run([toolpath_bin(), "replay", "--check", str(bag)], capture_output=True, text=True,
+                            timeout=300)
+    assert replay.returncode == 0, replay.stdout + replay.stderr

@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 use crate::formats::Shape;
 use crate::machines::Machines;
 use crate::messages::frames::Frames;
-use crate::messages::plan_toolpath::Goal;
+use crate::messages::plan_toolpath::{FeedbackMessage, Goal};
 use crate::messages::{self as msgs, convert, final_state, topics};
 use crate::ros::plan_action::{GoalLink, GoalQueue};
 use std::sync::{Arc, Weak};
@@ -174,6 +174,18 @@ impl GoalQueue for NodeQueue {
         // canceled at the controller.
         if let (true, Ok(outputs)) = (link.is_executing(), self.outputs()) {
             outputs.cancels.cancel(&link.job_id);
+        }
+    }
+
+    fn feedback_published(&self, msg: &FeedbackMessage) {
+        if let Some(rec) = self.outputs.upgrade().and_then(|o| o.recorder.clone()) {
+            rec.record(topics::PLAN_TOOLPATH_FEEDBACK, msg);
+        }
+    }
+
+    fn status_published(&self, msg: &msgs::GoalStatusArray) {
+        if let Some(rec) = self.outputs.upgrade().and_then(|o| o.recorder.clone()) {
+            rec.record(topics::PLAN_TOOLPATH_STATUS, msg);
         }
     }
 }

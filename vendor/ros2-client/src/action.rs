@@ -11,7 +11,7 @@ mod server;
 #[doc(inline)]
 pub use server::{
   AcceptedGoalHandle, ActionServer, AsyncActionServer, CancelHandle, ExecutingGoalHandle,
-  GoalEndStatus, GoalError, NewGoalHandle,
+  GoalEndStatus, GoalError, NewGoalHandle, StatusObserver,
 };
 
 //TODO: Make fields private, add constructor and accessors.

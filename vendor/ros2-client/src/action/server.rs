@@ -262,7 +262,13 @@ where
   goals: Mutex<BTreeMap<GoalId, AsyncGoal<G>>>,
   finished_goals: Mutex<Vec<GoalId>>,
   result_requests: Mutex<BTreeMap<GoalId, RmwRequestId>>,
+  // toolpath_planner patch: sees every status array the server publishes.
+  status_observer: Option<StatusObserver>,
 }
+
+/// toolpath_planner patch: a callback given each `GoalStatusArray` as it is
+/// published (e.g. to record it).
+pub type StatusObserver = Box<dyn Fn(&action_msgs::GoalStatusArray) + Send + Sync>;
 
 const FINISHED_GOAL_BUFFER_SIZE: usize = 2;
 
@@ -278,7 +284,15 @@ where
       goals: Mutex::new(BTreeMap::new()),
       finished_goals: Mutex::new(Vec::with_capacity(FINISHED_GOAL_BUFFER_SIZE)),
       result_requests: Mutex::new(BTreeMap::new()),
+      status_observer: None,
     }
+  }
+
+  /// toolpath_planner patch: `observer` is given every status array this
+  /// server publishes, just before it is published.
+  pub fn with_status_observer(mut self, observer: StatusObserver) -> Self {
+    self.status_observer = Some(observer);
+    self
   }
 
   fn mark_goal_finished(&self, goal_id: GoalId) {
@@ -823,6 +837,10 @@ where
         .iter()
         .map(|gs| gs.goal_info.goal_id)
     );
+    // toolpath_planner patch: the observer sees what is published.
+    if let Some(observer) = &self.status_observer {
+      observer(&goal_status_array);
+    }
     self
       .actionserver
       .send_goal_statuses(goal_status_array)
