@@ -501,19 +501,41 @@ fn normal_jump(s: &crate::geometry::NurbsSurface, along_u: bool, t: f64, span: f
 
 /// The face `face` (its STEP entity id) of the STEP file at `path`, as
 /// `toolpath import --face` writes it (docs/formats.md, "STEP import").
-fn step_face(path: &Path, face: &serde_json::Value) -> Result<Shape> {
-    let id = face.as_u64().ok_or_else(|| {
+/// A STEP face id given at `field`: a whole number.
+fn face_id(field: String, face: &serde_json::Value) -> Result<u64> {
+    face.as_u64().ok_or_else(|| {
         Error::invalid(
-            "surface.face",
+            field,
             format!("must be a STEP entity id (a whole number, as `toolpath import --list` shows), not {face}"),
         )
-    })?;
-    let surface = super::step::StepFile::read(path)
-        .and_then(|f| f.face(id))
-        .map_err(|e| e.within("surface"))?;
+    })
+}
+
+/// Face `id` of a read STEP file as a job's shape.
+fn face_shape(step: &super::step::StepFile, id: u64) -> Result<Shape> {
+    let surface = step.face(id).map_err(|e| e.within("surface"))?;
     let value =
         serde_json::to_value(surface).map_err(|e| Error::invalid("surface.face", e.to_string()))?;
     shape_from_value(value).map_err(|e| e.within("surface"))
+}
+
+/// The file a `{"file": path, ...}` surface names, relative paths from `base_dir`.
+fn surface_file(
+    map: &serde_json::Map<String, serde_json::Value>,
+    base_dir: Option<&Path>,
+) -> Result<std::path::PathBuf> {
+    let file = match map.get("file") {
+        Some(serde_json::Value::String(s)) => s.clone(),
+        _ => return Err(Error::invalid("surface.file", "must be a string path")),
+    };
+    Ok(match base_dir {
+        Some(d) if Path::new(&file).is_relative() => d.join(&file),
+        _ => Path::new(&file).to_path_buf(),
+    })
+}
+
+fn read_step(path: &Path) -> Result<super::step::StepFile> {
+    super::step::StepFile::read(path).map_err(|e| e.within("surface"))
 }
 
 /// The STEP face ids of a job whose surface is `{"file": STEP path,
@@ -543,12 +565,7 @@ fn face_list(surface: &serde_json::Value) -> Result<Option<Vec<u64>>> {
     }
     let mut ids = Vec::with_capacity(list.len());
     for (k, v) in list.iter().enumerate() {
-        let id = v.as_u64().ok_or_else(|| {
-            Error::invalid(
-                format!("surface.faces[{k}]"),
-                format!("must be a STEP entity id (a whole number, as `toolpath import --list` shows), not {v}"),
-            )
-        })?;
+        let id = face_id(format!("surface.faces[{k}]"), v)?;
         if let Some(first) = ids.iter().position(|&x| x == id) {
             return Err(Error::invalid(
                 format!("surface.faces[{k}]"),
@@ -568,14 +585,19 @@ pub fn jobs_from_file(f: JobFile, base_dir: Option<&Path>) -> Result<Vec<Job>> {
     let Some(ids) = face_list(&f.surface)? else {
         return Job::from_file(f, base_dir).map(|j| vec![j]);
     };
-    let file = f.surface.get("file").cloned().unwrap_or_default();
+    if f.job_id.trim().is_empty() {
+        return Err(Error::invalid("job_id", "must not be empty"));
+    }
+    let map = f.surface.as_object().cloned().unwrap_or_default();
+    // One read of the file serves every face.
+    let step = read_step(&surface_file(&map, base_dir)?)?;
     ids.iter()
         .map(|&id| {
             let one = JobFile {
-                surface: serde_json::json!({"file": file, "face": id}),
+                surface: serde_json::json!({"file": map.get("file"), "face": id}),
                 ..f.clone()
             };
-            Job::from_file(one, base_dir)
+            Job::new(one, face_shape(&step, id)?)
         })
         .collect()
 }
@@ -588,14 +610,7 @@ impl Job {
         }
         let shape = match &f.surface {
             serde_json::Value::Object(map) if map.contains_key("file") => {
-                let file = match map.get("file") {
-                    Some(serde_json::Value::String(s)) => s.clone(),
-                    _ => return Err(Error::invalid("surface.file", "must be a string path")),
-                };
-                let path = match base_dir {
-                    Some(d) if Path::new(&file).is_relative() => d.join(&file),
-                    _ => Path::new(&file).to_path_buf(),
-                };
+                let path = surface_file(map, base_dir)?;
                 if map.contains_key("faces") {
                     return Err(Error::invalid(
                         "surface.faces",
@@ -604,7 +619,10 @@ impl Job {
                 }
                 match map.get("face") {
                     None => super::read_shape(&path).map_err(|e| e.within("surface"))?,
-                    Some(face) => step_face(&path, face)?,
+                    Some(face) => {
+                        let id = face_id("surface.face".into(), face)?;
+                        face_shape(&read_step(&path)?, id)?
+                    }
                 }
             }
             serde_json::Value::Object(_) => {
