@@ -24,27 +24,17 @@ fn plane(a: f64, b: f64) -> NurbsSurface {
 
 /// A ball-end iso-parametric job on a 20 x 10 plane, h = 0.2.
 fn ball_job() -> JobFile {
+    let tool = Tool::Ball {
+        radius: 2.5,
+        length: None,
+    };
     JobFile {
-        job_id: "spec_test".into(),
         surface: Shape::Surface(plane(20.0, 10.0)).to_json(),
-        strategy: Strategy::IsoParametric,
-        tool: Some(Tool::Ball {
-            radius: 2.5,
-            length: None,
-        }),
-        machine: None,
         scallop: Some(0.2),
-        tolerance: None,
         lead_angle_deg: Some(0.0),
-        side_tilt_deg: None,
         feed_direction: Some(formats::FeedDirection::U),
-        feed_rate: None,
-        tool_catalogue: None,
-        section_normal: None,
         simulation_resolution: Some(0.25),
-        grinding: None,
-        time_limit_s: None,
-        execute: None,
+        ..JobFile::new("spec_test", Strategy::IsoParametric, Some(tool))
     }
 }
 

@@ -889,23 +889,14 @@ fn toolpath() -> Command {
 fn write_case(dir: &Path, job: &Job, result: &PlanResult) -> (PathBuf, PathBuf) {
     let job_path = dir.join("job.json");
     let file = formats::JobFile {
-        job_id: job.job_id.clone(),
         surface: job.shape.to_json(),
-        strategy: job.strategy,
-        tool: job.tool,
-        machine: None,
         scallop: job.scallop,
         tolerance: job.tolerance,
         lead_angle_deg: job.lead_angle_deg,
         side_tilt_deg: job.side_tilt_deg,
         feed_direction: job.feed_direction,
         feed_rate: Some(job.feed_rate),
-        tool_catalogue: None,
-        section_normal: None,
-        simulation_resolution: None,
-        grinding: None,
-        time_limit_s: None,
-        execute: None,
+        ..formats::JobFile::new(&job.job_id, job.strategy, job.tool)
     };
     std::fs::write(&job_path, serde_json::to_string(&file).unwrap()).unwrap();
     let result_path = dir.join("result.json");

@@ -19,23 +19,12 @@ fn plane(a: f64, b: f64) -> NurbsSurface {
 
 fn job_file(strategy: Strategy, tool: Tool, shape: &Shape) -> JobFile {
     JobFile {
-        job_id: "verify_test".into(),
         surface: shape.to_json(),
-        strategy,
-        tool: Some(tool),
-        machine: None,
         scallop: Some(0.2),
-        tolerance: None,
         lead_angle_deg: Some(0.0),
-        side_tilt_deg: None,
         feed_direction: Some(formats::FeedDirection::U),
-        feed_rate: None,
-        tool_catalogue: None,
-        section_normal: None,
         simulation_resolution: Some(0.25),
-        grinding: None,
-        time_limit_s: None,
-        execute: None,
+        ..JobFile::new("verify_test", strategy, Some(tool))
     }
 }
 

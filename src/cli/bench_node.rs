@@ -63,27 +63,17 @@ fn bench_job(job_id: &str, surface: NurbsSurface) -> Result<Job> {
 /// lead 5 deg, feed along u at 2000 mm/min: the benchmark's and the soak
 /// test's job.
 pub fn iso_parametric_job(job_id: &str, surface: NurbsSurface, scallop_mm: f64) -> Result<Job> {
+    let tool = Tool::FlatEnd {
+        radius: 2.5,
+        length: None,
+    };
     let file = JobFile {
-        job_id: job_id.into(),
-        surface: serde_json::Value::Null,
-        strategy: Strategy::IsoParametric,
-        tool: Some(Tool::FlatEnd {
-            radius: 2.5,
-            length: None,
-        }),
         machine: Some(Machine::Mill5),
         scallop: Some(scallop_mm),
-        tolerance: None,
         lead_angle_deg: Some(5.0),
-        side_tilt_deg: None,
         feed_direction: Some(FeedDirection::U),
         feed_rate: Some(2000.0),
-        tool_catalogue: None,
-        section_normal: None,
-        simulation_resolution: None,
-        grinding: None,
-        time_limit_s: None,
-        execute: None,
+        ..JobFile::new(job_id, Strategy::IsoParametric, Some(tool))
     };
     Job::new(file, Shape::Surface(surface))
 }

@@ -195,6 +195,32 @@ pub struct JobFile {
     pub execute: Option<bool>,
 }
 
+impl JobFile {
+    /// A job file with only the required fields; every optional one absent
+    /// (set them with struct update syntax).
+    pub fn new(job_id: &str, strategy: Strategy, tool: Option<Tool>) -> Self {
+        JobFile {
+            job_id: job_id.to_string(),
+            surface: serde_json::Value::Null,
+            strategy,
+            tool,
+            machine: None,
+            scallop: None,
+            tolerance: None,
+            lead_angle_deg: None,
+            side_tilt_deg: None,
+            feed_direction: None,
+            feed_rate: None,
+            tool_catalogue: None,
+            section_normal: None,
+            simulation_resolution: None,
+            grinding: None,
+            time_limit_s: None,
+            execute: None,
+        }
+    }
+}
+
 /// A validated job.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Job {

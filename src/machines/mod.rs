@@ -441,23 +441,10 @@ mod tests {
 
     fn job(strategy: Strategy, tool: Tool, feed: f64) -> Job {
         let file = JobFile {
-            job_id: "t".into(),
-            surface: serde_json::Value::Null,
-            strategy,
-            tool: Some(tool),
-            machine: None,
             scallop: Some(0.05),
             tolerance: Some(0.01),
-            lead_angle_deg: None,
-            side_tilt_deg: None,
-            feed_direction: None,
             feed_rate: Some(feed),
-            tool_catalogue: None,
-            section_normal: None,
-            simulation_resolution: None,
-            grinding: None,
-            time_limit_s: None,
-            execute: None,
+            ..JobFile::new("t", strategy, Some(tool))
         };
         Job::new(file, Shape::Surface(crate::samples::surfaces::plane())).unwrap()
     }

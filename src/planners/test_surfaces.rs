@@ -79,27 +79,15 @@ pub fn job(
     lead_deg: f64,
     scallop: f64,
 ) -> crate::formats::Job {
+    let tool = crate::tools::Tool::FlatEnd {
+        radius,
+        length: None,
+    };
     let file = crate::formats::JobFile {
-        job_id: "test".into(),
-        surface: serde_json::Value::Null,
-        strategy,
-        tool: Some(crate::tools::Tool::FlatEnd {
-            radius,
-            length: None,
-        }),
-        machine: None,
         scallop: Some(scallop),
-        tolerance: None,
         lead_angle_deg: Some(lead_deg),
-        side_tilt_deg: None,
-        feed_direction: None,
         feed_rate: Some(1000.0),
-        tool_catalogue: None,
-        section_normal: None,
-        simulation_resolution: None,
-        grinding: None,
-        time_limit_s: None,
-        execute: None,
+        ..crate::formats::JobFile::new("test", strategy, Some(tool))
     };
     crate::formats::Job::new(file, crate::formats::Shape::Surface(surface)).expect("valid test job")
 }

@@ -134,23 +134,8 @@ pub fn shape(name: &str) -> Result<Shape> {
 
 fn base_job(name: &str, strategy: Strategy, tool: Tool) -> JobFile {
     JobFile {
-        job_id: format!("{name}_job"),
-        surface: serde_json::Value::Null,
-        strategy,
-        tool: Some(tool),
-        machine: None,
-        scallop: None,
-        tolerance: None,
-        lead_angle_deg: None,
-        side_tilt_deg: None,
-        feed_direction: None,
         feed_rate: Some(2000.0),
-        tool_catalogue: None,
-        section_normal: None,
-        simulation_resolution: None,
-        grinding: None,
-        time_limit_s: None,
-        execute: None,
+        ..JobFile::new(&format!("{name}_job"), strategy, Some(tool))
     }
 }
 
