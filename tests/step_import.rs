@@ -604,6 +604,53 @@ fn analytic_faces_are_exact_with_their_curvatures_and_outward_normals() {
 }
 
 #[test]
+fn extruded_faces_are_exact_rulings_along_their_vector() {
+    // The elliptic arc (semi-axes 30 and 18 in z = 0) swept along
+    // (10, 0, 35): every point moved back along the vector to z = 0 lies on
+    // the ellipse, and the u = const lines are rulings along the vector.
+    let (_, s) = only_face("extrusion_arc");
+    let dir = nalgebra::Vector3::new(10.0, 0.0, 35.0);
+    for (u, v) in grid_uv(&s, 8) {
+        let p = s.point(u, v).coords;
+        let q = p - dir * (p.z / 35.0);
+        let on = (q.x / 30.0).powi(2) + (q.y / 18.0).powi(2);
+        assert!((on - 1.0).abs() < 1e-9, "{p:?} -> {q:?}: {on}");
+    }
+    // Both faces: rulings straight along the vector (developable: Gaussian
+    // curvature 0), the normal across the vector, and v running along the
+    // file's extrusion vector, so the normal u x v is STEP's. (Open CASCADE
+    // writes its prism's surface along the opposite of the sweep, with the
+    // rulings' pcurves running to negative v.)
+    for (name, dir) in [
+        ("extrusion", nalgebra::Vector3::new(0.0, 12.0, 40.0)),
+        ("extrusion_arc", dir),
+    ] {
+        let (_, s) = only_face(name);
+        let unit = dir.normalize();
+        let ((_, _), (v0, v1)) = s.domain();
+        for (u, v) in grid_uv(&s, 8) {
+            let (a, b) = (s.point(u, v0).coords, s.point(u, v1).coords);
+            let off = (s.point(u, v).coords - a).cross(&unit).norm();
+            assert!(
+                off < 1e-9 && (b - a).cross(&unit).norm() < 1e-9,
+                "{name}: {off}"
+            );
+            assert!(
+                (b - a).dot(&unit) < 0.0,
+                "{name}: v runs against the file's vector"
+            );
+            let g = LocalGeometry::at(&s, u, v).unwrap();
+            assert!(
+                (g.k_min * g.k_max).abs() < 1e-9,
+                "{name}: K = {}",
+                g.k_min * g.k_max
+            );
+            assert!(g.n.dot(&unit).abs() < 1e-9, "{name}: normal {:?}", g.n);
+        }
+    }
+}
+
+#[test]
 fn the_face_through_the_pole_imports_with_a_collapsed_edge() {
     // Latitude 30 degrees to the pole: the face's loop runs along the
     // patch's collapsed edge, every point of which is the pole.
@@ -626,7 +673,7 @@ fn the_face_through_the_pole_imports_with_a_collapsed_edge() {
 #[test]
 fn analytic_faces_away_from_poles_plan_within_h() {
     let h = 0.05;
-    for name in ["sphere_zone", "torus", "cone"] {
+    for name in ["sphere_zone", "torus", "cone", "extrusion", "extrusion_arc"] {
         let surface = serde_json::to_value(
             StepFile::read(&dir().join(format!("{name}.step")))
                 .unwrap()

@@ -6,10 +6,10 @@
 //! `ADVANCED_FACE` (or `FACE_SURFACE`) on `B_SPLINE_SURFACE_WITH_KNOTS`
 //! (rational or not), `PLANE`, or a surface of revolution (`CYLINDRICAL_`,
 //! `CONICAL_`, `SPHERICAL_`, `TOROIDAL_SURFACE`, `SURFACE_OF_REVOLUTION`),
-//! all converted to exact NURBS, bounded by `EDGE_LOOP`s of `EDGE_CURVE`s on `LINE`,
+//! or `SURFACE_OF_LINEAR_EXTRUSION`, all converted to exact NURBS, bounded by `EDGE_LOOP`s of `EDGE_CURVE`s on `LINE`,
 //! `CIRCLE`, `ELLIPSE` and B-spline curves. On a B-spline surface an edge
 //! uses its pcurve on that surface when the file gives one; every other edge
-//! (and every edge of a plane or revolved surface, whose own parametrisation differs
+//! (and every edge of a plane, revolved or extruded surface, whose own parametrisation differs
 //! from the NURBS written) is its 3-D curve projected onto the surface. Each
 //! loop is written as one closed polyline in (u, v), sampled so that the
 //! surface image of every chord stays within the trim tolerance of the edge.
@@ -32,7 +32,7 @@ use std::path::Path;
 pub const MAX_STEP_BYTES: u64 = 512 << 20;
 
 /// Surface types a face may lie on.
-pub const SUPPORTED_SURFACES: &str = "B_SPLINE_SURFACE_WITH_KNOTS, PLANE, CYLINDRICAL_SURFACE, CONICAL_SURFACE, SPHERICAL_SURFACE, TOROIDAL_SURFACE, SURFACE_OF_REVOLUTION";
+pub const SUPPORTED_SURFACES: &str = "B_SPLINE_SURFACE_WITH_KNOTS, PLANE, CYLINDRICAL_SURFACE, CONICAL_SURFACE, SPHERICAL_SURFACE, TOROIDAL_SURFACE, SURFACE_OF_REVOLUTION, SURFACE_OF_LINEAR_EXTRUSION";
 
 /// Grid cells per direction of the area integration of `--list`.
 pub const LIST_CELLS: usize = 128;
@@ -178,6 +178,9 @@ enum Basis {
     /// A surface of revolution about the frame's z axis (cylinder, cone,
     /// sphere, torus, `SURFACE_OF_REVOLUTION`), named for messages.
     Revolved(Frame, Meridian, &'static str),
+    /// A `SURFACE_OF_LINEAR_EXTRUSION` along the frame's z: its swept
+    /// curve projected along z onto the frame's (x, y) plane (the section).
+    Extruded(Frame, Meridian),
 }
 
 /// The meridian of a surface of revolution in the frame's (rho, h) half
@@ -903,6 +906,9 @@ impl StepFile {
             let (_, p) = self.expect(id, &["PLANE"])?;
             return Ok(Basis::Plane(self.frame(self.reference(id, p, 1)?, false)?));
         }
+        if records.len() == 1 && name == "SURFACE_OF_LINEAR_EXTRUSION" {
+            return self.linear_extrusion(id);
+        }
         if records.len() == 1 {
             if let Some(b) = self.revolved(id, &name)? {
                 return Ok(b);
@@ -1142,6 +1148,83 @@ impl StepFile {
             meridian,
             "surface of revolution",
         ))
+    }
+
+    /// A `SURFACE_OF_LINEAR_EXTRUSION`: its swept curve (a line, circle,
+    /// ellipse or B-spline) in any plane, moved along its axis vector. The
+    /// surface is the cylinder over the curve's projection along the axis
+    /// (the section), so the section's parameter and the height along the
+    /// axis parametrise it exactly.
+    fn linear_extrusion(&self, id: u64) -> Result<Basis> {
+        let (_, p) = self.expect(id, &["SURFACE_OF_LINEAR_EXTRUSION"])?;
+        let curve = self.curve(self.reference(id, p, 1)?, false)?;
+        let vid = self.reference(id, p, 2)?;
+        let (_, vp) = self.expect(vid, &["VECTOR"])?;
+        let z = self.direction(self.reference(vid, vp, 1)?, false)?;
+        if !(self.real(vid, vp, 2)? > 0.0) {
+            return Err(self.err(vid, "has a magnitude that is not positive"));
+        }
+        let o = match &curve {
+            Curve::Line { p, .. } => *p,
+            Curve::Conic { c, .. } => *c,
+            Curve::Bspline { points, .. } => points
+                .first()
+                .map(|h| V3::new(h[0] / h[3], h[1] / h[3], h[2] / h[3]))
+                .unwrap_or_else(V3::zeros),
+        };
+        let xr = if z.x.abs() < 0.9 { V3::x() } else { V3::y() };
+        let x = (xr - z * xr.dot(&z)).normalize();
+        let y = z.cross(&x);
+        let m2 = |q: &V3| [(q - o).dot(&x), (q - o).dot(&y)];
+        let v2 = |d: &V3| [d.dot(&x), d.dot(&y)];
+        let flat = |what: &str| {
+            self.err(
+                id,
+                format!("has a swept {what} whose plane contains the extrusion direction: the face is a plane, not supported as an extrusion"),
+            )
+        };
+        let section = match &curve {
+            Curve::Line { p, d } => {
+                let d2 = v2(d);
+                if d2[0].hypot(d2[1]) <= 1e-9 * d.norm() {
+                    return Err(self.err(id, "has a swept line along its extrusion direction"));
+                }
+                Meridian::Line { p: m2(p), d: d2 }
+            }
+            Curve::Conic {
+                c,
+                x: cx,
+                y: cy,
+                a,
+                b,
+            } => {
+                let (ea, eb) = (v2(&(cx * *a)), v2(&(cy * *b)));
+                if (ea[0] * eb[1] - ea[1] * eb[0]).abs() <= 1e-9 * a * b {
+                    return Err(flat("circle or ellipse"));
+                }
+                Meridian::Conic {
+                    c: m2(c),
+                    a: ea,
+                    b: eb,
+                }
+            }
+            Curve::Bspline {
+                degree,
+                knots,
+                points,
+            } => Meridian::Bspline(Curve::Bspline {
+                degree: *degree,
+                knots: knots.clone(),
+                points: points
+                    .iter()
+                    .map(|h| {
+                        let q = m2(&V3::new(h[0] / h[3], h[1] / h[3], h[2] / h[3]));
+                        [q[0] * h[3], q[1] * h[3], 0.0, h[3]]
+                    })
+                    .collect(),
+            }),
+        };
+        Ok(Basis::Extruded(Frame { o, x, y, z }, section))
     }
 
     fn curve(&self, id: u64, in_uv: bool) -> Result<Curve> {
@@ -1439,7 +1522,70 @@ impl StepFile {
             Basis::Bspline(s) => bspline_patch(s),
             Basis::Plane(f) => self.plane_patch(face, f, coarse),
             Basis::Revolved(f, m, what) => self.revolved_patch(face, f, m, what, coarse),
+            Basis::Extruded(f, m) => self.extruded_patch(face, f, m, coarse),
         }
+    }
+
+    /// A surface of linear extrusion as the exact patch over the section
+    /// range and the heights its boundary spans: the section's NURBS in u
+    /// (as a meridian's, [`Self::meridian_profile`]) times a line along the
+    /// axis in v, so u runs along the swept curve and v along the axis
+    /// vector, the orientation STEP gives the surface.
+    fn extruded_patch(
+        &self,
+        face: u64,
+        f: Frame,
+        m: Meridian,
+        coarse: &[Vec<V3>],
+    ) -> Result<Patch> {
+        const WHAT: &str = "surface of linear extrusion";
+        let section = move |q: &V3| [(q - f.o).dot(&f.x), (q - f.o).dot(&f.y)];
+        let height = move |q: &V3| (q - f.o).dot(&f.z);
+        let (mut s0, mut s1) = (f64::INFINITY, f64::NEG_INFINITY);
+        let (mut h0, mut h1) = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut s_reference = None;
+        for l in coarse {
+            let mut s_prev: Option<f64> = None;
+            for q in l {
+                let s = m.locate(section(q), s_prev.or(s_reference));
+                s_reference.get_or_insert(s);
+                s_prev = Some(s);
+                (s0, s1) = (s0.min(s), s1.max(s));
+                (h0, h1) = (h0.min(height(q)), h1.max(height(q)));
+            }
+        }
+        if !(s1 > s0 && h1 > h0) {
+            return Err(self.err(face, format!("has a boundary of no extent on its {WHAT}")));
+        }
+        let (degree_u, knots_u, profile, umap, (s0, s1)) =
+            self.meridian_profile(face, &m, WHAT, (s0, s1))?;
+        let rational = profile.iter().any(|(_, w)| *w != 1.0);
+        let at = |q: [f64; 2], h: f64| {
+            let p = f.o + f.x * q[0] + f.y * q[1] + f.z * h;
+            [p.x, p.y, p.z]
+        };
+        let (u_lo, u_hi) = (umap.v_of(s0), umap.v_of(s1));
+        Ok((
+            SurfaceFile {
+                kind: "nurbs".into(),
+                name: None,
+                degree_u,
+                degree_v: 1,
+                knots_u,
+                knots_v: vec![h0, h0, h1, h1],
+                control_points: profile
+                    .iter()
+                    .map(|(q, _)| vec![at(*q, h0), at(*q, h1)])
+                    .collect(),
+                weights: rational.then(|| profile.iter().map(|(_, w)| vec![*w, *w]).collect()),
+                trim: None,
+            },
+            Box::new(move |q: &V3, seed: Option<[f64; 2]>| {
+                let s_near = seed.map(|sd| umap.s_of(sd[0])).or(s_reference);
+                let s = m.locate(section(q), s_near).clamp(s0, s1);
+                [umap.v_of(s).clamp(u_lo, u_hi), height(q).clamp(h0, h1)]
+            }),
+        ))
     }
 
     /// A plane as the bilinear patch over its boundary's box.
@@ -1743,10 +1889,13 @@ fn bisect(
     }
 }
 
+/// Appends q unless it repeats the last point: two edges' images of their
+/// shared vertex differ by rounding (about 1e-12), and keeping both would
+/// make the loop turn back on itself there.
 fn push(pts: &mut Vec<[f64; 2]>, q: [f64; 2]) {
     if pts
         .last()
-        .is_none_or(|l| (l[0] - q[0]).abs() > 1e-14 || (l[1] - q[1]).abs() > 1e-14)
+        .is_none_or(|l| (l[0] - q[0]).abs() > 1e-9 || (l[1] - q[1]).abs() > 1e-9)
     {
         pts.push(q);
     }

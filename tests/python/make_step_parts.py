@@ -20,7 +20,11 @@ Each part is one face in its own file:
 - torus: a 100 degree patch of a torus, radii 40 and 10 mm, tube angles
   -60 to 80 degrees (its outer equator inside);
 - revolution: a cubic B-spline profile in the xz plane turned 90 degrees
-  about z (a SURFACE_OF_REVOLUTION).
+  about z (a SURFACE_OF_REVOLUTION);
+- extrusion: a cubic B-spline curve in the xy plane swept along the oblique
+  vector (0, 12, 40) (a SURFACE_OF_LINEAR_EXTRUSION);
+- extrusion_arc: a 200 degree arc of an ellipse (semi-axes 30 and 18 mm) in
+  the xy plane swept along (10, 0, 35).
 """
 
 import json
@@ -37,6 +41,7 @@ from OCP.BRepGProp import BRepGProp
 from OCP.BRepLib import BRepLib
 from OCP.BRepPrimAPI import (
     BRepPrimAPI_MakeCone,
+    BRepPrimAPI_MakePrism,
     BRepPrimAPI_MakeCylinder,
     BRepPrimAPI_MakeRevol,
     BRepPrimAPI_MakeSphere,
@@ -46,10 +51,17 @@ from OCP.Geom import Geom_BSplineCurve
 from OCP.collections import Array1_double, Array1_int, Array2_double, Array2_gp_Pnt
 from OCP.Geom import Geom_BSplineSurface
 from OCP.Geom2d import Geom2d_Circle, Geom2d_Ellipse
-from OCP.GeomAbs import GeomAbs_Cone, GeomAbs_Cylinder, GeomAbs_Sphere, GeomAbs_SurfaceOfRevolution, GeomAbs_Torus
+from OCP.GeomAbs import (
+    GeomAbs_Cone,
+    GeomAbs_Cylinder,
+    GeomAbs_Sphere,
+    GeomAbs_SurfaceOfExtrusion,
+    GeomAbs_SurfaceOfRevolution,
+    GeomAbs_Torus,
+)
 from OCP.BRepAdaptor import BRepAdaptor_Surface
 from OCP.collections import Array1_gp_Pnt
-from OCP.gp import gp_Ax1, gp_Ax2, gp_Ax22d, gp_Dir, gp_Dir2d, gp_Pnt, gp_Pnt2d
+from OCP.gp import gp_Ax1, gp_Ax2, gp_Ax22d, gp_Dir, gp_Dir2d, gp_Elips, gp_Pnt, gp_Pnt2d, gp_Vec
 from OCP.GProp import GProp_GProps
 from OCP.IFSelect import IFSelect_RetDone
 from OCP.Interface import Interface_Static
@@ -175,6 +187,22 @@ def revolution_face():
     return face_of(shape, GeomAbs_SurfaceOfRevolution)
 
 
+def extrusion_face():
+    pts = [(0, 0), (20, 15), (45, -10), (70, 12), (90, 0)]
+    poles = Array1_gp_Pnt(1, len(pts))
+    for i, (x, y) in enumerate(pts):
+        poles.SetValue(i + 1, gp_Pnt(x, y, 0))
+    curve = Geom_BSplineCurve(poles, array1([0.0, 0.5, 1.0]), array1([4, 1, 4], Array1_int), 3)
+    edge = BRepBuilderAPI_MakeEdge(curve).Edge()
+    return face_of(BRepPrimAPI_MakePrism(edge, gp_Vec(0, 12, 40)).Shape(), GeomAbs_SurfaceOfExtrusion)
+
+
+def extrusion_arc_face():
+    ellipse = gp_Elips(gp_Ax2(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1), gp_Dir(1, 0, 0)), 30.0, 18.0)
+    edge = BRepBuilderAPI_MakeEdge(ellipse, 0.0, math.radians(200)).Edge()
+    return face_of(BRepPrimAPI_MakePrism(edge, gp_Vec(10, 0, 35)).Shape(), GeomAbs_SurfaceOfExtrusion)
+
+
 def area(face):
     props = GProp_GProps()
     BRepGProp.SurfaceProperties_s(face, props)
@@ -206,6 +234,8 @@ def main(out):
         "sphere_pole": (sphere_face(30, 90), {}),
         "torus": (torus_face(), {}),
         "revolution": (revolution_face(), {}),
+        "extrusion": (extrusion_face(), {}),
+        "extrusion_arc": (extrusion_arc_face(), {}),
     }
     manifest = {}
     for name, (face, options) in parts.items():
