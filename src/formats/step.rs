@@ -1161,7 +1161,8 @@ impl StepFile {
         let vid = self.reference(id, p, 2)?;
         let (_, vp) = self.expect(vid, &["VECTOR"])?;
         let z = self.direction(self.reference(vid, vp, 1)?, false)?;
-        if !(self.real(vid, vp, 2)? > 0.0) {
+        let magnitude = self.real(vid, vp, 2)?;
+        if magnitude.is_nan() || magnitude <= 0.0 {
             return Err(self.err(vid, "has a magnitude that is not positive"));
         }
         let o = match &curve {
