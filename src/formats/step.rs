@@ -147,6 +147,39 @@ impl Curve {
     }
 }
 
+/// A 3-D curve in the plane through `o` spanned by `e1` and `e2` (unit,
+/// orthogonal), as a 2-D meridian: each point (or direction) replaced by its
+/// two coordinates along them. A curve in that plane keeps its shape and
+/// parameter; any other is projected onto it, still a line, conic or
+/// B-spline of the same parameter.
+fn plane_curve(curve: &Curve, o: V3, e1: V3, e2: V3) -> Meridian {
+    let m2 = |q: &V3| [(q - o).dot(&e1), (q - o).dot(&e2)];
+    let v2 = |d: &V3| [d.dot(&e1), d.dot(&e2)];
+    match curve {
+        Curve::Line { p, d } => Meridian::Line { p: m2(p), d: v2(d) },
+        Curve::Conic { c, x, y, a, b } => Meridian::Conic {
+            c: m2(c),
+            a: v2(&(x * *a)),
+            b: v2(&(y * *b)),
+        },
+        Curve::Bspline {
+            degree,
+            knots,
+            points,
+        } => Meridian::Bspline(Curve::Bspline {
+            degree: *degree,
+            knots: knots.clone(),
+            points: points
+                .iter()
+                .map(|h| {
+                    let q = m2(&V3::new(h[0] / h[3], h[1] / h[3], h[2] / h[3]));
+                    [q[0] * h[3], q[1] * h[3], 0.0, h[3]]
+                })
+                .collect(),
+        }),
+    }
+}
+
 /// Point of a rational B-spline curve at `t` (de Boor on homogeneous points).
 fn de_boor(p: usize, knots: &[f64], pts: &[[f64; 4]], t: f64) -> V3 {
     let n = pts.len();
@@ -1112,37 +1145,7 @@ impl StepFile {
                 "has a swept curve that does not lie in a plane through its axis: not supported",
             ));
         }
-        let m2 = |q: &V3| [(q - o).dot(&x), (q - o).dot(&z)];
-        let v2 = |d: &V3| [d.dot(&x), d.dot(&z)];
-        let meridian = match &curve {
-            Curve::Line { p, d } => Meridian::Line { p: m2(p), d: v2(d) },
-            Curve::Conic {
-                c,
-                x: cx,
-                y: cy,
-                a,
-                b,
-            } => Meridian::Conic {
-                c: m2(c),
-                a: v2(&(cx * *a)),
-                b: v2(&(cy * *b)),
-            },
-            Curve::Bspline {
-                degree,
-                knots,
-                points,
-            } => Meridian::Bspline(Curve::Bspline {
-                degree: *degree,
-                knots: knots.clone(),
-                points: points
-                    .iter()
-                    .map(|h| {
-                        let q = m2(&V3::new(h[0] / h[3], h[1] / h[3], h[2] / h[3]));
-                        [q[0] * h[3], q[1] * h[3], 0.0, h[3]]
-                    })
-                    .collect(),
-            }),
-        };
+        let meridian = plane_curve(&curve, o, x, z);
         Ok(Basis::Revolved(
             Frame { o, x, y, z },
             meridian,
@@ -1176,55 +1179,24 @@ impl StepFile {
         let xr = if z.x.abs() < 0.9 { V3::x() } else { V3::y() };
         let x = (xr - z * xr.dot(&z)).normalize();
         let y = z.cross(&x);
-        let m2 = |q: &V3| [(q - o).dot(&x), (q - o).dot(&y)];
-        let v2 = |d: &V3| [d.dot(&x), d.dot(&y)];
-        let flat = |what: &str| {
-            self.err(
-                id,
-                format!("has a swept {what} whose plane contains the extrusion direction: the face is a plane, not supported as an extrusion"),
-            )
-        };
-        let section = match &curve {
-            Curve::Line { p, d } => {
-                let d2 = v2(d);
-                if d2[0].hypot(d2[1]) <= 1e-9 * d.norm() {
-                    return Err(self.err(id, "has a swept line along its extrusion direction"));
-                }
-                Meridian::Line { p: m2(p), d: d2 }
+        if let Curve::Line { d, .. } = &curve {
+            if d.cross(&z).norm() <= 1e-9 * d.norm() {
+                return Err(self.err(id, "has a swept line along its extrusion direction"));
             }
-            Curve::Conic {
-                c,
-                x: cx,
-                y: cy,
-                a,
-                b,
-            } => {
-                let (ea, eb) = (v2(&(cx * *a)), v2(&(cy * *b)));
-                if (ea[0] * eb[1] - ea[1] * eb[0]).abs() <= 1e-9 * a * b {
-                    return Err(flat("circle or ellipse"));
-                }
-                Meridian::Conic {
-                    c: m2(c),
-                    a: ea,
-                    b: eb,
-                }
+        }
+        let section = plane_curve(&curve, o, x, y);
+        match &section {
+            Meridian::Conic { a, b, .. }
+                if (a[0] * b[1] - a[1] * b[0]).abs()
+                    <= 1e-9 * a[0].hypot(a[1]) * b[0].hypot(b[1]) =>
+            {
+                return Err(self.err(
+                    id,
+                    "has a swept circle or ellipse whose plane contains the extrusion direction: the face is a plane, not supported as an extrusion",
+                ));
             }
-            Curve::Bspline {
-                degree,
-                knots,
-                points,
-            } => Meridian::Bspline(Curve::Bspline {
-                degree: *degree,
-                knots: knots.clone(),
-                points: points
-                    .iter()
-                    .map(|h| {
-                        let q = m2(&V3::new(h[0] / h[3], h[1] / h[3], h[2] / h[3]));
-                        [q[0] * h[3], q[1] * h[3], 0.0, h[3]]
-                    })
-                    .collect(),
-            }),
-        };
+            _ => {}
+        }
         Ok(Basis::Extruded(Frame { o, x, y, z }, section))
     }
 
