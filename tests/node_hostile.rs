@@ -97,17 +97,27 @@ fn hostile_jobs_fail_with_a_reason_and_the_node_keeps_serving() {
         let baseline_mb = rss_mb(pid);
 
         let mut statuses = Box::pin(status.async_stream());
-        // Sends a job message; returns its final status and the seconds
-        // from its first RUNNING status (or from sending) to the final one.
-        // With `cancel_running`, cancels it at its first RUNNING status.
+        // Sends a job message; returns its final status, the seconds from
+        // its first RUNNING status (or from sending) to the final one, and
+        // the estimated seconds left its RUNNING statuses gave. With
+        // `cancel_running`, cancels it at its first RUNNING status.
         let mut run = async |msg: msgs::Job, cancel_running: bool| {
             let id = msg.job_id.clone();
             jobs.publish(msg).unwrap();
             let mut from = Instant::now();
             let deadline = from + Duration::from_secs(120);
             let mut canceled = false;
+            let mut etas = Vec::new();
             loop {
                 let st = node_client::next_status_of(&mut statuses, &id, deadline).await;
+                // Planning progress of 1 % or more carries an estimate of
+                // the time left; other statuses say it is not known.
+                if st.state == msgs::JobStatus::RUNNING && st.progress >= 0.01 {
+                    assert!(st.eta_s.is_finite() && st.eta_s >= 0.0, "{id}: {st:?}");
+                    etas.push(st.eta_s);
+                } else if st.state != msgs::JobStatus::RUNNING {
+                    assert!(st.eta_s < 0.0, "{id}: {st:?}");
+                }
                 if st.state == msgs::JobStatus::RUNNING && !canceled {
                     from = Instant::now();
                     if cancel_running {
@@ -116,7 +126,7 @@ fn hostile_jobs_fail_with_a_reason_and_the_node_keeps_serving() {
                     canceled = true;
                 }
                 if st.is_final() {
-                    return (st, from.elapsed().as_secs_f64());
+                    return (st, from.elapsed().as_secs_f64(), etas);
                 }
             }
         };
@@ -134,6 +144,10 @@ fn hostile_jobs_fail_with_a_reason_and_the_node_keeps_serving() {
         // about the limit in this build): a finer scallop within the budget.
         let mut over_time = message(&wing, "wing_shape", "over_time");
         over_time.scallop = 0.015;
+        // The job's own limit, shorter than the node's: the job's wins.
+        let mut over_own_time = message(&wing, "wing_shape", "over_own_time");
+        over_own_time.scallop = 0.015;
+        over_own_time.time_limit_s = 1.0;
         let cases: Vec<(&str, msgs::Job, bool, u8, Vec<String>)> = vec![
             (
                 "over budget",
@@ -167,6 +181,16 @@ fn hostile_jobs_fail_with_a_reason_and_the_node_keeps_serving() {
                 ],
             ),
             (
+                "over the job's own time limit",
+                over_own_time,
+                false,
+                msgs::JobStatus::FAILED,
+                vec![
+                    "over its time limit of 1 s".into(),
+                    "the job's time_limit_s".into(),
+                ],
+            ),
+            (
                 "canceled while planning",
                 message(&wing, "wing_shape", "canceled"),
                 true,
@@ -175,19 +199,23 @@ fn hostile_jobs_fail_with_a_reason_and_the_node_keeps_serving() {
             ),
         ];
         for (k, (what, msg, cancel_running, state, expect)) in cases.into_iter().enumerate() {
-            let (st, secs) = run(msg, cancel_running).await;
+            let (st, secs, etas) = run(msg, cancel_running).await;
             assert_eq!(st.state, state, "{what}: {}", st.message);
+            if what.starts_with("over the") {
+                assert!(!etas.is_empty(), "{what}: no RUNNING status gave the time left");
+            }
             for e in &expect {
                 assert!(st.message.contains(e.as_str()), "{what}: {}", st.message);
             }
             let bound = match what {
                 "over the time limit" => TIME_LIMIT_S + 1.5,
+                "over the job's own time limit" => 1.0 + 1.5,
                 _ => 1.0,
             };
             assert!(secs < bound, "{what}: final status after {secs:.2} s");
             // A normal job right after, on the same single worker.
             let started = Instant::now();
-            let (st, _) = run(message(&plane, "plane_shape", &format!("normal_{k}")), false).await;
+            let (st, _, _) = run(message(&plane, "plane_shape", &format!("normal_{k}")), false).await;
             assert_eq!(st.state, msgs::JobStatus::SUCCEEDED, "after {what}: {}", st.message);
             let normal_s = started.elapsed().as_secs_f64();
             assert!(normal_s < 10.0, "after {what}: {normal_s:.1} s");

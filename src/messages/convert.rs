@@ -304,7 +304,7 @@ pub fn job_file_from_msg(m: &msgs::Job) -> Result<JobFile> {
         },
         simulation_resolution: opt_nonzero(m.simulation_resolution),
         grinding: grinding_from_msg(&m.grinding),
-        time_limit_s: None,
+        time_limit_s: opt_nonzero(m.time_limit_s),
         execute: match m.execute {
             msgs::Job::EXECUTE_MACHINE_DEFAULT => None,
             msgs::Job::EXECUTE => Some(true),
@@ -408,6 +408,7 @@ pub fn job_to_msg(job: &Job, surface_id: &str, header: msgs::Header) -> msgs::Jo
             Some(true) => msgs::Job::EXECUTE,
             Some(false) => msgs::Job::PLAN_ONLY,
         },
+        time_limit_s: job.time_limit_s.unwrap_or(0.0),
     }
 }
 
@@ -1015,6 +1016,7 @@ mod tests {
             "simulation_resolution": 0.4,
             "grinding": {"c_a": 0.003, "k_a": 1.1, "k_t": 0.9, "belt_speed": 25.0,
                          "force": 15.0, "feed_speed": 12.0},
+            "time_limit_s": 42.5,
             "execute": true
         }))
         .unwrap();
@@ -1028,6 +1030,7 @@ mod tests {
         assert_eq!(m.side_tilt_deg, -2.25);
         assert_eq!(m.simulation_resolution, 0.4);
         assert_eq!(m.execute, msgs::Job::EXECUTE);
+        assert_eq!(m.time_limit_s, 42.5);
         let back = job_from_msg(&m, &shape).unwrap();
         assert_eq!(back, job);
         // Plan only, and the machine's default, round-trip too.
@@ -1051,6 +1054,12 @@ mod tests {
             prevalidate_job(&bad).unwrap_err().to_string(),
             "invalid input: execute: 3 is not 0 (the machine's default), 1 (execute) or 2 (plan only)"
         );
+        let bad = msgs::Job {
+            time_limit_s: -1.0,
+            ..m.clone()
+        };
+        let e = prevalidate_job(&bad).unwrap_err().to_string();
+        assert!(e.starts_with("invalid input: time_limit_s: "), "{e}");
         // Zero grinding fields take their defaults, one by one.
         let mut m = m;
         m.grinding.force = 0.0;

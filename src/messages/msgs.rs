@@ -688,6 +688,8 @@ pub struct Job {
     pub node: String,
     /// Whether the node executes the trajectory ([`Job::EXECUTE`]...).
     pub execute: u8,
+    /// The job's own time limit, s; 0: not given.
+    pub time_limit_s: f64,
 }
 ros_message!(Job, "toolpath_msgs", "Job");
 
@@ -728,6 +730,8 @@ pub struct JobStatus {
     pub state: u8,
     pub progress: f32,
     pub message: String,
+    /// RUNNING: estimated seconds left; negative: not known.
+    pub eta_s: f32,
 }
 ros_message!(JobStatus, "toolpath_msgs", "JobStatus");
 
@@ -964,7 +968,7 @@ mod tests {
 
     #[test]
     fn cdr_layout_of_a_job_status_is_what_rclpy_sends() {
-        // Hand-assembled little-endian XCDR1 body of JobStatus{stamp 1.2, "w", "j", RUNNING, 0.5, "ok"}.
+        // Hand-assembled little-endian XCDR1 body of JobStatus{stamp 1.2, "w", "j", RUNNING, 0.5, "ok", 4.25}.
         let msg = JobStatus {
             header: Header {
                 stamp: Time { sec: 1, nanosec: 2 },
@@ -974,6 +978,7 @@ mod tests {
             state: JobStatus::RUNNING,
             progress: 0.5,
             message: "ok".into(),
+            eta_s: 4.25,
         };
         let bytes = cdr_encoding::to_vec::<_, byteorder::LittleEndian>(&msg).unwrap();
         let mut want = Vec::new();
@@ -989,6 +994,8 @@ mod tests {
         want.extend(0.5f32.to_le_bytes());
         want.extend(3u32.to_le_bytes());
         want.extend(b"ok\0");
+        want.push(0); // pad to 4 for the float32
+        want.extend(4.25f32.to_le_bytes());
         assert_eq!(bytes, want);
         let back: JobStatus = cdr_encoding::from_bytes::<_, byteorder::LittleEndian>(&bytes)
             .unwrap()

@@ -89,6 +89,8 @@ impl GoalResult {
 pub struct Feedback {
     pub stage: String,
     pub progress: f32,
+    /// Planning: estimated seconds left; negative: not known.
+    pub eta_s: f32,
 }
 
 /// What the action's feedback topic (`plan_toolpath/_action/feedback`)
@@ -168,6 +170,9 @@ mod tests {
             .map(|l| l.split('#').next().unwrap_or("").trim())
             .filter(|l| !l.is_empty())
             .collect();
-        assert_eq!(fields, ["string stage", "float32 progress"]);
+        assert_eq!(
+            fields,
+            ["string stage", "float32 progress", "float32 eta_s"]
+        );
     }
 }

@@ -230,6 +230,7 @@ mod tests {
             feedback: Feedback {
                 stage: "planning".into(),
                 progress: 0.5,
+                eta_s: 2.5,
             },
         };
         let bytes = to_cdr(&msg).unwrap();

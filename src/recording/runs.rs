@@ -137,6 +137,7 @@ fn status(
         state,
         progress,
         message,
+        eta_s: -1.0,
     }
 }
 

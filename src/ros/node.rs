@@ -426,7 +426,13 @@ impl Outputs {
             frame_id: self.frame_id.clone(),
         }
     }
-    fn status(&self, job_id: &str, state: u8, progress: f32, mut message: String) {
+    fn status(&self, job_id: &str, state: u8, progress: f32, message: String) {
+        self.status_eta(job_id, state, progress, message, ETA_UNKNOWN)
+    }
+
+    /// A status with the estimated seconds left (`eta_s`, [`ETA_UNKNOWN`]
+    /// when there is no estimate).
+    fn status_eta(&self, job_id: &str, state: u8, progress: f32, mut message: String, eta_s: f32) {
         if let (true, Some(r)) = (state >= msgs::JobStatus::SUCCEEDED, &self.recorder) {
             if let Some(failed) = r.new_failures(RECORDING_SYNC_TIMEOUT) {
                 message = if message.is_empty() {
@@ -454,6 +460,7 @@ impl Outputs {
             state,
             progress,
             message,
+            eta_s,
         };
         let is_final = m.is_final();
         self.publish(&self.status, topics::JOB_STATUS, m);
@@ -461,6 +468,18 @@ impl Outputs {
             r.job_done();
         }
     }
+}
+
+/// `eta_s` of a status or feedback that carries no estimate.
+const ETA_UNKNOWN: f32 = -1.0;
+
+/// Seconds left if the rest goes at the pace so far: `elapsed` x (1 - f) / f,
+/// once there is progress to go by ([`ETA_UNKNOWN`] before 1 %).
+fn eta_s(elapsed: Duration, fraction: f32) -> f32 {
+    if fraction < 0.01 {
+        return ETA_UNKNOWN;
+    }
+    (elapsed.as_secs_f64() * f64::from(1.0 - fraction) / f64::from(fraction)) as f32
 }
 
 /// How long a job's final status waits for the recorder to write the job's
@@ -500,6 +519,10 @@ struct State {
     /// The messages of the jobs queued or being planned, by job_id.
     active: BTreeMap<String, msgs::Job>,
     shutdown: bool,
+    /// Planning threads running, and how many `node.workers` asks for:
+    /// surplus threads leave when they next look for work.
+    running_workers: usize,
+    wanted_workers: usize,
 }
 
 /// What to do with a job message whose job_id may already be in use.
@@ -593,6 +616,10 @@ fn next_work(shared: &Shared) -> Option<Work> {
         if st.shutdown {
             return None;
         }
+        if st.running_workers > st.wanted_workers {
+            st.running_workers -= 1;
+            return None;
+        }
         let now = Instant::now();
         let mut pick = None;
         let mut earliest: Option<Instant> = None;
@@ -643,6 +670,8 @@ struct StatusProgress<'a> {
     job_id: &'a str,
     last: Mutex<(Instant, f32)>,
     goal: Option<&'a GoalLink>,
+    /// When planning started: the pace for the estimated time left.
+    started: Instant,
 }
 
 impl Progress for StatusProgress<'_> {
@@ -661,10 +690,11 @@ impl Progress for StatusProgress<'_> {
             && f < 1.0
         {
             *last = (Instant::now(), f);
+            let eta = eta_s(self.started.elapsed(), f);
             self.outputs
-                .status(self.job_id, msgs::JobStatus::RUNNING, f, String::new());
+                .status_eta(self.job_id, msgs::JobStatus::RUNNING, f, String::new(), eta);
             if let Some(g) = self.goal {
-                g.feedback("planning", f);
+                g.feedback("planning", f, eta);
             }
         }
     }
@@ -711,9 +741,10 @@ fn plan_and_publish(
         job_id: &job.job_id,
         last: Mutex::new((Instant::now(), 0.0)),
         goal: p.goal.as_deref(),
+        started: Instant::now(),
     };
     if let Some(g) = &p.goal {
-        g.feedback("planning", 0.0);
+        g.feedback("planning", 0.0, ETA_UNKNOWN);
     }
     progress.check()?;
     let planning_started = Instant::now();
@@ -818,7 +849,7 @@ fn execute_job(
     }
     let report: Arc<Report<'static>> = Arc::new(move |f: f32, text: String| {
         if let Some(g) = &goal {
-            g.feedback(&text, f);
+            g.feedback(&text, f, ETA_UNKNOWN);
         }
         o.status(&id, msgs::JobStatus::RUNNING, f, text)
     });
@@ -1081,22 +1112,70 @@ fn start_outputs(
     Ok((outputs, ipc.map(|(_, handle)| handle)))
 }
 
-/// Starts the `workers` planning threads on the shared queue.
-fn start_workers(
-    config: &NodeConfig,
-    shared: &Arc<Shared>,
-    outputs: &Arc<Outputs>,
-) -> Result<Vec<std::thread::JoinHandle<()>>> {
-    let mut handles = Vec::new();
-    for k in 0..config.node.worker_count() {
-        let (s, o) = (Arc::clone(shared), Arc::clone(outputs));
-        let h = std::thread::Builder::new()
-            .name(format!("planner-{k}"))
-            .spawn(move || worker(s, o))
-            .map_err(|e| Error::planning(format!("cannot start a planning thread: {e}")))?;
-        handles.push(h);
+/// The planning threads on the shared queue, as many as `node.workers`
+/// asks for: set at run time, the pool grows at once and shrinks as
+/// surplus workers finish their current job.
+struct Workers {
+    shared: Arc<Shared>,
+    outputs: Arc<Outputs>,
+    handles: Mutex<Vec<std::thread::JoinHandle<()>>>,
+}
+
+impl Workers {
+    /// Starts `count` workers, and resizes the pool whenever a parameter
+    /// set changes `node.workers`.
+    fn start(count: usize, shared: &Arc<Shared>, outputs: &Arc<Outputs>) -> Result<Arc<Self>> {
+        let pool = Arc::new(Self {
+            shared: Arc::clone(shared),
+            outputs: Arc::clone(outputs),
+            handles: Mutex::new(Vec::new()),
+        });
+        pool.resize(count)?;
+        let weak = Arc::downgrade(&pool);
+        shared.live.on_replace(Box::new(move |c: &NodeConfig| {
+            if let Some(pool) = weak.upgrade() {
+                if let Err(e) = pool.resize(c.node.worker_count()) {
+                    log::error!("{e}");
+                }
+            }
+        }));
+        Ok(pool)
     }
-    Ok(handles)
+
+    fn resize(&self, count: usize) -> Result<()> {
+        let mut handles = self.handles.lock().unwrap_or_else(|p| p.into_inner());
+        let mut st = self.shared.lock();
+        if st.shutdown {
+            return Ok(());
+        }
+        st.wanted_workers = count;
+        while st.running_workers < count {
+            let (s, o) = (Arc::clone(&self.shared), Arc::clone(&self.outputs));
+            let h = std::thread::Builder::new()
+                .name(format!("planner-{}", handles.len()))
+                .spawn(move || worker(s, o))
+                .map_err(|e| Error::planning(format!("cannot start a planning thread: {e}")))?;
+            handles.push(h);
+            st.running_workers += 1;
+        }
+        drop(st);
+        // Idle surplus workers wake up to leave.
+        self.shared.wake.notify_all();
+        Ok(())
+    }
+
+    /// Stops every worker after its current job and waits for them.
+    fn stop(self: Arc<Self>) {
+        self.shared.lock().shutdown = true;
+        self.shared.wake.notify_all();
+        let handles = {
+            let mut g = self.handles.lock().unwrap_or_else(|p| p.into_inner());
+            std::mem::take(&mut *g)
+        };
+        for h in handles {
+            let _ = h.join();
+        }
+    }
 }
 
 /// Prints the one "ready ..." line on stdout and flushes it.
@@ -1152,9 +1231,11 @@ fn diagnostics<'a>(
         topics::BELT6_TRAJECTORY,
         topics::MARKERS,
     ];
-    let workers = config.node.worker_count();
     let snapshot = move || {
-        let queued = shared.lock().queue.len();
+        let (queued, workers) = {
+            let st = shared.lock();
+            (st.queue.len(), st.running_workers)
+        };
         let (activity_busy, planned, last_planning) = Snapshot::activity(&shared.activity);
         let mut peers = Vec::new();
         for t in inputs {
@@ -1271,16 +1352,12 @@ async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs
 /// closes the recording; an error when the recording lost messages or could
 /// not be finished (the process exits non-zero).
 fn shut_down(
-    shared: &Shared,
-    workers: Vec<std::thread::JoinHandle<()>>,
+    workers: Arc<Workers>,
     outputs: Arc<Outputs>,
     ipc_thread: Option<std::thread::JoinHandle<()>>,
 ) -> Result<()> {
-    shared.lock().shutdown = true;
-    shared.wake.notify_all();
-    for h in workers {
-        let _ = h.join();
-    }
+    // The pool's own reference to the outputs goes with it.
+    workers.stop();
     let recorder = outputs.recorder.clone();
     // The workers are gone: dropping the outputs closes the iceoryx2 channel,
     // and its thread removes the publisher's shared memory as it ends.
@@ -1378,7 +1455,7 @@ pub async fn run(resolved: Resolved, enclave_dir: Option<std::path::PathBuf>) ->
         live,
         activity: Default::default(),
     });
-    let workers = start_workers(config, &shared, &outputs)?;
+    let workers = Workers::start(config.node.worker_count(), &shared, &outputs)?;
     let queue = goals::NodeQueue {
         shared: Arc::clone(&shared),
         outputs: Arc::downgrade(&outputs),
@@ -1400,7 +1477,7 @@ pub async fn run(resolved: Resolved, enclave_dir: Option<std::path::PathBuf>) ->
     // Executions are canceled at the controller; workers finish their
     // current job; the process exits after them.
     outputs.cancels.cancel_all();
-    let recorded = shut_down(&shared, workers, outputs, ipc_thread);
+    let recorded = shut_down(workers, outputs, ipc_thread);
     received.and(recorded)
 }
 
@@ -1462,6 +1539,16 @@ mod tests {
             shape: None,
             goal: None,
         }
+    }
+
+    #[test]
+    fn the_time_left_goes_at_the_pace_so_far() {
+        // A quarter done in 2 s: three quarters left at that pace, 6 s.
+        assert_eq!(eta_s(Duration::from_secs(2), 0.25), 6.0);
+        assert_eq!(eta_s(Duration::from_millis(1500), 1.0), 0.0);
+        // Too little progress to go by.
+        assert_eq!(eta_s(Duration::from_secs(5), 0.005), ETA_UNKNOWN);
+        assert_eq!(eta_s(Duration::ZERO, 0.0), ETA_UNKNOWN);
     }
 
     #[test]

@@ -175,12 +175,14 @@ mod tests {
         let flat: BTreeMap<String, _> = flatten(&tree).unwrap().into_iter().collect();
         let of = |name: &str| descriptor(name, &to_parameter(&flat[name]).unwrap(), &d);
         let workers = of("node.workers");
-        assert!(workers.read_only);
+        assert!(!workers.read_only);
         assert!(matches!(
             workers.range,
             NumericRange::IntegerRange { from_value: 0, to_value, step: 1 } if to_value == MAX_WORKERS as i64
         ));
-        assert!(workers
+        let zstd = of("recording.zstd_level");
+        assert!(zstd.read_only);
+        assert!(zstd
             .additional_constraints
             .contains("read-only while the node runs"));
         let timeout = of("node.surface_timeout_s");

@@ -31,8 +31,13 @@ pub const USE_SIM_TIME: &str = "use_sim_time";
 /// The settings a running node may change; each takes effect for the next
 /// job (or, for `recording.enabled`, the next message recorded).
 pub const RUNTIME: &[&str] = &[
+    "node.workers",
     "node.verify",
     "node.surface_timeout_s",
+    "node.job_time_limit_s",
+    "node.budget.max_passes",
+    "node.budget.max_points",
+    "node.budget.max_memory_mb",
     "mill5.controller.joint_states_max_age_s",
     "belt6.controller.joint_states_max_age_s",
     "recording.enabled",
@@ -40,9 +45,7 @@ pub const RUNTIME: &[&str] = &[
 
 /// Why a setting outside [`RUNTIME`] cannot change while the node runs.
 pub(crate) fn read_only_reason(name: &str) -> String {
-    let why = if name == "node.workers" {
-        "the planning threads are started once, when the node starts"
-    } else if name.starts_with("mill5.controller.") || name.starts_with("belt6.controller.") {
+    let why = if name.starts_with("mill5.controller.") || name.starts_with("belt6.controller.") {
         "the controller connection and joint names are set up when the node starts"
     } else if name.starts_with("mill5.") || name.starts_with("belt6.") {
         "machine geometry and limits are fixed while the node runs"
@@ -337,13 +340,19 @@ pub fn resolve(config: &NodeConfig, args: &RosArgs) -> Result<Resolved> {
 pub struct LiveConfig {
     config: RwLock<Arc<NodeConfig>>,
     recorder: OnceLock<Arc<Recorder>>,
+    /// Told of every new config (the node resizes its worker pool).
+    on_replace: OnceLock<ConfigListener>,
 }
+
+/// What [`LiveConfig::on_replace`] calls with each new config.
+pub type ConfigListener = Box<dyn Fn(&NodeConfig) + Send + Sync>;
 
 impl LiveConfig {
     pub fn new(config: NodeConfig) -> Arc<Self> {
         Arc::new(Self {
             config: RwLock::new(Arc::new(config)),
             recorder: OnceLock::new(),
+            on_replace: OnceLock::new(),
         })
     }
 
@@ -361,6 +370,16 @@ impl LiveConfig {
             Err(p) => p.into_inner(),
         };
         *g = Arc::new(config);
+        let now = Arc::clone(&g);
+        drop(g);
+        if let Some(f) = self.on_replace.get() {
+            f(&now);
+        }
+    }
+
+    /// Calls `f` with every config a parameter set makes (once set, kept).
+    pub fn on_replace(&self, f: ConfigListener) {
+        let _ = self.on_replace.set(f);
     }
 
     /// The run's recorder, paused and resumed by `recording.enabled`.
@@ -621,6 +640,24 @@ mod tests {
     }
 
     #[test]
+    fn the_listener_hears_each_new_config_once_it_is_in_effect() {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        let live = LiveConfig::new(NodeConfig::default());
+        let heard = Arc::new(AtomicUsize::new(usize::MAX));
+        let (h, reader) = (Arc::clone(&heard), Arc::clone(&live));
+        live.on_replace(Box::new(move |c| {
+            // What it is told is what the workers read from now on.
+            assert_eq!(reader.get().node.workers, c.node.workers);
+            h.store(c.node.workers, Ordering::SeqCst);
+        }));
+        let c = check_set(&live, "node.workers", &ParameterValue::Integer(3))
+            .unwrap()
+            .unwrap();
+        live.replace(c);
+        assert_eq!(heard.load(Ordering::SeqCst), 3);
+    }
+
+    #[test]
     fn run_time_sets_are_checked_and_read_only_ones_refused() {
         let live = LiveConfig::new(NodeConfig::default());
         // Unchanged values pass (the store checks every declared value).
@@ -642,8 +679,28 @@ mod tests {
             e.contains("mill5.pivot_length_mm is read-only") && e.contains("machine geometry"),
             "{e}"
         );
-        let e = check_set(&live, "node.workers", &ParameterValue::Integer(4)).unwrap_err();
-        assert!(e.contains("planning threads are started once"), "{e}");
+        let c = check_set(&live, "node.workers", &ParameterValue::Integer(4))
+            .unwrap()
+            .unwrap();
+        assert_eq!(c.node.workers, 4);
+        let c = check_set(
+            &live,
+            "node.job_time_limit_s",
+            &ParameterValue::Double(30.0),
+        )
+        .unwrap()
+        .unwrap();
+        assert_eq!(c.node.job_time_limit_s, 30.0);
+        let c = check_set(
+            &live,
+            "node.budget.max_points",
+            &ParameterValue::Double(1e6),
+        )
+        .unwrap()
+        .unwrap();
+        assert_eq!(c.node.budget.max_points, 1e6);
+        let e = check_set(&live, "node.workers", &ParameterValue::Integer(100_000)).unwrap_err();
+        assert!(e.contains("node.workers: 100000 is above the limit"), "{e}");
         let e = check_set(
             &live,
             "node.surface_timeout_s",

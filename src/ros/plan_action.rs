@@ -152,10 +152,13 @@ impl GoalLink {
         Ok(())
     }
 
-    pub fn feedback(&self, stage: &str, progress: f32) {
+    /// Feedback of the goal: its stage, the progress within it and the
+    /// estimated seconds left (negative: not known).
+    pub fn feedback(&self, stage: &str, progress: f32, eta_s: f32) {
         let _ = self.events.send(GoalEvent::Feedback(Feedback {
             stage: stage.to_string(),
             progress,
+            eta_s,
         }));
     }
 
@@ -265,6 +268,7 @@ async fn run_job(
     on_feedback(Feedback {
         stage: "queued".into(),
         progress: 0.0,
+        eta_s: -1.0,
     })
     .await;
     let (state, reason) = loop {
@@ -513,7 +517,7 @@ mod tests {
     fn a_canceled_goal_stops_progress_checks_and_ends_canceled() {
         let (link, mut events) = GoalLink::new("j1");
         assert!(link.check().is_ok());
-        link.feedback("planning", 0.25);
+        link.feedback("planning", 0.25, 3.0);
         link.cancel();
         let e = link.check().unwrap_err();
         assert!(matches!(e, Error::Stopped { canceled: true, .. }), "{e:?}");
@@ -527,7 +531,7 @@ mod tests {
         link.finish(msgs::JobStatus::SUCCEEDED, String::new());
         assert!(matches!(
             events.try_recv(),
-            Ok(GoalEvent::Feedback(Feedback { ref stage, progress })) if stage == "planning" && progress == 0.25
+            Ok(GoalEvent::Feedback(Feedback { ref stage, progress, eta_s })) if stage == "planning" && progress == 0.25 && eta_s == 3.0
         ));
         assert!(matches!(
             events.try_recv(),

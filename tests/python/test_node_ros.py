@@ -136,9 +136,10 @@ def test_describe_gives_the_config_comment_the_range_and_read_only(cell):
         "node.workers", "node.surface_timeout_s", "mill5.a.max_velocity_deg_s", "recording.zstd_level")}
     workers = d["node.workers"]
     assert workers.description == "planning threads; 0 = one per available core", workers
-    assert workers.type == rcl.INTEGER and workers.read_only
+    assert workers.type == rcl.INTEGER and not workers.read_only
     assert [(r.from_value, r.to_value, r.step) for r in workers.integer_range] == [(0, 256, 1)], workers
-    assert "read-only while the node runs" in workers.additional_constraints, workers
+    pivot, = cell["params"].describe("mill5.pivot_length_mm")
+    assert pivot.read_only and "read-only while the node runs" in pivot.additional_constraints, pivot
     timeout = d["node.surface_timeout_s"]
     assert not timeout.read_only and timeout.type == rcl.DOUBLE, timeout
     assert [r.from_value for r in timeout.floating_point_range] == [0.0], timeout
@@ -161,8 +162,8 @@ def test_bad_sets_are_refused_with_the_reason_and_change_nothing(cell):
     p = cell["params"]
     ok, why = p.set("mill5.pivot_length_mm", 300.0)
     assert not ok and "mill5.pivot_length_mm is read-only" in why and "machine geometry" in why, why
-    ok, why = p.set("node.workers", 4)
-    assert not ok and "planning threads are started once" in why, why
+    ok, why = p.set("node.workers", 100000)
+    assert not ok and "node.workers: 100000 is above the limit" in why, why
     ok, why = p.set("node.surface_timeout_s", -1.0)
     assert not ok and "node.surface_timeout_s: must be a finite number >= 0" in why, why
     ok, why = p.set("node.verify", "yes")
@@ -372,3 +373,32 @@ def test_inputs_in_a_machine_frame_are_moved_and_unknown_frames_refused(cell):
     assert "job.header.frame_id" in final.message and "mill5_base" in final.message, final.message
     final = wait_final(cell, "on_machine_frame", timeout=120)
     assert final.state == msgs.JobStatus.SUCCEEDED, final.message
+
+
+def diagnostic_values(cell, timeout, predicate):
+    """The values of the latest /diagnostics status that satisfies `predicate` (or the last one)."""
+    reader, last, deadline = cell["diagnostics"], None, time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        for m in reader.take(N=10):
+            last = {kv.key: kv.value for kv in m.status[0].values}
+            if predicate(last):
+                return last
+        time.sleep(0.05)
+    return last
+
+
+def test_workers_set_at_run_time_resize_the_pool_and_jobs_are_still_served(cell):
+    """Runs last: it leaves node.workers as the fixture set it."""
+    p = cell["params"]
+    for count in (3, 1, 2):
+        ok, why = p.set("node.workers", count)
+        assert ok, why
+        assert p.get("node.workers") == [count]
+        # /diagnostics counts the planning threads running, not the setting.
+        v = diagnostic_values(cell, 5.0, lambda v: v["workers"] == str(count))
+        assert v is not None and v["workers"] == str(count), v
+        name = "after_workers_%d" % count
+        cell["job_pub"].publish(job(name, "default_qos_surface", "iso_scallop", tool("ball", radius=3.0),
+                                    scallop=0.05))
+        final = wait_final(cell, name, timeout=120)
+        assert final.state == msgs.JobStatus.SUCCEEDED, final.message
