@@ -237,6 +237,41 @@ fn bad_step_input_is_a_clear_error_naming_the_entity() {
     let garbled = text.replacen("#17 = ADVANCED_FACE(", "#17 = ADVANCED_FACE((", 1);
     let e = invalid_message(parse(&garbled).err().unwrap());
     assert!(e.contains("not valid STEP"), "{e}");
+    // Whole numbers too long for the parser (it would panic on them): the
+    // line named; a long fraction is fine.
+    let line = text[..text.find("CYLINDRICAL_SURFACE('',#34,20.)").unwrap()]
+        .matches('\n')
+        .count()
+        + 1;
+    for (long, why) in [
+        ("20000000000000000000.", "20000000000000000000"),
+        ("20.E1234567890123456789", "1234567890123456789"),
+        ("20.", ""),
+    ] {
+        let t = text.replacen(
+            "CYLINDRICAL_SURFACE('',#34,20.)",
+            &format!("CYLINDRICAL_SURFACE('',#34,{long})"),
+            1,
+        );
+        match parse(&t) {
+            Ok(_) => assert!(why.is_empty(), "{long} was read"),
+            Err(e) => {
+                let e = invalid_message(e);
+                assert!(
+                    e.contains(&format!(
+                        "line {line}: the number {why} has more than 18 digits"
+                    )),
+                    "{e}"
+                );
+            }
+        }
+    }
+    let fraction = text.replacen(
+        "CYLINDRICAL_SURFACE('',#34,20.)",
+        "CYLINDRICAL_SURFACE('',#34,20.000000000000000000000000001)",
+        1,
+    );
+    assert!(parse(&fraction).is_ok());
     // An unsupported surface.
     let offset = text.replacen(
         "CYLINDRICAL_SURFACE('',#34,20.)",

@@ -49,6 +49,13 @@ const COARSE: usize = 256;
 /// Uniform pieces an edge starts from before bisection.
 const START_PIECES: usize = 8;
 
+/// Bisection steps one trim loop may take to follow its edges within the
+/// tolerance: hundreds of times what the test parts need. An edge that
+/// would need more (a degenerate curve or map that bisection never
+/// resolves) ends the sampling there and the face is refused, instead of
+/// bisecting every piece to [`MAX_DEPTH`] (millions of point inversions).
+const MAX_LOOP_STEPS: usize = 100_000;
+
 type V3 = Vector3<f64>;
 
 /// One face of a STEP file, as `toolpath import --list` shows it.
@@ -178,6 +185,58 @@ fn plane_curve(curve: &Curve, o: V3, e1: V3, e2: V3) -> Meridian {
                 .collect(),
         }),
     }
+}
+
+/// Digits a whole number (an integer, an entity id, the integral part or
+/// exponent of a real) may have: an i64 holds every 18-digit number.
+const MAX_INTEGER_DIGITS: usize = 18;
+
+/// Refuses a whole number too long for an i64 outside strings and comments,
+/// naming its line: ruststep parses these with an `expect` that panics.
+/// The fraction of a real (digits after its point) may be any length.
+fn check_number_lengths(text: &str) -> std::result::Result<(), String> {
+    let bytes = text.as_bytes();
+    let (mut i, mut line) = (0, 1);
+    while i < bytes.len() {
+        match bytes[i] {
+            b'\n' => line += 1,
+            // A string ends at the next quote ('' inside is two strings
+            // back to back, which skips the same way).
+            b'\'' => {
+                i += 1;
+                while i < bytes.len() && bytes[i] != b'\'' {
+                    line += usize::from(bytes[i] == b'\n');
+                    i += 1;
+                }
+            }
+            b'/' if bytes.get(i + 1) == Some(&b'*') => {
+                i += 2;
+                while i < bytes.len() && !(bytes[i] == b'*' && bytes.get(i + 1) == Some(&b'/')) {
+                    line += usize::from(bytes[i] == b'\n');
+                    i += 1;
+                }
+                i += 1;
+            }
+            c if c.is_ascii_digit() => {
+                let start = i;
+                while i < bytes.len() && bytes[i].is_ascii_digit() {
+                    i += 1;
+                }
+                let fraction = start > 0 && bytes[start - 1] == b'.';
+                let digits = bytes[start..i].iter().skip_while(|&&d| d == b'0').count();
+                if !fraction && digits > MAX_INTEGER_DIGITS {
+                    return Err(format!(
+                        "line {line}: the number {} has more than {MAX_INTEGER_DIGITS} digits",
+                        &text[start..i]
+                    ));
+                }
+                continue;
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    Ok(())
 }
 
 /// Point of a rational B-spline curve at `t` (de Boor on homogeneous points).
@@ -400,6 +459,7 @@ impl StepFile {
                 "is truncated: it does not end with END-ISO-10303-21;".into()
             ));
         }
+        check_number_lengths(text).map_err(bad)?;
         let exchange = ruststep::parser::parse(text).map_err(|e| {
             let first = e.to_string();
             let first = first.lines().take(6).collect::<Vec<_>>().join(" | ");
@@ -1446,6 +1506,7 @@ impl StepFile {
         let mut out = Vec::new();
         for (bound, declared_outer, orientation, edges) in loops {
             let mut pts: Vec<[f64; 2]> = Vec::new();
+            let mut steps = MAX_LOOP_STEPS;
             for e in edges {
                 let seed = pts.last().copied();
                 let eval = |t: f64, seed: Option<[f64; 2]>| -> ([f64; 2], V3) {
@@ -1457,7 +1518,15 @@ impl StepFile {
                         (map(&c, seed), c)
                     }
                 };
-                sample_edge(&nurbs, e, &eval, seed, &mut pts);
+                sample_edge(&nurbs, e, &eval, seed, &mut steps, &mut pts);
+                if steps == 0 {
+                    return Err(self.err(
+                        e.id,
+                        format!(
+                            "cannot be followed within the trim tolerance in {MAX_LOOP_STEPS} bisection steps: its curve or the face's surface is degenerate along it"
+                        ),
+                    ));
+                }
             }
             let (Some(&first), Some(&last)) = (pts.first(), pts.last()) else {
                 return Err(self.err(*bound, "has an empty loop"));
@@ -1829,6 +1898,7 @@ fn sample_edge(
     e: &EdgeUse,
     eval: &dyn Fn(f64, Option<[f64; 2]>) -> ([f64; 2], V3),
     seed: Option<[f64; 2]>,
+    steps: &mut usize,
     pts: &mut Vec<[f64; 2]>,
 ) {
     let tol = DEFAULT_TOLERANCE_MM * 0.5;
@@ -1837,11 +1907,12 @@ fn sample_edge(
     for k in 1..=START_PIECES {
         let t1 = e.ta + (e.tb - e.ta) * k as f64 / START_PIECES as f64;
         let (uv1, p1) = eval(t1, Some(uv));
-        bisect(nurbs, eval, (t, uv, p), (t1, uv1, p1), tol, 0, pts);
+        bisect(nurbs, eval, (t, uv, p), (t1, uv1, p1), tol, 0, steps, pts);
         (t, uv, p) = (t1, uv1, p1);
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn bisect(
     nurbs: &NurbsSurface,
     eval: &dyn Fn(f64, Option<[f64; 2]>) -> ([f64; 2], V3),
@@ -1849,14 +1920,20 @@ fn bisect(
     b: (f64, [f64; 2], V3),
     tol: f64,
     depth: u32,
+    steps: &mut usize,
     pts: &mut Vec<[f64; 2]>,
 ) {
+    if *steps == 0 {
+        push(pts, b.1);
+        return;
+    }
+    *steps -= 1;
     let tm = 0.5 * (a.0 + b.0);
     let (uvm, pm) = eval(tm, Some(a.1));
     let chord = nurbs.point(0.5 * (a.1[0] + b.1[0]), 0.5 * (a.1[1] + b.1[1]));
     if depth < MAX_DEPTH && (chord.coords - pm).norm() > tol {
-        bisect(nurbs, eval, a, (tm, uvm, pm), tol, depth + 1, pts);
-        bisect(nurbs, eval, (tm, uvm, pm), b, tol, depth + 1, pts);
+        bisect(nurbs, eval, a, (tm, uvm, pm), tol, depth + 1, steps, pts);
+        bisect(nurbs, eval, (tm, uvm, pm), b, tol, depth + 1, steps, pts);
     } else {
         push(pts, b.1);
     }

@@ -73,35 +73,53 @@ pub fn segments_intersect(a: Point2, b: Point2, c: Point2, d: Point2) -> bool {
 /// Segments of all loops, as (loop, index, a, b).
 type Seg = (usize, usize, Point2, Point2);
 
+/// Grid entries plus segment pairs the self-intersection check may visit:
+/// about a second. Outlines far beyond any real part (tens of thousands of
+/// segments all overlapping one another) are refused instead of checked
+/// for minutes.
+const CROSSING_CHECK_BUDGET: usize = 50_000_000;
+
 /// Finds the first pair of crossing segments among all loops (adjacent
-/// segments of one loop share a vertex and are not counted). A uniform grid
-/// keeps this near-linear for the 10 000-vertex outlines of the benchmarks.
-fn first_crossing(loops: &[&[Point2]]) -> Option<(Seg, Seg)> {
+/// segments of one loop share a vertex and are not counted). A grid whose
+/// column and row bounds are quantiles of the vertices keeps this
+/// near-linear for the 10 000-vertex outlines of the benchmarks and for
+/// loops whose vertices crowd into a small part of their box (one far
+/// vertex beside thousands close together would put them all in one cell
+/// of an even grid: quadratic).
+/// `Err(())` when that would take more than [`CROSSING_CHECK_BUDGET`] steps.
+fn first_crossing(loops: &[&[Point2]]) -> std::result::Result<Option<(Seg, Seg)>, ()> {
     let mut segs: Vec<Seg> = Vec::new();
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for (l, poly) in loops.iter().enumerate() {
         let n = poly.len();
         for i in 0..n {
-            let (a, b) = (poly[i], poly[(i + 1) % n]);
-            segs.push((l, i, a, b));
-            for t in 0..2 {
-                lo[t] = lo[t].min(a[t]);
-                hi[t] = hi[t].max(a[t]);
-            }
+            segs.push((l, i, poly[i], poly[(i + 1) % n]));
         }
     }
     let cells = ((segs.len() as f64).sqrt().ceil() as usize).clamp(1, 512);
-    let w = ((hi[0] - lo[0]) / cells as f64).max(1e-12);
-    let h = ((hi[1] - lo[1]) / cells as f64).max(1e-12);
+    // Inner bounds of the columns (rows): every len/cells-th vertex x (y).
+    let bounds = |t: usize| {
+        let mut c: Vec<f64> = segs.iter().map(|s| s.2[t]).collect();
+        c.sort_by(f64::total_cmp);
+        (1..cells)
+            .map(|k| c[k * c.len() / cells])
+            .collect::<Vec<f64>>()
+    };
+    let (bx, by) = (bounds(0), bounds(1));
     let cell = |x: f64, y: f64| {
-        let cx = (((x - lo[0]) / w) as usize).min(cells - 1);
-        let cy = (((y - lo[1]) / h) as usize).min(cells - 1);
-        (cx, cy)
+        (
+            bx.partition_point(|&b| b <= x),
+            by.partition_point(|&b| b <= y),
+        )
     };
     let mut grid: Vec<Vec<usize>> = vec![Vec::new(); cells * cells];
+    let mut steps = 0usize;
     for (k, s) in segs.iter().enumerate() {
         let (x0, y0) = cell(s.2[0].min(s.3[0]), s.2[1].min(s.3[1]));
         let (x1, y1) = cell(s.2[0].max(s.3[0]), s.2[1].max(s.3[1]));
+        steps += (x1 - x0 + 1) * (y1 - y0 + 1);
+        if steps > CROSSING_CHECK_BUDGET {
+            return Err(());
+        }
         for cx in x0..=x1 {
             for cy in y0..=y1 {
                 grid[cy * cells + cx].push(k);
@@ -110,6 +128,10 @@ fn first_crossing(loops: &[&[Point2]]) -> Option<(Seg, Seg)> {
     }
     let mut best: Option<(usize, usize)> = None;
     for bucket in &grid {
+        steps += bucket.len() * bucket.len().saturating_sub(1) / 2;
+        if steps > CROSSING_CHECK_BUDGET {
+            return Err(());
+        }
         for (x, &i) in bucket.iter().enumerate() {
             for &j in &bucket[x + 1..] {
                 let (si, sj) = (&segs[i], &segs[j]);
@@ -140,7 +162,7 @@ fn first_crossing(loops: &[&[Point2]]) -> Option<(Seg, Seg)> {
             }
         }
     }
-    best.map(|(i, j)| (segs[i], segs[j]))
+    Ok(best.map(|(i, j)| (segs[i], segs[j])))
 }
 
 fn loop_name(l: usize) -> String {
@@ -201,7 +223,16 @@ impl Pocket {
         }
         let mut loops: Vec<&[Point2]> = vec![&outer];
         loops.extend(hs.iter().map(|h| h.as_slice()));
-        if let Some((a, b)) = first_crossing(&loops) {
+        let crossing = first_crossing(&loops).map_err(|()| {
+            Error::invalid(
+                "outer",
+                format!(
+                    "{} segments overlap each other too much to check for self-intersection (more than {CROSSING_CHECK_BUDGET} steps): simplify the outline",
+                    loops.iter().map(|l| l.len()).sum::<usize>()
+                ),
+            )
+        })?;
+        if let Some((a, b)) = crossing {
             let msg = if a.0 == b.0 {
                 format!(
                     "outline intersects itself: segment {} ({:?} to {:?}) meets segment {} ({:?} to {:?})",
@@ -248,5 +279,55 @@ impl Pocket {
     /// Is the point inside the material-free region (inside outer, outside holes)?
     pub fn contains(&self, p: Point2) -> bool {
         contains(&self.outer, p) && !self.holes.iter().any(|h| contains(h, p))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A circle of `n` vertices with vertex 0 moved far up and right: a
+    /// simple outline whose vertices all crowd into one corner of its box.
+    fn crowded(n: usize) -> Vec<Point2> {
+        (0..n)
+            .map(|k| {
+                if k == 0 {
+                    return [1e6, 1e6];
+                }
+                let a = std::f64::consts::TAU * k as f64 / n as f64;
+                [a.cos(), a.sin()]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_crowded_outline_is_checked_within_the_budget() {
+        // An even grid would put the 20 000 circle vertices in one cell:
+        // 2e8 pairs, over the budget. The quantile grid spreads them.
+        let p = Pocket::new(&crowded(20_000), &[]).unwrap();
+        assert_eq!(p.outer.len(), 20_000);
+        // Moving one circle vertex across the far spike's segments makes
+        // it cross itself, and that is found.
+        let mut bad = crowded(20_000);
+        bad[10_000] = [2e5, 2.1e5];
+        let e = Pocket::new(&bad, &[]).unwrap_err().to_string();
+        assert!(e.contains("intersects itself"), "{e}");
+    }
+
+    #[test]
+    fn an_outline_of_long_segments_crossing_everywhere_is_refused_by_its_budget() {
+        // A star polygon {n / (n - 1) / 2}: every segment crosses the middle.
+        let n = 20_001;
+        let star: Vec<Point2> = (0..n)
+            .map(|k| {
+                let a = std::f64::consts::TAU * ((k * (n - 1) / 2) % n) as f64 / n as f64;
+                [a.cos(), a.sin()]
+            })
+            .collect();
+        let e = Pocket::new(&star, &[]).unwrap_err().to_string();
+        assert!(
+            e.contains("20001 segments overlap each other too much"),
+            "{e}"
+        );
     }
 }
