@@ -153,9 +153,9 @@ impl SegmentIndex {
 
     /// Is any segment within `r` of p? The same answer as
     /// `nearest(p, r).is_some()`, but the search stops at the first segment
-    /// found: the bucket holding p first (where a covered point's segment
-    /// usually is), squared distances decide unless within rounding of r,
-    /// where `hypot` decides as in [`SegmentIndex::nearest`].
+    /// found, in the buckets nearest p first; squared distances decide
+    /// unless within rounding of r, where `hypot` decides as in
+    /// [`SegmentIndex::nearest`].
     pub fn within(&self, p: Point2, r: f64) -> bool {
         if self.segs.is_empty() || !(r >= 0.0) {
             return false;
@@ -183,23 +183,30 @@ impl SegmentIndex {
             let d2 = dx * dx + dy * dy;
             d2 <= inside || (d2 <= outside && dist(f, p) <= r)
         };
-        // The bucket holding p (clamped into the grid) first.
+        // Rings of buckets round the one holding p (clamped into the
+        // searched box), nearest ring first: a covered point's segment is
+        // usually near it, and the answer does not depend on the order.
         let home = |v: f64, o: f64, n: usize| -> usize {
             (((v - o) / self.cell).floor().max(0.0).min((n - 1) as f64)) as usize
         };
-        let (hx, hy) = (
-            home(p[0], self.origin[0], self.nx),
-            home(p[1], self.origin[1], self.ny),
-        );
-        if (x0..=x1).contains(&hx)
-            && (y0..=y1).contains(&hy)
-            && self.buckets[hy * self.nx + hx].iter().any(|&k| hit(k))
-        {
-            return true;
-        }
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                if (x, y) != (hx, hy) && self.buckets[y * self.nx + x].iter().any(|&k| hit(k)) {
+        let hx = home(p[0], self.origin[0], self.nx).clamp(x0, x1);
+        let hy = home(p[1], self.origin[1], self.ny).clamp(y0, y1);
+        let bucket_hits =
+            |x: usize, y: usize| self.buckets[y * self.nx + x].iter().any(|&k| hit(k));
+        let rings = (hx - x0).max(x1 - hx).max(hy - y0).max(y1 - hy);
+        for d in 0..=rings {
+            let (xa, xb) = (hx.saturating_sub(d).max(x0), (hx + d).min(x1));
+            let (ya, yb) = (hy.saturating_sub(d).max(y0), (hy + d).min(y1));
+            for y in ya..=yb {
+                if y + d == hy || y == hy + d {
+                    // A row of the ring: all its buckets.
+                    if (xa..=xb).any(|x| bucket_hits(x, y)) {
+                        return true;
+                    }
+                } else if (d <= hx && hx - d >= x0 && bucket_hits(hx - d, y))
+                    || (d > 0 && hx + d <= x1 && bucket_hits(hx + d, y))
+                {
+                    // Inside the ring's rows: its two columns only.
                     return true;
                 }
             }
@@ -351,8 +358,8 @@ impl Raster {
                 }
             }
         }
-        for (j, row) in rows.iter_mut().enumerate() {
-            row.sort_by(|p, q| p.0.total_cmp(&q.0));
+        // Each span marks its cells whatever the order: no sorting.
+        for (j, row) in rows.iter().enumerate() {
             let line = &mut self.cells[j * self.nx..(j + 1) * self.nx];
             for &(x0, x1) in row.iter() {
                 let i0 = ((x0 - self.origin[0]) / h - 0.5).ceil().max(0.0) as usize;
