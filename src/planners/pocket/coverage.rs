@@ -157,7 +157,7 @@ impl SegmentIndex {
     /// unless within rounding of r, where `hypot` decides as in
     /// [`SegmentIndex::nearest`].
     pub fn within(&self, p: Point2, r: f64) -> bool {
-        if self.segs.is_empty() || !(r >= 0.0) {
+        if self.segs.is_empty() || r.is_nan() || r < 0.0 {
             return false;
         }
         let span = |v: f64, o: f64, n: usize| -> (usize, usize) {
