@@ -122,6 +122,56 @@ impl LocalGeometry {
     }
 }
 
+/// The tangent plane at one (u, v) from first derivatives only: what a walk
+/// on the surface needs (the normal, and 3-D tangents mapped to (u, v)).
+/// Its fields are the bits [`LocalGeometry`] holds for them, and it is `None`
+/// exactly where `LocalGeometry::at` is: the first derivatives of the
+/// evaluation are the same whatever its order.
+#[derive(Clone, Copy, Debug)]
+pub struct TangentFrame {
+    pub su: Vector3<f64>,
+    pub sv: Vector3<f64>,
+    /// Unit normal, normalize(S_u x S_v).
+    pub n: Vector3<f64>,
+    /// First fundamental form [[E, F], [F, G]].
+    pub first: Matrix2<f64>,
+}
+
+impl TangentFrame {
+    pub fn at(surface: &NurbsSurface, u: f64, v: f64) -> Option<Self> {
+        let (u, v) = surface.clamp_uv(u, v);
+        let d = surface.first_derivs(u, v);
+        // The singularity tests of `LocalGeometry::from_derivs`.
+        let cross = d.su.cross(&d.sv);
+        let len = cross.norm();
+        let scale = d.su.norm() * d.sv.norm();
+        if !len.is_finite() || len <= 1e-12 * scale || scale.is_nan() {
+            return None;
+        }
+        let e = d.su.dot(&d.su);
+        let f = d.su.dot(&d.sv);
+        let g = d.sv.dot(&d.sv);
+        let c11 = e.sqrt();
+        let c21 = f / c11;
+        let c22 = (g - c21 * c21).max(0.0).sqrt();
+        if c22.is_nan() || c22 <= 0.0 {
+            return None;
+        }
+        Some(Self {
+            su: d.su,
+            sv: d.sv,
+            n: cross / len,
+            first: Matrix2::new(e, f, f, g),
+        })
+    }
+
+    /// [`LocalGeometry::tangent_to_uv`].
+    pub fn tangent_to_uv(&self, t: Vector3<f64>) -> Vector2<f64> {
+        let rhs = Vector2::new(t.dot(&self.su), t.dot(&self.sv));
+        self.first.try_inverse().map(|gi| gi * rhs).unwrap_or(rhs)
+    }
+}
+
 /// Eigen-decomposition of a symmetric 2x2 matrix: (lambda_min, lambda_max,
 /// unit eigenvector for min, unit eigenvector for max).
 pub fn sym_eigen2(s: Matrix2<f64>) -> (f64, f64, Vector2<f64>, Vector2<f64>) {
@@ -170,6 +220,81 @@ mod tests {
             Some(&ws),
         )
         .unwrap()
+    }
+
+    #[test]
+    fn tangent_frame_holds_the_bits_of_local_geometry() {
+        // A rational surface, a bicubic one and a cone with a collapsed edge
+        // (where both give None or the off-pole derivatives).
+        let cyl = quarter_cylinder(100.0);
+        let cps: Vec<Vec<[f64; 3]>> = (0..5)
+            .map(|i| {
+                (0..6)
+                    .map(|j| {
+                        let (x, y) = (i as f64 * 20.0, j as f64 * 15.0);
+                        [
+                            x,
+                            y,
+                            (0.07 * x).sin() * 8.0 + (0.11 * y).cos() * 5.0 + 0.01 * x * y,
+                        ]
+                    })
+                    .collect()
+            })
+            .collect();
+        let bicubic = NurbsSurface::new(
+            3,
+            3,
+            vec![0., 0., 0., 0., 0.4, 1., 1., 1., 1.],
+            vec![0., 0., 0., 0., 0.3, 0.6, 1., 1., 1., 1.],
+            &cps,
+            None,
+        )
+        .unwrap();
+        let apex: Vec<Vec<[f64; 3]>> = (0..2)
+            .map(|i| {
+                (0..3)
+                    .map(|j| {
+                        let r = 30.0 * i as f64;
+                        [
+                            r * j as f64 * 0.5,
+                            r * (1.0 - 0.5 * j as f64),
+                            -20.0 * i as f64,
+                        ]
+                    })
+                    .collect()
+            })
+            .collect();
+        let cone = NurbsSurface::new(
+            1,
+            2,
+            vec![0., 0., 1., 1.],
+            vec![0., 0., 0., 1., 1., 1.],
+            &apex,
+            None,
+        )
+        .unwrap();
+        let mut none = 0;
+        for s in [&cyl, &bicubic, &cone] {
+            for i in 0..=40 {
+                for j in 0..=40 {
+                    let (u, v) = (i as f64 / 40.0 - 0.01, j as f64 / 40.0);
+                    let g = LocalGeometry::at(s, u, v);
+                    let f = TangentFrame::at(s, u, v);
+                    assert_eq!(g.is_some(), f.is_some(), "({u}, {v})");
+                    let (Some(g), Some(f)) = (g, f) else {
+                        none += 1;
+                        continue;
+                    };
+                    assert_eq!(
+                        (g.derivs.su, g.derivs.sv, g.n, g.first),
+                        (f.su, f.sv, f.n, f.first)
+                    );
+                    let t = Vector3::new(0.3, -0.7, 0.2 + u);
+                    assert_eq!(g.tangent_to_uv(t), f.tangent_to_uv(t));
+                }
+            }
+        }
+        assert!(none < 100, "{none}");
     }
 
     #[test]

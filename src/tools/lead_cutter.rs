@@ -83,7 +83,13 @@ impl LeadCutter {
     /// (x along the feed, |y| across it, z along the normal); `lead_sc` is
     /// (sin, cos) of the lead angle (computed once per width).
     pub fn edge(&self, phi: f64, lead_sc: (f64, f64)) -> (f64, f64, f64) {
-        let (s, c) = phi.sin_cos();
+        self.edge_sc(phi, phi.sin_cos(), lead_sc)
+    }
+
+    /// [`LeadCutter::edge`] with `phi_sc` = phi.sin_cos() given (from a
+    /// table of the fixed sample angles: the same bits, no trigonometry).
+    pub fn edge_sc(&self, phi: f64, phi_sc: (f64, f64), lead_sc: (f64, f64)) -> (f64, f64, f64) {
+        let (s, c) = phi_sc;
         let r = self.radius;
         if self.ball {
             (0.0, r * s, r * (1.0 - c))

@@ -151,9 +151,67 @@ impl SegmentIndex {
         best
     }
 
-    /// Is any segment within `r` of p?
+    /// Is any segment within `r` of p? The same answer as
+    /// `nearest(p, r).is_some()`, but the search stops at the first segment
+    /// found, in the buckets nearest p first; squared distances decide
+    /// unless within rounding of r, where `hypot` decides as in
+    /// [`SegmentIndex::nearest`].
     pub fn within(&self, p: Point2, r: f64) -> bool {
-        self.nearest(p, r).is_some()
+        if self.segs.is_empty() || r.is_nan() || r < 0.0 {
+            return false;
+        }
+        let span = |v: f64, o: f64, n: usize| -> (usize, usize) {
+            let lo = ((v - r - o) / self.cell).floor();
+            let hi = ((v + r - o) / self.cell).floor();
+            let lo = lo.max(0.0).min((n - 1) as f64) as usize;
+            let hi = hi.max(0.0).min((n - 1) as f64) as usize;
+            (lo, hi)
+        };
+        let (x0, x1) = span(p[0], self.origin[0], self.nx);
+        let (y0, y1) = span(p[1], self.origin[1], self.ny);
+        let r2 = r * r;
+        let (inside, outside) = (r2 * (1.0 - 1e-12), r2 * (1.0 + 1e-12));
+        let hit = |k: u32| -> bool {
+            let (a, b) = self.segs[k as usize];
+            let bx = (a[0].min(b[0]) - p[0]).max(p[0] - a[0].max(b[0])).max(0.0);
+            let by = (a[1].min(b[1]) - p[1]).max(p[1] - a[1].max(b[1])).max(0.0);
+            if bx * bx + by * by > outside {
+                return false;
+            }
+            let f = segment_foot(a, b, p);
+            let (dx, dy) = (f[0] - p[0], f[1] - p[1]);
+            let d2 = dx * dx + dy * dy;
+            d2 <= inside || (d2 <= outside && dist(f, p) <= r)
+        };
+        // Rings of buckets round the one holding p (clamped into the
+        // searched box), nearest ring first: a covered point's segment is
+        // usually near it, and the answer does not depend on the order.
+        let home = |v: f64, o: f64, n: usize| -> usize {
+            (((v - o) / self.cell).floor().max(0.0).min((n - 1) as f64)) as usize
+        };
+        let hx = home(p[0], self.origin[0], self.nx).clamp(x0, x1);
+        let hy = home(p[1], self.origin[1], self.ny).clamp(y0, y1);
+        let bucket_hits =
+            |x: usize, y: usize| self.buckets[y * self.nx + x].iter().any(|&k| hit(k));
+        let rings = (hx - x0).max(x1 - hx).max(hy - y0).max(y1 - hy);
+        for d in 0..=rings {
+            let (xa, xb) = (hx.saturating_sub(d).max(x0), (hx + d).min(x1));
+            let (ya, yb) = (hy.saturating_sub(d).max(y0), (hy + d).min(y1));
+            for y in ya..=yb {
+                if y + d == hy || y == hy + d {
+                    // A row of the ring: all its buckets.
+                    if (xa..=xb).any(|x| bucket_hits(x, y)) {
+                        return true;
+                    }
+                } else if (d <= hx && hx - d >= x0 && bucket_hits(hx - d, y))
+                    || (d > 0 && hx + d <= x1 && bucket_hits(hx + d, y))
+                {
+                    // Inside the ring's rows: its two columns only.
+                    return true;
+                }
+            }
+        }
+        false
     }
 }
 
@@ -300,8 +358,8 @@ impl Raster {
                 }
             }
         }
-        for (j, row) in rows.iter_mut().enumerate() {
-            row.sort_by(|p, q| p.0.total_cmp(&q.0));
+        // Each span marks its cells whatever the order: no sorting.
+        for (j, row) in rows.iter().enumerate() {
             let line = &mut self.cells[j * self.nx..(j + 1) * self.nx];
             for &(x0, x1) in row.iter() {
                 let i0 = ((x0 - self.origin[0]) / h - 0.5).ceil().max(0.0) as usize;
@@ -384,5 +442,59 @@ mod tests {
             assert!((got - brute).abs() < 1e-12);
             assert!(!idx.within(p, brute * 0.999));
         }
+    }
+
+    #[test]
+    fn within_matches_brute_force_and_nearest() {
+        // Two crossing wavy polylines and a lone point: buckets hold several
+        // segments, some points lie outside the grid.
+        let a: Vec<Point2> = (0..300)
+            .map(|i| [i as f64 * 0.23, (i as f64 * 0.17).sin() * 6.0])
+            .collect();
+        let b: Vec<Point2> = (0..120)
+            .map(|i| [30.0 + (i as f64 * 0.3).cos() * 9.0, i as f64 * 0.2 - 8.0])
+            .collect();
+        let lone = [[55.0, 20.0]];
+        let lines = [a.as_slice(), b.as_slice(), lone.as_slice()];
+        let idx = SegmentIndex::from_polylines(lines);
+        let segs: Vec<(Point2, Point2)> = lines
+            .iter()
+            .flat_map(|l| {
+                if l.len() == 1 {
+                    vec![(l[0], l[0])]
+                } else {
+                    l.windows(2).map(|w| (w[0], w[1])).collect()
+                }
+            })
+            .collect();
+        let mut hits = 0;
+        for k in 0..4000 {
+            let t = k as f64;
+            let p = [
+                -5.0 + (t * 0.618_034).fract() * 80.0,
+                -15.0 + (t * 0.414_214).fract() * 45.0,
+            ];
+            let brute = segs
+                .iter()
+                .map(|&(s0, s1)| dist(segment_foot(s0, s1, p), p))
+                .fold(f64::INFINITY, f64::min);
+            for r in [0.05, 0.4, 1.3, 3.0, 12.0] {
+                let want = brute <= r;
+                assert_eq!(idx.within(p, r), want, "p {p:?} r {r} brute {brute}");
+                hits += want as usize;
+            }
+            // At exactly the nearest distance (and one ulp either side) the
+            // answer is the one `nearest` gives.
+            for r in [brute, brute.next_down(), brute.next_up()] {
+                assert_eq!(
+                    idx.within(p, r),
+                    idx.nearest(p, r).is_some(),
+                    "p {p:?} r {r}"
+                );
+            }
+        }
+        assert!(hits > 1000 && hits < 19000, "{hits}");
+        assert!(!idx.within([10.0, 0.0], -1.0));
+        assert!(!idx.within([10.0, 0.0], f64::NAN));
     }
 }

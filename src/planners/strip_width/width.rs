@@ -22,6 +22,7 @@ use crate::geometry::numeric::illinois_root;
 use crate::geometry::LocalGeometry;
 use crate::tools::{LeadCutter, LeadCutterError};
 use nalgebra::{Vector2, Vector3};
+use std::sync::LazyLock;
 
 /// Normal curvatures of the surface in the frame of a pass: `feed` along the
 /// travel direction t, `cross` along c = n x t, `twist` = II(t, c).
@@ -76,7 +77,19 @@ impl LeadCutter {
         k: Curvatures,
         lead_sc: (f64, f64),
     ) -> (f64, f64, f64) {
-        let (x, ya, z0) = self.edge(phi, lead_sc);
+        self.edge_over_surface_sc(phi, phi.sin_cos(), side, k, lead_sc)
+    }
+
+    /// [`Self::edge_over_surface`] with `phi_sc` = phi.sin_cos() given.
+    fn edge_over_surface_sc(
+        &self,
+        phi: f64,
+        phi_sc: (f64, f64),
+        side: f64,
+        k: Curvatures,
+        lead_sc: (f64, f64),
+    ) -> (f64, f64, f64) {
+        let (x, ya, z0) = self.edge_sc(phi, phi_sc, lead_sc);
         let y = side * ya;
         // Height of the surface under the edge point from its curvature along
         // the feed and its twist (the point is behind the contact).
@@ -87,7 +100,19 @@ impl LeadCutter {
     /// Residual height from the contact at edge parameter phi, on side
     /// `side` (+1 towards n x t, -1 away).
     fn residual(&self, phi: f64, side: f64, k: Curvatures, lead_sc: (f64, f64)) -> f64 {
-        let (_, y, z) = self.edge_over_surface(phi, side, k, lead_sc);
+        self.residual_sc(phi, phi.sin_cos(), side, k, lead_sc)
+    }
+
+    /// [`Self::residual`] with `phi_sc` = phi.sin_cos() given.
+    fn residual_sc(
+        &self,
+        phi: f64,
+        phi_sc: (f64, f64),
+        side: f64,
+        k: Curvatures,
+        lead_sc: (f64, f64),
+    ) -> f64 {
+        let (_, y, z) = self.edge_over_surface_sc(phi, phi_sc, side, k, lead_sc);
         let kc = k.cross;
         let q = kc * kc * (y * y + z * z) - 2.0 * kc * z;
         let root = (1.0 + q).max(0.0).sqrt();
@@ -115,13 +140,11 @@ impl LeadCutter {
         k: Curvatures,
         side: f64,
     ) -> std::result::Result<f64, WidthError> {
-        const SAMPLES: usize = 24;
         let top = std::f64::consts::FRAC_PI_2;
         let lead_sc = self.lead.sin_cos();
         let (mut prev, mut f_prev) = (0.0, -h);
-        for i in 1..=SAMPLES {
-            let phi = top * i as f64 / SAMPLES as f64;
-            let r = self.residual(phi, side, k, lead_sc);
+        for &(phi, phi_sc) in EDGE_SAMPLES.iter().skip(1) {
+            let r = self.residual_sc(phi, phi_sc, side, k, lead_sc);
             if r < -GOUGE_SLACK * h {
                 return Err(WidthError::Gouge { depth: -r });
             }
@@ -165,10 +188,9 @@ impl LeadCutter {
         let mut depth = 0.0f64;
         for i in 1..=4 {
             let rho = r * i as f64 / 4.0;
-            for j in 0..32 {
-                let a = std::f64::consts::TAU * j as f64 / 32.0;
-                let x = (rho * a.cos() - r) * c;
-                let y = rho * a.sin();
+            for &(sin_a, cos_a) in DISC_ANGLES.iter() {
+                let x = (rho * cos_a - r) * c;
+                let y = rho * sin_a;
                 let disc = -x * s / c;
                 let surf = 0.5 * (k.feed * x * x + 2.0 * k.twist * x * y + k.cross * y * y);
                 depth = depth.max(surf - disc);
@@ -177,6 +199,26 @@ impl LeadCutter {
         depth
     }
 }
+
+/// Samples of the edge parameter in [`LeadCutter::half_width`]: phi_i =
+/// pi/2 i / 24, i = 0..=24, with phi_i.sin_cos() (computed once: the width
+/// is asked for at every contact of every pass, and the trigonometry was
+/// most of its cost).
+static EDGE_SAMPLES: LazyLock<[(f64, (f64, f64)); 25]> = LazyLock::new(|| {
+    std::array::from_fn(|i| {
+        let phi = std::f64::consts::FRAC_PI_2 * i as f64 / 24.0;
+        (phi, phi.sin_cos())
+    })
+});
+
+/// (sin a, cos a) of the 32 angles a_j = 2 pi j / 32 at which
+/// [`LeadCutter::disc_gouge`] samples the disc.
+static DISC_ANGLES: LazyLock<[(f64, f64); 32]> = LazyLock::new(|| {
+    std::array::from_fn(|j| {
+        let a = std::f64::consts::TAU * j as f64 / 32.0;
+        (a.sin(), a.cos())
+    })
+});
 
 /// Normal curvatures at `g` in the frame of the unit tangent `t` (3-D).
 pub fn curvatures_along(g: &LocalGeometry, t: Vector3<f64>) -> Curvatures {

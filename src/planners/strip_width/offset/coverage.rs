@@ -9,7 +9,8 @@ use crate::geometry::NurbsSurface;
 use crate::planners::strip_width::passes::{walk_on_surface as walk, Contact, PassSettings};
 use crate::planners::strip_width::regions::Region;
 use nalgebra::{Point3, Vector2, Vector3};
-use std::collections::BTreeMap;
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 /// The strips of the passes placed so far in a region, so that an offset
 /// point is kept only where material is still uncut: where a front folds
@@ -21,7 +22,7 @@ pub(super) struct Coverage {
     pub(super) share: f64,
     /// Segment ends, the smaller half-width at its ends, the pass it belongs to.
     pub(super) segments: Vec<(Point3<f64>, Point3<f64>, f64, usize)>,
-    pub(super) grid: BTreeMap<[i64; 3], Vec<usize>>,
+    pub(super) grid: HashMap<[i64; 3], Vec<usize>, BuildHasherDefault<CellHasher>>,
 }
 
 impl Coverage {
@@ -30,7 +31,7 @@ impl Coverage {
             cell: 2.0 * s.cutter.radius * share.max(1.0),
             share,
             segments: Vec::new(),
-            grid: BTreeMap::new(),
+            grid: HashMap::default(),
         }
     }
 
@@ -117,6 +118,31 @@ impl Coverage {
             }
             (a + (b - a) * segment_parameter(a, b, p) - p).norm() < self.share * w
         })
+    }
+}
+
+/// A multiply-rotate hash of a grid cell's key: the grid is only looked up,
+/// never iterated, so the hash decides speed, not results (SipHash, or a
+/// B-tree's key comparisons, were a few per cent of a cover).
+#[derive(Default)]
+pub(super) struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_usize(&mut self, x: usize) {
+        self.write_u64(x as u64);
+    }
+    fn finish(&self) -> u64 {
+        self.0
     }
 }
 

@@ -9,6 +9,7 @@ use crate::geometry::NurbsSurface;
 use crate::planners::strip_width::passes::{walk_on_surface as walk, Contact, PassSettings};
 use crate::planners::strip_width::regions::Region;
 use nalgebra::{Point3, Vector2, Vector3};
+use std::collections::HashMap;
 
 /// A point of a pass front: its contact and the unit tangent pointing to
 /// the side still to be covered.
@@ -398,14 +399,11 @@ fn run_front(
         return Ok(None);
     }
     let mut next: Vec<FrontPoint> = Vec::with_capacity(contacts.len());
+    let first_at = first_index_of_each(&uv);
     for c in contacts {
         // The carried direction of the nearest offset point, made
         // perpendicular to the new travel.
-        let k = uv
-            .iter()
-            .enumerate()
-            .min_by(|x, y| (x.1 - c.uv()).norm().total_cmp(&(y.1 - c.uv()).norm()))
-            .map_or(0, |(k, _)| k);
+        let k = nearest_index(&uv, &first_at, c.uv());
         let mut away = c.cross();
         if away.dot(&aways[k]) < 0.0 {
             away = -away;
@@ -415,6 +413,42 @@ fn run_front(
     // Travel order: reverse so the pass runs along its travel.
     next.reverse();
     Ok(Some(next))
+}
+
+/// The first index of every point of `uv` (by its bits, -0 as +0).
+fn first_index_of_each(uv: &[Vector2<f64>]) -> HashMap<[u64; 2], usize> {
+    let mut first = HashMap::with_capacity(uv.len());
+    for (k, p) in uv.iter().enumerate() {
+        first.entry(uv_bits(*p)).or_insert(k);
+    }
+    first
+}
+
+fn uv_bits(p: Vector2<f64>) -> [u64; 2] {
+    [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits()]
+}
+
+/// Index of the point of `uv` nearest to `q` (the first of equals), `first_at`
+/// from [`first_index_of_each`]. A contact lies on its own polyline point, so
+/// the answer is usually the first point equal to `q` (distance 0): found by
+/// its bits instead of a search over the polyline. Only where a coordinate
+/// is so near 0 that a distinct point's squared distance could underflow
+/// to 0 too (so an earlier one would tie), or `q` is on no point, it searches.
+fn nearest_index(
+    uv: &[Vector2<f64>],
+    first_at: &HashMap<[u64; 2], usize>,
+    q: Vector2<f64>,
+) -> usize {
+    const TINY: f64 = 1e-100;
+    if q.x.abs() >= TINY && q.y.abs() >= TINY {
+        if let Some(&k) = first_at.get(&uv_bits(q)) {
+            return k;
+        }
+    }
+    uv.iter()
+        .enumerate()
+        .min_by(|x, y| (x.1 - q).norm().total_cmp(&(y.1 - q).norm()))
+        .map_or(0, |(k, _)| k)
 }
 
 /// Nearest point of the front polyline to `p`: (distance, uv there), `None`
