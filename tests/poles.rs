@@ -381,3 +381,13 @@ fn mpec_plans_the_sphere_cap_within_tolerance() {
     let (name, s, pole) = shapes().into_iter().next().unwrap();
     check_plan(name, &s, Strategy::Mpec, pole);
 }
+
+/// Issue 23: MPEC plans the revolved profile (its pole meets the meridian
+/// edges at a corner the footprint overhangs both ways) and the triangle's
+/// apex within the tolerance by the simulator.
+#[test]
+fn mpec_plans_the_revolved_profile_and_the_triangle_within_tolerance() {
+    for (name, s, pole) in shapes().into_iter().skip(1) {
+        check_plan(name, &s, Strategy::Mpec, pole);
+    }
+}
