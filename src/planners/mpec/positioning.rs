@@ -520,7 +520,7 @@ impl<'a> Planner<'a> {
         // conventional position when that one is wider on its narrower side;
         // no position at all gives the lifted one.
         let narrower = |s: &ec::Solution| (-s.y_left).min(s.y_right);
-        let lopsided = |s: &ec::Solution| 2.0 * narrower(s) < (-s.y_left).max(s.y_right);
+        let lopsided = |s: &ec::Solution| 2.0 * narrower(s) <= (-s.y_left).max(s.y_right);
         let conventional = || {
             let fresh = LeadSearch {
                 hint: None,
