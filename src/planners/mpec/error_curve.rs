@@ -510,10 +510,13 @@ pub struct LeadSearch {
     pub strip_hint: Option<(f64, f64)>,
     /// Fixed rotation about e3 (radians).
     pub phi: f64,
-    /// Kept clear of -delta on the gouge side, mm: the largest error of a
-    /// fitted height field at its samples (0 for exact heights), so that
-    /// the real part is not cut below the band where the fit lies high.
+    /// Kept clear of -delta on the gouge side, mm (the conventional
+    /// position's [`CONVENTIONAL_MARGIN`]).
     pub gouge_margin: f64,
+    /// Largest error of a fitted height field at its samples, mm (0 for
+    /// exact heights): taken off both sides of the band, so that the real
+    /// part stays within it where the fit lies high or low.
+    pub fit_error: f64,
 }
 
 impl Default for LeadSearch {
@@ -526,6 +529,7 @@ impl Default for LeadSearch {
             strip_hint: None,
             phi: 0.0,
             gouge_margin: 0.0,
+            fit_error: 0.0,
         }
     }
 }
@@ -661,7 +665,7 @@ pub fn solve(
     search: &LeadSearch,
 ) -> Result<Solution, SolveError> {
     if kappa_across > 1e-9 {
-        solve_at(tool, h, Status::Ok, delta, delta, search)
+        solve_at(tool, h, Status::Ok, delta - search.fit_error, delta, search)
     } else {
         solve_conventional(tool, h, delta, search)
     }
@@ -700,14 +704,21 @@ fn solve_at(
     delta: f64,
     search: &LeadSearch,
 ) -> Result<Solution, SolveError> {
-    let (theta, lowest) = bisect_lead(tool, h, middle, search.gouge_margin - delta, search)?;
+    let (theta, lowest) = bisect_lead(
+        tool,
+        h,
+        middle,
+        search.gouge_margin + search.fit_error - delta,
+        search,
+    )?;
     let pos = Position {
         theta,
         middle,
         phi: search.phi,
     };
     let (y_left, y_right) =
-        outer_crossings_near(tool, pos, h, delta, search.strip_hint).ok_or(SolveError::NoStrip)?;
+        outer_crossings_near(tool, pos, h, delta - search.fit_error, search.strip_hint)
+            .ok_or(SolveError::NoStrip)?;
     Ok(Solution {
         status,
         pos,
@@ -748,7 +759,7 @@ pub fn solve_lifted(
         }
     }
     let lowest = if best.1.is_finite() { best.1 } else { 0.0 };
-    let middle = (search.gouge_margin - delta - lowest).max(0.0);
+    let middle = (search.gouge_margin + search.fit_error - delta - lowest).max(0.0);
     let pos = Position {
         theta: best.0,
         middle,
@@ -756,8 +767,9 @@ pub fn solve_lifted(
     };
     // A strip must hold the band from its drive point out: none where the
     // lifted tool leaves more than +delta at the drive point itself.
-    let (y_left, y_right) = if pose_error_at(&Pose::new(tool, pos), h, 0.0) <= delta {
-        outer_crossings_near(tool, pos, h, delta, None).unwrap_or((0.0, 0.0))
+    let level = delta - search.fit_error;
+    let (y_left, y_right) = if pose_error_at(&Pose::new(tool, pos), h, 0.0) <= level {
+        outer_crossings_near(tool, pos, h, level, None).unwrap_or((0.0, 0.0))
     } else {
         (0.0, 0.0)
     };

@@ -489,20 +489,34 @@ impl<'a> Planner<'a> {
         let fitted = if self.exact_heights {
             None
         } else {
+            // Within delta / 50 the fit is used as it is; failing that, the
+            // better of the two fits within delta / 5 is used with its
+            // residual taken off both sides of the band (below), which is
+            // far faster than inverting every height.
             let good = |f: &(FittedHeight, f64)| f.1 <= self.delta / 50.0;
-            fit_height(self.surface, &g, &frame, self.tool)
-                .filter(good)
-                .or_else(|| fit_height_inverted(self.surface, &g, &frame, self.tool).filter(good))
+            let linear = fit_height(self.surface, &g, &frame, self.tool);
+            match linear.filter(good) {
+                Some(f) => Some(f),
+                None => {
+                    let inverted = fit_height_inverted(self.surface, &g, &frame, self.tool);
+                    [linear, inverted]
+                        .into_iter()
+                        .flatten()
+                        .filter(|f| f.1 <= self.delta / 5.0)
+                        .min_by(|a, b| a.1.total_cmp(&b.1))
+                }
+            }
         };
         let h: &dyn LocalHeight = match &fitted {
             Some((fit, _)) => fit,
             None => &exact,
         };
-        // A fit that is not exact to rounding keeps its error off the band's
-        // gouge side (die_saddle's quartic reproduces its quadric exactly).
+        // A fit whose error matters against the band (over delta / 1000)
+        // keeps it off the band's gouge side; die_saddle's quartic
+        // reproduces its quadric to rounding and its plan is unchanged.
         let search = LeadSearch {
-            gouge_margin: match &fitted {
-                Some((_, res)) if *res > 1e-9 => *res,
+            fit_error: match &fitted {
+                Some((_, res)) if *res > 1e-3 * self.delta => *res,
                 _ => 0.0,
             },
             ..search
