@@ -682,7 +682,7 @@ pub fn solve_conventional(
     search: &LeadSearch,
 ) -> Result<Solution, SolveError> {
     let search = LeadSearch {
-        gouge_margin: search.gouge_margin + CONVENTIONAL_MARGIN * delta,
+        gouge_margin: search.gouge_margin.max(CONVENTIONAL_MARGIN * delta),
         ..*search
     };
     solve_at(tool, h, Status::NotApplicable, 0.0, delta, &search)

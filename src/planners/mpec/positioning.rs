@@ -514,7 +514,24 @@ impl<'a> Planner<'a> {
         // A fit whose error matters against the band (over delta / 1000)
         // keeps it off the band's gouge side; die_saddle's quartic
         // reproduces its quadric to rounding and its plan is unchanged.
+        // A twisted part (e1, e2 not principal): the twist tilts the part
+        // under the characteristic points by about |k12| R0^2 / 2 across the
+        // strip, and the swept tool goes a little lower between poses than
+        // one pose's characteristic points, so above TWIST_SHARE of delta the
+        // "W" keeps the conventional position's margin too (the twisted test
+        // surface: 0.01022 against a band of 0.01 without it). die_saddle,
+        // fed along a principal direction of its quadric, stays below (7e-4
+        // against 2e-3 mm) and keeps its plan.
+        let k12 = g.normal_curvature((frame.e1 + frame.e2) / 2f64.sqrt())
+            - 0.5 * (g.normal_curvature(frame.e1) + kappa_across);
+        let r0 = self.tool.tube_radius();
+        let twisted = 0.5 * k12.abs() * r0 * r0 > TWIST_SHARE * self.delta;
         let search = LeadSearch {
+            gouge_margin: if twisted {
+                ec::CONVENTIONAL_MARGIN * self.delta
+            } else {
+                0.0
+            },
             fit_error: match &fitted {
                 Some((_, res)) if *res > 1e-3 * self.delta => *res,
                 _ => 0.0,
@@ -810,6 +827,10 @@ fn around(points: &[Point3<f64>]) -> String {
     let c = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
     format!(" (around ({:.1}, {:.1}, {:.1}) mm)", c.x, c.y, c.z)
 }
+
+/// Share of delta above which the twist's tilt across the strip,
+/// |k12| R0^2 / 2, makes a "W" keep [`ec::CONVENTIONAL_MARGIN`].
+const TWIST_SHARE: f64 = 0.2;
 
 /// Halvings of the cross-parameter bracket per round of
 /// `place_by_bisection`.
