@@ -5,7 +5,12 @@
 use toolpath_planner::error::Error;
 use toolpath_planner::formats::{FeedDirection, Job, JobFile, PlanResult, Shape, Strategy};
 use toolpath_planner::geometry::NurbsSurface;
+use toolpath_planner::pipeline::{self, RunOptions};
+use toolpath_planner::planners::mpec::error_curve::{
+    self as ec, LeadSearch, LocalHeight, Position, Quadric, Solution, Status,
+};
 use toolpath_planner::planners::{self, mpec, NoProgress};
+use toolpath_planner::tools::CutterShape;
 use toolpath_planner::tools::Tool;
 
 const R: f64 = 31.5;
@@ -156,8 +161,14 @@ fn bad_input_gives_clear_errors() {
         Err(Error::Invalid { field, .. }) => assert_eq!(field, "tolerance"),
         other => panic!("{other:?}"),
     }
-    // A twisted surface (the curvature across the feed swings along it): the
-    // W collapses on one side, named in the error instead of looping.
+}
+
+/// The twisted surface of the earlier refusal (the curvature across the feed
+/// swings along it, so the "W" collapses on one side): planned, its lopsided
+/// points in the conventional position, and within the band by the
+/// simulator.
+#[test]
+fn twisted_surface_plans_within_the_band() {
     let f =
         |x: f64, y: f64| (1.0 + 0.4 * (y / 45.0).sin()) * x * x / 1800.0 + 2.0 * (y / 70.0).cos();
     let twisted = toolpath_planner::geometry::interpolation::interpolate_height_field(
@@ -168,20 +179,147 @@ fn bad_input_gives_clear_errors() {
         (3, 16),
     )
     .unwrap();
-    match plan(twisted, FeedDirection::V) {
-        Err(Error::Planning { message }) => {
-            assert!(message.contains("forms no \"W\""), "{message}")
-        }
-        other => panic!("{other:?}"),
-    }
-    // Curvature radius 4 mm across the feed: smaller than the corner radius.
-    // Radius 20 mm: no lead up to 60 degrees keeps the dips above -delta.
+    let job = Job::new(job_file(FeedDirection::V), Shape::Surface(twisted)).unwrap();
+    let r = pipeline::run(&job, &NoProgress, RunOptions::default()).unwrap();
+    let st = &r.stats;
+    eprintln!(
+        "twisted: {} passes, scallop {:.5}, gouge {:.5}, warnings {:?}",
+        r.passes.len(),
+        st.max_scallop_mm.unwrap(),
+        st.max_gouge_mm.unwrap(),
+        r.warnings
+    );
+    assert!(inside_points(&r).any(|p| p.mpec.as_deref() == Some("not_applicable")));
+    assert!(inside_points(&r).any(|p| p.mpec.as_deref() == Some("ok")));
+    assert_eq!(r.within_scallop, Some(true), "{:?}", r.warnings);
+    assert!(st.max_scallop_mm.unwrap() <= DELTA);
+    assert!(st.max_gouge_mm.unwrap() <= DELTA + pipeline::CONFORMANCE_SLACK_MM);
+}
+
+/// Concave radius 4 mm (below the corner radius) and 20 mm (no lead up to
+/// 60 degrees holds the dips) across the feed: planned with the tool lifted
+/// clear, never gouging beyond the band by the simulator, and flagged: not
+/// within the band, the lifted points and the area above it in warnings.
+#[test]
+fn too_curved_spots_are_lifted_and_flagged() {
     for k in [1.0 / 4.0, 1.0 / 20.0] {
-        match plan(quadric(0.0, k, 2.0, 2.0), FeedDirection::U) {
-            Err(Error::Planning { message }) => {
-                assert!(message.contains("too curved"), "{message}")
+        let job = Job::new(
+            job_file(FeedDirection::U),
+            Shape::Surface(quadric(0.0, k, 2.0, 2.0)),
+        )
+        .unwrap();
+        let r = pipeline::run(&job, &NoProgress, RunOptions::default()).unwrap();
+        let st = &r.stats;
+        eprintln!(
+            "radius {}: scallop {:.4}, gouge {:.5}, {:?}",
+            1.0 / k,
+            st.max_scallop_mm.unwrap(),
+            st.max_gouge_mm.unwrap(),
+            r.warnings
+        );
+        assert!(inside_points(&r).all(|p| p.mpec.as_deref() == Some("lifted")));
+        assert!(st.max_gouge_mm.unwrap() <= DELTA + pipeline::CONFORMANCE_SLACK_MM);
+        // Above the band, or not reached at all.
+        assert!(st.max_scallop_mm.unwrap() > DELTA || st.extra["uncovered_area_mm2"] > 0.0);
+        assert_eq!(r.within_scallop, Some(false));
+        assert!(r.warnings.iter().any(|w| w.contains("lifted clear")));
+        assert!(r
+            .warnings
+            .iter()
+            .any(|w| w.starts_with(pipeline::ABOVE_LIMIT)));
+    }
+}
+
+// ---- the error curve where MPEC does not apply, by brute force ----
+
+/// Brute force: the error at cross offset `y` from a dense psi grid and,
+/// for each sphere, a dense run of feed offsets around its centre.
+fn dense_error(t: CutterShape, pos: Position, h: &dyn LocalHeight, y: f64) -> f64 {
+    let mut best = f64::INFINITY;
+    for i in 0..3000 {
+        let psi = -std::f64::consts::PI + std::f64::consts::TAU * i as f64 / 3000.0;
+        let c = ec::sphere_centre(t, pos, psi);
+        let q = t.corner_radius * t.corner_radius - (y - c[1]).powi(2);
+        if q < 0.0 {
+            continue;
+        }
+        for k in -50..=50 {
+            let dx = 0.02 * k as f64;
+            if dx * dx <= q {
+                best = best.min(c[2] - (q - dx * dx).sqrt() - h.height(c[0] + dx, y).0);
             }
-            other => panic!("{other:?}"),
+        }
+    }
+    best
+}
+
+/// Concave across tighter than the tool at any lead: the lifted
+/// position dips exactly to -delta (no gouge beyond the band) and, its
+/// middle far above +delta, claims no strip.
+#[test]
+fn too_curved_is_lifted_to_the_band() {
+    let t = CutterShape::torus(R, RC);
+    let h = Quadric {
+        kxx: 0.0,
+        kxy: 0.0,
+        kyy: 1.0 / 20.0,
+    };
+    assert!(ec::solve(t, &h, h.kyy, 0.01, &LeadSearch::default()).is_err());
+    let s = ec::solve_lifted(t, &h, 0.01, &LeadSearch::default());
+    assert_eq!(s.status, Status::Lifted);
+    // The whole tool (the part meets it anywhere across its width), then
+    // finely around the lowest sample.
+    let coarse = (0..=252)
+        .map(|i| -31.5 + 0.25 * i as f64)
+        .map(|y| (dense_error(t, s.pos, &h, y), y))
+        .fold((f64::INFINITY, 0.0), |a, b| if b.0 < a.0 { b } else { a });
+    let lowest = (0..=100)
+        .map(|i| dense_error(t, s.pos, &h, coarse.1 - 0.25 + 0.005 * i as f64))
+        .fold(f64::INFINITY, f64::min);
+    assert!((lowest + 0.01).abs() < 1e-3, "{lowest} at {}", coarse.1);
+    assert!(dense_error(t, s.pos, &h, 0.0) > 0.01);
+    assert_eq!(s.strip_width(), 0.0);
+}
+
+/// A twisted part (kxy) tilts the error curve across the strip: the
+/// MPEC strip is lopsided and the conventional one wider on its
+/// narrower side; both within the band by brute force.
+#[test]
+fn twisted_part_conventional_strip_is_wider_on_the_narrow_side() {
+    let h = Quadric {
+        kxx: 0.0,
+        kxy: 1.0 / 1000.0,
+        kyy: 1.0 / 4000.0,
+    };
+    let delta = 0.01;
+    let narrower = |s: &Solution| (-s.y_left).min(s.y_right);
+    let m = ec::solve(
+        CutterShape::torus(R, RC),
+        &h,
+        h.kyy,
+        delta,
+        &LeadSearch::default(),
+    )
+    .unwrap();
+    let c = ec::solve_conventional(CutterShape::torus(R, RC), &h, delta, &LeadSearch::default())
+        .unwrap();
+    assert!(
+        narrower(&m) < 0.5 * narrower(&c),
+        "MPEC {} {}, conventional {} {}",
+        m.y_left,
+        m.y_right,
+        c.y_left,
+        c.y_right
+    );
+    for s in [m, c] {
+        for i in 0..=40 {
+            let y = s.y_left + (s.y_right - s.y_left) * i as f64 / 40.0;
+            let e = dense_error(CutterShape::torus(R, RC), s.pos, &h, y);
+            assert!(
+                (-delta - 2e-4..=delta + 2e-4).contains(&e),
+                "{:?} y {y}: {e}",
+                s.status
+            );
         }
     }
 }

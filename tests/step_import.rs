@@ -509,6 +509,70 @@ fn a_face_of_each_step_sample_plans_within_h() {
     }
 }
 
+/// The job of a STEP sample's freeform face for mpec: torus R8 r2,
+/// tolerance 0.05 (docs/results.md, "STEP samples").
+fn mpec_job(name: &str) -> Job {
+    let mut job = toolpath_planner::samples::job(name).unwrap();
+    job.strategy = toolpath_planner::formats::Strategy::Mpec;
+    job.tool = Some(toolpath_planner::tools::Tool::Torus {
+        radius: 8.0,
+        corner_radius: 2.0,
+        length: None,
+    });
+    job.scallop = None;
+    job.tolerance = Some(0.05);
+    job.lead_angle_deg = None;
+    job.feed_direction = Some(toolpath_planner::formats::FeedDirection::U);
+    job
+}
+
+/// Issue 22: mpec plans both STEP samples' freeform faces (bent to radii of
+/// about 50 mm, trimmed, one with a hole) and the simulator finds the face
+/// within the tolerance band: residual and gouge at most 0.05, nothing
+/// uncovered, the machined area the face's own.
+#[test]
+fn mpec_plans_each_step_sample_face_within_its_band() {
+    for name in step_parts::STEP_SAMPLES {
+        let job = mpec_job(name);
+        let r = pipeline::run(&job, &NoProgress, RunOptions::default())
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let st = &r.stats;
+        let machined = st.extra["machined_area_mm2"];
+        let a = area(job.surface().unwrap());
+        eprintln!(
+            "{name} mpec: {} passes, {:.1} mm, scallop {:.5}, gouge {:.5}, machined {machined:.1} of {a:.1} mm², {:?}",
+            r.passes.len(),
+            st.path_length_mm,
+            st.max_scallop_mm.unwrap(),
+            st.max_gouge_mm.unwrap(),
+            r.warnings
+        );
+        assert_eq!(r.within_scallop, Some(true), "{name}: {:?}", r.warnings);
+        assert!(st.max_scallop_mm.unwrap() <= 0.05, "{name}");
+        assert!(
+            st.max_gouge_mm.unwrap() <= 0.05 + pipeline::CONFORMANCE_SLACK_MM,
+            "{name}"
+        );
+        assert_eq!(st.extra["uncovered_area_mm2"], 0.0, "{name}");
+        assert!(
+            (machined - a).abs() <= 0.01 * a,
+            "{name}: {machined} vs {a}"
+        );
+        // Every point of the clipped plan is on the face or within the
+        // cutter's reach of it.
+        let s = job.surface().unwrap();
+        let trim = s.trim().unwrap();
+        for p in r.passes.iter().flat_map(|p| &p.points) {
+            let (u, v) = (p.uv[0].clamp(0.0, 1.0), p.uv[1].clamp(0.0, 1.0));
+            assert!(
+                trim.contains(u, v) || trim.distance_mm(s, [u, v]) <= 8.0 * 4.0 + 2.0,
+                "{name}: {:?}",
+                p.uv
+            );
+        }
+    }
+}
+
 /// Closed-form areas of the analytic parts (tests/python/make_step_parts.py).
 #[test]
 fn analytic_faces_have_their_closed_form_areas() {

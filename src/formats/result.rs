@@ -22,7 +22,7 @@ pub struct PathPoint {
     /// MPEC: lead angle at this point, degrees.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lead_deg: Option<f64>,
-    /// MPEC: "ok" | "not_applicable".
+    /// MPEC: "ok" | "not_applicable" | "lifted".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mpec: Option<String>,
     /// Belt: contact-wheel centre (= cl).

@@ -396,12 +396,45 @@ fn outer_crossings_near(
         }
         None
     };
+    // The strip is the run around the middle where the error stays within
+    // the level: on a lopsided curve (a twisted part) it can rise above it
+    // between the middle and the outermost crossing, and the strip then
+    // ends at the first such rise, sampled every <= 2 mm (at least
+    // INNER_CHECKS samples) and allowing the height fit's accuracy, level / 50.
+    let inner = |sign: f64, y: f64| -> f64 {
+        let g = |t: f64| pose_error_at(&pose, h, sign * t) - level;
+        let outer = y.abs();
+        let n = ((outer / INNER_CHECK_MM).ceil() as usize).max(INNER_CHECKS);
+        let mut prev = (0.0, f64::NEG_INFINITY);
+        for i in 1..n {
+            let t = outer * i as f64 / n as f64;
+            let gt = g(t);
+            if gt > level.abs() / 50.0 {
+                return sign
+                    * if prev.1 <= 0.0 {
+                        crossing(prev.0, prev.1.max(-level.abs()), t, gt, g)
+                    } else {
+                        prev.0
+                    };
+            }
+            prev = (t, gt);
+        }
+        y
+    };
     let (l, r) = match hint {
         Some((l, r)) => (Some(l), Some(r)),
         None => (None, None),
     };
-    Some((side(-1.0, l)?, side(1.0, r)?))
+    let (l, r) = (side(-1.0, l)?, side(1.0, r)?);
+    Some((inner(-1.0, l), inner(1.0, r)))
 }
+
+/// Largest spacing of the check that the error stays within the level
+/// between the middle and the outermost crossing, mm.
+const INNER_CHECK_MM: f64 = 2.0;
+
+/// Fewest samples of that check per side.
+const INNER_CHECKS: usize = 4;
 
 /// The crossing of g = 0 between a (g <= 0) and b (g > 0, possibly infinite),
 /// by the shared Illinois bracket (docs/methods.md, "One root finder";
@@ -425,8 +458,14 @@ fn crossing(a: f64, ga: f64, b: f64, gb: f64, g: impl Fn(f64) -> f64) -> f64 {
 pub enum Status {
     /// A "W" forms; middle at +delta, dips touching -delta (or the widest W at lead 0).
     Ok,
-    /// Cross-section convex towards the tool: no "W"; conventional position used.
+    /// No usable "W" (cross-section convex or flat towards the tool, or its
+    /// strip on one side narrower than the conventional one): conventional
+    /// position used.
     NotApplicable,
+    /// No position holds the band (concave tighter than the torus at any
+    /// lead): the tool is lifted until its lowest error is -delta; the strip
+    /// is where it still comes within +delta, possibly none.
+    Lifted,
 }
 
 /// Positioning result at one drive point.
@@ -471,6 +510,13 @@ pub struct LeadSearch {
     pub strip_hint: Option<(f64, f64)>,
     /// Fixed rotation about e3 (radians).
     pub phi: f64,
+    /// Kept clear of -delta on the gouge side, mm (the conventional
+    /// position's [`CONVENTIONAL_MARGIN`]).
+    pub gouge_margin: f64,
+    /// Largest error of a fitted height field at its samples, mm (0 for
+    /// exact heights): taken off both sides of the band, so that the real
+    /// part stays within it where the fit lies high or low.
+    pub fit_error: f64,
 }
 
 impl Default for LeadSearch {
@@ -482,6 +528,8 @@ impl Default for LeadSearch {
             hint: None,
             strip_hint: None,
             phi: 0.0,
+            gouge_margin: 0.0,
+            fit_error: 0.0,
         }
     }
 }
@@ -608,9 +656,7 @@ fn smallest_lead(s: &LeadSearch, margin: impl Fn(f64) -> f64) -> Option<f64> {
 /// middle at +delta, and the smallest lead whose dips stay at or above -delta,
 /// found by regula falsi (Illinois) on a bracket of the lead (see
 /// `smallest_lead`). Otherwise (convex or flat across) the conventional
-/// position: the tool touches P1 (middle 0), the lead is the smallest one >=
-/// theta_min that keeps the error >= -delta (rear gouging), and the strip is
-/// where the scallop stays below +delta.
+/// position ([`solve_conventional`]).
 pub fn solve(
     tool: CutterShape,
     h: &dyn LocalHeight,
@@ -618,19 +664,61 @@ pub fn solve(
     delta: f64,
     search: &LeadSearch,
 ) -> Result<Solution, SolveError> {
-    let (status, middle) = if kappa_across > 1e-9 {
-        (Status::Ok, delta)
+    if kappa_across > 1e-9 {
+        solve_at(tool, h, Status::Ok, delta - search.fit_error, delta, search)
     } else {
-        (Status::NotApplicable, 0.0)
+        solve_conventional(tool, h, delta, search)
+    }
+}
+
+/// The conventional position: the tool touches P1 (middle 0), the lead is the
+/// smallest one >= theta_min that keeps the error >= -(1 -
+/// [`CONVENTIONAL_MARGIN`]) delta (rear gouging), and the strip is where the
+/// scallop stays below +delta.
+pub fn solve_conventional(
+    tool: CutterShape,
+    h: &dyn LocalHeight,
+    delta: f64,
+    search: &LeadSearch,
+) -> Result<Solution, SolveError> {
+    let search = LeadSearch {
+        gouge_margin: search.gouge_margin.max(CONVENTIONAL_MARGIN * delta),
+        ..*search
     };
-    let (theta, lowest) = bisect_lead(tool, h, middle, -delta, search)?;
+    solve_at(tool, h, Status::NotApplicable, 0.0, delta, &search)
+}
+
+/// Share of delta the conventional position keeps clear of -delta. Its
+/// error curve is that of one pose, from the characteristic points of a
+/// part seen as unchanged along the feed; where the part twists and turns
+/// under a small tool the swept tool goes a little lower between poses
+/// (step_multi_face, torus R8 r2: 0.0515 mm against a band of 0.05 without
+/// it).
+pub const CONVENTIONAL_MARGIN: f64 = 0.1;
+
+fn solve_at(
+    tool: CutterShape,
+    h: &dyn LocalHeight,
+    status: Status,
+    middle: f64,
+    delta: f64,
+    search: &LeadSearch,
+) -> Result<Solution, SolveError> {
+    let (theta, lowest) = bisect_lead(
+        tool,
+        h,
+        middle,
+        search.gouge_margin + search.fit_error - delta,
+        search,
+    )?;
     let pos = Position {
         theta,
         middle,
         phi: search.phi,
     };
     let (y_left, y_right) =
-        outer_crossings_near(tool, pos, h, delta, search.strip_hint).ok_or(SolveError::NoStrip)?;
+        outer_crossings_near(tool, pos, h, delta - search.fit_error, search.strip_hint)
+            .ok_or(SolveError::NoStrip)?;
     Ok(Solution {
         status,
         pos,
@@ -638,6 +726,60 @@ pub fn solve(
         y_right,
         min_error: lowest,
     })
+}
+
+/// Leads sampled by [`solve_lifted`] between theta_min and theta_max.
+const LIFT_LEADS: usize = 12;
+
+/// The safe position where no lead holds the band: of [`LIFT_LEADS`] + 1
+/// leads from theta_min to theta_max, the one whose error curve at middle 0
+/// dips least, with the tool raised along the normal until its lowest error
+/// is -delta (the error curve moves with the middle one for one). Never
+/// gouges beyond -delta; leaves more than +delta where the part is tighter
+/// than the tool, which the simulator reports. The strip is where the error
+/// still comes within +delta (none: width 0).
+pub fn solve_lifted(
+    tool: CutterShape,
+    h: &dyn LocalHeight,
+    delta: f64,
+    search: &LeadSearch,
+) -> Solution {
+    let mut best = (search.theta_min, f64::NEG_INFINITY);
+    for i in 0..=LIFT_LEADS {
+        let theta =
+            search.theta_min + (search.theta_max - search.theta_min) * i as f64 / LIFT_LEADS as f64;
+        let pos = Position {
+            theta,
+            middle: 0.0,
+            phi: search.phi,
+        };
+        let (lowest, _) = min_error(tool, pos, h);
+        if lowest.is_finite() && lowest > best.1 {
+            best = (theta, lowest);
+        }
+    }
+    let lowest = if best.1.is_finite() { best.1 } else { 0.0 };
+    let middle = (search.gouge_margin + search.fit_error - delta - lowest).max(0.0);
+    let pos = Position {
+        theta: best.0,
+        middle,
+        phi: search.phi,
+    };
+    // A strip must hold the band from its drive point out: none where the
+    // lifted tool leaves more than +delta at the drive point itself.
+    let level = delta - search.fit_error;
+    let (y_left, y_right) = if pose_error_at(&Pose::new(tool, pos), h, 0.0) <= level {
+        outer_crossings_near(tool, pos, h, level, None).unwrap_or((0.0, 0.0))
+    } else {
+        (0.0, 0.0)
+    };
+    Solution {
+        status: Status::Lifted,
+        pos,
+        y_left,
+        y_right,
+        min_error: lowest + middle,
+    }
 }
 
 #[cfg(test)]

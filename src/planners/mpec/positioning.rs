@@ -17,7 +17,7 @@
 //! delta/50; otherwise every height is found by exact point inversion
 //! (Newton on (u, v)), which is slower but general.
 
-use super::error_curve::{self as ec, LeadSearch, LocalHeight, SolveError, Status};
+use super::error_curve::{self as ec, LeadSearch, LocalHeight, Status};
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, Pass, PathPoint, PlanResult};
 use crate::geometry::inversion::{extended_derivs, extended_point, invert_in_frame};
@@ -30,9 +30,6 @@ use nalgebra::{Point3, SMatrix, SVector, Vector2, Vector3};
 
 /// Drive-point spacing along a pass, mm (the paper: 400 points on ~600 mm).
 pub const POINT_SPACING: f64 = 1.5;
-
-/// Narrowest usable half strip, mm: below it the passes could not advance.
-const MIN_HALF_WIDTH: f64 = 0.05;
 
 /// Drive points per parallel chunk of a pass (each chunk's first point is
 /// solved without a neighbour's warm start).
@@ -150,49 +147,31 @@ impl LocalHeight for FittedHeight {
     }
 }
 
-/// Fits the quartic to a 7 x 7 grid of exact surface points covering the
-/// tool's footprint behind the drive point. Returns the fit and its largest
-/// residual at the fitted points (mm).
-pub fn fit_height(
-    surface: &NurbsSurface,
-    g: &LocalGeometry,
-    frame: &Frame,
-    tool: CutterShape,
-) -> Option<(FittedHeight, f64)> {
+/// The footprint behind the drive point that the fits cover: x from
+/// -(2 R0 + r) to r, y within +-(R0 + r).
+fn fit_box(tool: CutterShape) -> ((f64, f64), (f64, f64)) {
     let reach = tool.tube_radius() + tool.corner_radius;
-    let (x0, x1) = (
-        -(2.0 * tool.tube_radius() + tool.corner_radius),
-        tool.corner_radius,
-    );
-    let (y0, y1) = (-reach, reach);
-    let d = &g.derivs;
-    let j = nalgebra::Matrix2::new(
-        d.su.dot(&frame.e1),
-        d.sv.dot(&frame.e1),
-        d.su.dot(&frame.e2),
-        d.sv.dot(&frame.e2),
-    );
-    let ji = j.try_inverse()?;
-    let scale = reach;
+    (
+        (
+            -(2.0 * tool.tube_radius() + tool.corner_radius),
+            tool.corner_radius,
+        ),
+        (-reach, reach),
+    )
+}
+
+/// Least-squares quartic through samples (x, y, z) given in units of
+/// `scale`; returns it with its largest residual at the samples (mm).
+fn fit_samples(
+    samples: &[(f64, f64, f64); FIT_GRID * FIT_GRID],
+    scale: f64,
+) -> Option<(FittedHeight, f64)> {
     let mut ata = SMatrix::<f64, FIT_TERMS, FIT_TERMS>::zeros();
     let mut atb = SVector::<f64, FIT_TERMS>::zeros();
-    let mut samples = [(0.0, 0.0, 0.0); FIT_GRID * FIT_GRID];
-    for a in 0..FIT_GRID {
-        for b in 0..FIT_GRID {
-            let x = x0 + (x1 - x0) * a as f64 / (FIT_GRID - 1) as f64;
-            let y = y0 + (y1 - y0) * b as f64 / (FIT_GRID - 1) as f64;
-            let uv = g.uv + ji * Vector2::new(x, y);
-            let p = extended_point(surface, uv.x, uv.y) - frame.p;
-            let (lx, ly, lz) = (
-                p.dot(&frame.e1) / scale,
-                p.dot(&frame.e2) / scale,
-                p.dot(&frame.e3),
-            );
-            samples[a * FIT_GRID + b] = (lx, ly, lz);
-            let m = SVector::<f64, FIT_TERMS>::from(monomials(lx, ly));
-            ata += m * m.transpose();
-            atb += m * lz;
-        }
+    for &(lx, ly, lz) in samples {
+        let m = SVector::<f64, FIT_TERMS>::from(monomials(lx, ly));
+        ata += m * m.transpose();
+        atb += m * lz;
     }
     let c = ata.cholesky()?.solve(&atb);
     let fit = FittedHeight {
@@ -203,7 +182,80 @@ pub fn fit_height(
         .iter()
         .map(|&(x, y, z)| (fit.height(x * scale, y * scale).0 - z).abs())
         .fold(0.0, f64::max);
-    Some((fit, residual))
+    residual.is_finite().then_some((fit, residual))
+}
+
+/// Fits the quartic to a 7 x 7 grid of exact surface points covering the
+/// tool's footprint behind the drive point, reached by a linear step in
+/// (u, v). Returns the fit and its largest residual at the fitted points (mm).
+pub fn fit_height(
+    surface: &NurbsSurface,
+    g: &LocalGeometry,
+    frame: &Frame,
+    tool: CutterShape,
+) -> Option<(FittedHeight, f64)> {
+    let ((x0, x1), (y0, y1)) = fit_box(tool);
+    let d = &g.derivs;
+    let j = nalgebra::Matrix2::new(
+        d.su.dot(&frame.e1),
+        d.sv.dot(&frame.e1),
+        d.su.dot(&frame.e2),
+        d.sv.dot(&frame.e2),
+    );
+    let ji = j.try_inverse()?;
+    let scale = tool.tube_radius() + tool.corner_radius;
+    let mut samples = [(0.0, 0.0, 0.0); FIT_GRID * FIT_GRID];
+    for a in 0..FIT_GRID {
+        for b in 0..FIT_GRID {
+            let x = x0 + (x1 - x0) * a as f64 / (FIT_GRID - 1) as f64;
+            let y = y0 + (y1 - y0) * b as f64 / (FIT_GRID - 1) as f64;
+            let uv = g.uv + ji * Vector2::new(x, y);
+            let p = extended_point(surface, uv.x, uv.y) - frame.p;
+            samples[a * FIT_GRID + b] = (
+                p.dot(&frame.e1) / scale,
+                p.dot(&frame.e2) / scale,
+                p.dot(&frame.e3),
+            );
+        }
+    }
+    fit_samples(&samples, scale)
+}
+
+/// The quartic fitted to the heights over the 7 x 7 grid of the footprint
+/// itself, each found by the frame inversion (from its neighbour's
+/// parameters): where the parameters are far from linear in the distance
+/// (next to a pole or a collapsed edge) the linear step of [`fit_height`]
+/// strays, while the height field stays smooth.
+pub fn fit_height_inverted(
+    surface: &NurbsSurface,
+    g: &LocalGeometry,
+    frame: &Frame,
+    tool: CutterShape,
+) -> Option<(FittedHeight, f64)> {
+    let ((x0, x1), (y0, y1)) = fit_box(tool);
+    let scale = tool.tube_radius() + tool.corner_radius;
+    let mut samples = [(0.0, 0.0, 0.0); FIT_GRID * FIT_GRID];
+    // Rows outwards from the drive point's own y, each seeded by the last.
+    let mut row_seed = g.uv;
+    for a in (0..FIT_GRID).rev() {
+        let x = x0 + (x1 - x0) * a as f64 / (FIT_GRID - 1) as f64;
+        let mid = (FIT_GRID - 1) / 2;
+        let centre = invert_in_frame(surface, &frame.p, &frame.e1, &frame.e2, [x, 0.0], row_seed);
+        row_seed = centre.uv;
+        for half in [
+            (mid..FIT_GRID).collect::<Vec<_>>(),
+            (0..=mid).rev().collect(),
+        ] {
+            let mut seed = centre.uv;
+            for b in half {
+                let y = y0 + (y1 - y0) * b as f64 / (FIT_GRID - 1) as f64;
+                let q = invert_in_frame(surface, &frame.p, &frame.e1, &frame.e2, [x, y], seed);
+                seed = q.uv;
+                samples[a * FIT_GRID + b] = (x / scale, y / scale, q.height);
+            }
+        }
+    }
+    fit_samples(&samples, scale)
 }
 
 /// One positioned drive point.
@@ -212,7 +264,9 @@ pub struct DrivePoint {
     pub uv: [f64; 2],
     pub frame: Frame,
     pub solution: ec::Solution,
-    /// Inside the surface's parameter domain (false on the run-out past the edge).
+    /// Counts for the pass's width: inside the surface's parameter domain
+    /// and within the tool's reach of the face (false on the run-out past
+    /// the edge and off a trimmed face).
     pub inside: bool,
 }
 
@@ -243,6 +297,7 @@ impl DrivePoint {
                 match self.solution.status {
                     Status::Ok => "ok",
                     Status::NotApplicable => "not_applicable",
+                    Status::Lifted => "lifted",
                 }
                 .to_string(),
             ),
@@ -352,6 +407,31 @@ impl<'a> Planner<'a> {
         }
     }
 
+    /// Cross-parameter range of the face: the domain's, narrowed to the
+    /// outer trim loop's extent on a trimmed face (no pass is planned
+    /// wholly beside the face).
+    pub fn face_cross_range(&self) -> (f64, f64) {
+        let (_, (t0, t1)) = self.ranges();
+        let Some(trim) = self.surface.trim() else {
+            return (t0, t1);
+        };
+        let k = match self.feed {
+            FeedDirection::U => 1,
+            FeedDirection::V => 0,
+        };
+        let (lo, hi) = trim
+            .loops()
+            .flatten()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                (a.min(p[k]), b.max(p[k]))
+            });
+        if lo < hi {
+            (lo.max(t0), hi.min(t1))
+        } else {
+            (t0, t1)
+        }
+    }
+
     /// +1 when e2 points towards increasing cross parameter.
     fn cross_sign(&self) -> f64 {
         match self.feed {
@@ -394,15 +474,6 @@ impl<'a> Planner<'a> {
     ) -> Result<DrivePoint> {
         let (g, frame) = self.local(s, t)?;
         let kappa_across = g.normal_curvature(frame.e2);
-        if g.k_max * self.tool.corner_radius >= 1.0 {
-            return Err(Error::planning(format!(
-                "at (u, v) = ({:.6}, {:.6}) the surface is too curved for the torus: its concave curvature radius {:.3} mm is smaller than the corner radius {:.3} mm",
-                g.uv.x,
-                g.uv.y,
-                1.0 / g.k_max,
-                self.tool.corner_radius
-            )));
-        }
         let search = LeadSearch {
             theta_min: self.theta_min,
             phi: self.phi,
@@ -418,34 +489,125 @@ impl<'a> Planner<'a> {
         let fitted = if self.exact_heights {
             None
         } else {
-            fit_height(self.surface, &g, &frame, self.tool)
-                .filter(|(_, res)| *res <= self.delta / 50.0)
+            // Within delta / 50 the fit is used as it is; failing that, the
+            // better of the two fits within delta / 5 is used with its
+            // residual taken off both sides of the band (below), which is
+            // far faster than inverting every height.
+            let good = |f: &(FittedHeight, f64)| f.1 <= self.delta / 50.0;
+            let linear = fit_height(self.surface, &g, &frame, self.tool);
+            match linear.filter(good) {
+                Some(f) => Some(f),
+                None => {
+                    let inverted = fit_height_inverted(self.surface, &g, &frame, self.tool);
+                    [linear, inverted]
+                        .into_iter()
+                        .flatten()
+                        .filter(|f| f.1 <= self.delta / 5.0)
+                        .min_by(|a, b| a.1.total_cmp(&b.1))
+                }
+            }
         };
         let h: &dyn LocalHeight = match &fitted {
             Some((fit, _)) => fit,
             None => &exact,
         };
-        let solution = ec::solve(self.tool, h, kappa_across, self.delta, &search).map_err(|e| {
-            let (u, v) = (g.uv.x, g.uv.y);
-            match e {
-                SolveError::TooCurved { theta_max, min_error } => Error::planning(format!(
-                    "at (u, v) = ({u:.6}, {v:.6}) the surface is too curved for the torus (R0 {:.3} mm, r {:.3} mm): even at a lead angle of {:.1} deg the error curve dips to {min_error:.4} mm, below -tolerance = {:.4} mm; use a smaller tool or a larger tolerance",
-                    self.tool.tube_radius(),
-                    self.tool.corner_radius,
-                    theta_max.to_degrees(),
-                    -self.delta
-                )),
-                SolveError::NoStrip => Error::planning(format!(
-                    "at (u, v) = ({u:.6}, {v:.6}) the tool never comes within the tolerance band: no strip"
-                )),
-            }
-        })?;
+        // A fit whose error matters against the band (over delta / 1000)
+        // keeps it off the band's gouge side; die_saddle's quartic
+        // reproduces its quadric to rounding and its plan is unchanged.
+        // A twisted part (e1, e2 not principal): the twist tilts the part
+        // under the characteristic points by about |k12| R0^2 / 2 across the
+        // strip, and the swept tool goes a little lower between poses than
+        // one pose's characteristic points, so above TWIST_SHARE of delta the
+        // "W" keeps the conventional position's margin too (the twisted test
+        // surface: 0.01022 against a band of 0.01 without it). die_saddle,
+        // fed along a principal direction of its quadric, stays below (7e-4
+        // against 2e-3 mm) and keeps its plan.
+        let k12 = g.normal_curvature((frame.e1 + frame.e2) / 2f64.sqrt())
+            - 0.5 * (g.normal_curvature(frame.e1) + kappa_across);
+        let r0 = self.tool.tube_radius();
+        let twisted = 0.5 * k12.abs() * r0 * r0 > TWIST_SHARE * self.delta;
+        let search = LeadSearch {
+            gouge_margin: if twisted {
+                ec::CONVENTIONAL_MARGIN * self.delta
+            } else {
+                0.0
+            },
+            fit_error: match &fitted {
+                Some((_, res)) if *res > 1e-3 * self.delta => *res,
+                _ => 0.0,
+            },
+            ..search
+        };
+        // Concave tighter than the corner radius: no lead holds the band.
+        let fits = g.k_max * self.tool.corner_radius < 1.0;
+        let solved = if fits {
+            ec::solve(self.tool, h, kappa_across, self.delta, &search).ok()
+        } else {
+            None
+        };
+        // docs/methods.md, "Where MPEC does not apply": a lopsided "W", one
+        // half-strip less than half the other, or none on one side (the part
+        // twists or turns convex within the footprint), gives way to the
+        // conventional position when that one is wider on its narrower side;
+        // no position at all gives the lifted one.
+        let narrower = |s: &ec::Solution| (-s.y_left).min(s.y_right);
+        let lopsided = |s: &ec::Solution| 2.0 * narrower(s) <= (-s.y_left).max(s.y_right);
+        let conventional = || {
+            let fresh = LeadSearch {
+                hint: None,
+                strip_hint: None,
+                ..search
+            };
+            ec::solve_conventional(self.tool, h, self.delta, &fresh).ok()
+        };
+        let solution = match solved {
+            Some(s) if s.status == Status::Ok && lopsided(&s) => match conventional() {
+                Some(c) if narrower(&c) > narrower(&s) => c,
+                _ => s,
+            },
+            Some(s) => s,
+            None => match (fits && kappa_across > 1e-9).then(conventional).flatten() {
+                Some(c) => c,
+                None => ec::solve_lifted(self.tool, h, self.delta, &search),
+            },
+        };
         Ok(DrivePoint {
             uv: [g.uv.x, g.uv.y],
             frame,
             solution,
-            inside,
+            inside: inside && self.near_face(g.uv.x, g.uv.y),
         })
+    }
+
+    /// On the face, or off a trimmed face by less than the cutter radius
+    /// (its strip can still reach the face).
+    fn near_face(&self, u: f64, v: f64) -> bool {
+        match self.surface.trim() {
+            None => true,
+            Some(trim) => {
+                trim.contains(u, v) || trim.distance_mm(self.surface, [u, v]) <= self.tool.radius
+            }
+        }
+    }
+
+    /// The half-width a pass may always count on, mm: the corner radius r
+    /// touching a flat part stays within +delta up to sqrt(2 r delta) to
+    /// either side of its lowest point. Where a pass's strip is narrower
+    /// (the tool lifted clear of a spot too tight for it), the passes are
+    /// still spaced by this and the simulator reports what is left.
+    pub fn floor_half_width(&self) -> f64 {
+        (2.0 * self.tool.corner_radius * self.delta).sqrt()
+    }
+
+    /// A pass's usable half-width from its narrowest one: at least
+    /// [`Self::floor_half_width`]; the tube radius for a pass with no point
+    /// near the face (its width does not matter).
+    fn usable(&self, narrowest: f64) -> f64 {
+        if narrowest.is_finite() {
+            narrowest.max(self.floor_half_width())
+        } else {
+            self.tool.tube_radius()
+        }
     }
 
     /// Feed parameters of the drive points: the domain at about
@@ -511,33 +673,6 @@ impl<'a> Planner<'a> {
             })
     }
 
-    /// The error for a pass whose strip is (almost) nothing on one side,
-    /// naming its narrowest point.
-    fn too_narrow(&self, pass: &[DrivePoint], towards_plus: bool) -> Error {
-        let sign = self.cross_sign();
-        let side = |p: &DrivePoint| {
-            let (a, b) = p.half_widths(sign);
-            if towards_plus {
-                a
-            } else {
-                b
-            }
-        };
-        let worst = pass
-            .iter()
-            .filter(|p| p.inside)
-            .min_by(|a, b| side(a).total_cmp(&side(b)));
-        match worst {
-            Some(p) => Error::planning(format!(
-                "at (u, v) = ({:.6}, {:.6}) the strip is only {:.4} mm wide on one side of the drive curve: the error curve forms no \"W\" there (the surface twists across the feed); plan with the other feed_direction or a side_tilt_deg",
-                p.uv[0],
-                p.uv[1],
-                side(p).max(0.0)
-            )),
-            None => Error::planning("a pass has no drive points inside the surface"),
-        }
-    }
-
     /// Largest distance between the drive curves at `from` and `to`, over the feed samples.
     pub fn gap(&self, samples: &[(f64, bool)], from: f64, to: f64) -> f64 {
         let base: Vec<Point3<f64>> = self.curve(samples, from);
@@ -601,17 +736,11 @@ impl<'a> Planner<'a> {
         let trial = trial_samples(samples);
         let facing_of = |pass: &[DrivePoint]| {
             let (plus, minus) = self.narrowest(pass);
-            if end > from {
-                minus
-            } else {
-                plus
-            }
+            self.usable(if end > from { minus } else { plus })
         };
-        let mut guess = guess;
+        let floor = self.floor_half_width();
+        let mut guess = guess.max(floor);
         for _ in 0..6 {
-            if guess < MIN_HALF_WIDTH {
-                break;
-            }
             let mut accepted: Option<(f64, f64)> = None;
             for _ in 0..8 {
                 let t = self.advance(samples, from, end, fixed + guess);
@@ -627,7 +756,7 @@ impl<'a> Planner<'a> {
                 } else if accepted.is_some() {
                     break;
                 } else {
-                    guess = facing * 0.999;
+                    guess = (facing * 0.999).max(floor);
                 }
             }
             let Some((t, used)) = accepted else {
@@ -638,16 +767,74 @@ impl<'a> Planner<'a> {
             if facing >= used - 1e-9 {
                 return Ok((t, full));
             }
-            if facing < MIN_HALF_WIDTH {
-                return Err(self.too_narrow(&full, end < from));
-            }
-            guess = facing * 0.999;
+            guess = (facing * 0.999).max(floor);
         }
-        Err(Error::planning(format!(
-            "could not place the drive curve after cross parameter {from:.6}: the strip width keeps shrinking"
-        )))
+        self.place_by_bisection(samples, from, end, fixed)
+    }
+
+    /// The fallback of [`Self::place_next`] where the strip width changes
+    /// too fast across the passes for its fixed point (the part twists or
+    /// turns within a footprint): the pass at the gap `fixed` + floor half-
+    /// width always holds (its usable half-width is at least the floor);
+    /// bisection on the cross parameter between it and the gap `fixed` +
+    /// the tool's reach keeps the furthest one found whose own facing
+    /// half-width covers its gap, checked on the whole pass.
+    fn place_by_bisection(
+        &self,
+        samples: &[(f64, bool)],
+        from: f64,
+        end: f64,
+        fixed: f64,
+    ) -> Result<(f64, Vec<DrivePoint>)> {
+        let trial = trial_samples(samples);
+        let base = self.curve(samples, from);
+        let holds = |t: f64, pass: &[DrivePoint]| {
+            let (plus, minus) = self.narrowest(pass);
+            let facing = self.usable(if end > from { minus } else { plus });
+            fixed + facing >= self.gap_from(samples, &base, t) - 1e-9
+        };
+        let safe = self.advance(samples, from, end, fixed + self.floor_half_width());
+        let reach = self.tool.tube_radius() + self.tool.corner_radius;
+        let (mut lo, mut hi) = (safe, self.advance(samples, from, end, fixed + reach));
+        for _ in 0..3 {
+            for _ in 0..BISECTION_STEPS {
+                if (hi - lo).abs() <= 1e-9 * (1.0 + hi.abs()) {
+                    break;
+                }
+                let mid = 0.5 * (lo + hi);
+                if holds(mid, &self.pass(mid, &trial)?) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let full = self.pass(lo, samples)?;
+            if lo == safe || holds(lo, &full) {
+                return Ok((lo, full));
+            }
+            (lo, hi) = (safe, lo);
+        }
+        Ok((safe, self.pass(safe, samples)?))
     }
 }
+
+/// " around (x, y, z) mm": the mean of some drive points, for a warning.
+fn around(points: &[Point3<f64>]) -> String {
+    if points.is_empty() {
+        return String::new();
+    }
+    let n = points.len() as f64;
+    let c = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
+    format!(" (around ({:.1}, {:.1}, {:.1}) mm)", c.x, c.y, c.z)
+}
+
+/// Share of delta above which the twist's tilt across the strip,
+/// |k12| R0^2 / 2, makes a "W" keep [`ec::CONVENTIONAL_MARGIN`].
+const TWIST_SHARE: f64 = 0.2;
+
+/// Halvings of the cross-parameter bracket per round of
+/// `place_by_bisection`.
+const BISECTION_STEPS: usize = 12;
 
 /// Every fourth inside feed sample and the last one: enough to find a
 /// pass's narrowest strip while placing it.
@@ -671,20 +858,14 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
 /// Plans with a prepared [`Planner`] (tests use it to force exact heights).
 pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Result<PlanResult> {
     let samples = planner.feed_samples();
-    let (_, (t0, t1)) = planner.ranges();
+    let (t0, t1) = planner.face_cross_range();
     let mut passes: Vec<Vec<DrivePoint>> = Vec::new();
     // First pass: its lower strip edge on the boundary t0.
     let probe = planner.pass(t0, &trial_samples(&samples))?;
     let (_, minus0) = planner.narrowest(&probe);
-    if minus0 < MIN_HALF_WIDTH {
-        return Err(planner.too_narrow(&probe, false));
-    }
-    let (mut t, mut pass) = planner.place_next(&samples, t0, t1, 0.0, minus0)?;
+    let (mut t, mut pass) = planner.place_next(&samples, t0, t1, 0.0, planner.usable(minus0))?;
     loop {
-        let (plus, _) = planner.narrowest(&pass);
-        if plus < MIN_HALF_WIDTH && t < t1 {
-            return Err(planner.too_narrow(&pass, true));
-        }
+        let plus = planner.usable(planner.narrowest(&pass).0);
         passes.push(pass);
         progress.set(((t - t0) / (t1 - t0)).clamp(0.0, 1.0) as f32 * 0.99);
         progress.check()?;
@@ -697,7 +878,7 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
             ));
         }
         let (_, minus_prev) = planner.narrowest(passes.last().map(Vec::as_slice).unwrap_or(&[]));
-        let (nt, np) = planner.place_next(&samples, t, t1, plus, minus_prev)?;
+        let (nt, np) = planner.place_next(&samples, t, t1, plus, planner.usable(minus_prev))?;
         if nt <= t {
             return Err(Error::planning(format!(
                 "the drive curves stopped advancing at cross parameter {t:.6}: zero strip width"
@@ -708,6 +889,10 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
     }
     let mut result = PlanResult::new(job_id, "mpec");
     let mut not_applicable = 0usize;
+    let mut lifted: Vec<Point3<f64>> = Vec::new();
+    let mut narrow: Vec<Point3<f64>> = Vec::new();
+    let floor = planner.floor_half_width();
+    let sign = planner.cross_sign();
     let mut widths = Vec::new();
     for pass in &passes {
         let inside: Vec<f64> = pass
@@ -720,14 +905,27 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
             .iter()
             .filter(|p| p.inside && p.solution.status == Status::NotApplicable)
             .count();
+        for p in pass.iter().filter(|p| p.inside) {
+            let (a, b) = p.half_widths(sign);
+            if p.solution.status == Status::Lifted {
+                lifted.push(p.frame.p);
+            } else if a.min(b) < floor {
+                narrow.push(p.frame.p);
+            }
+        }
         result.passes.push(Pass {
             region: 0,
             points: pass.iter().map(|p| p.to_path_point(planner.tool)).collect(),
-            min_strip_width: Some(inside.iter().copied().fold(f64::INFINITY, f64::min)),
+            min_strip_width: (!inside.is_empty())
+                .then(|| inside.iter().copied().fold(f64::INFINITY, f64::min)),
         });
     }
     let mean = widths.iter().sum::<f64>() / widths.len().max(1) as f64;
-    let narrowest = widths.iter().copied().fold(f64::INFINITY, f64::min);
+    let narrowest = if widths.is_empty() {
+        0.0
+    } else {
+        widths.iter().copied().fold(f64::INFINITY, f64::min)
+    };
     result
         .stats
         .extra
@@ -746,7 +944,25 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
     ));
     if not_applicable > 0 {
         result.warnings.push(format!(
-            "{not_applicable} drive points are convex (or flat) across the feed: no \"W\" forms there, so MPEC does not apply; they use the conventional position (tool touching, smallest non-gouging lead) with the strip where the scallop stays below the tolerance"
+            "{not_applicable} drive points are convex (or flat) across the feed, or twisted so that the \"W\" is narrower on one side than the conventional strip: MPEC does not apply there; they use the conventional position (tool touching, smallest non-gouging lead) with the strip where the scallop stays below the tolerance"
+        ));
+    }
+    if !lifted.is_empty() {
+        result
+            .stats
+            .extra
+            .insert("lifted_points".into(), lifted.len() as f64);
+        result.warnings.push(format!(
+            "{} drive points{} lie where the part is concave tighter than the torus can follow at any lead: the tool is lifted clear there (no gouge beyond the tolerance) and leaves more than the tolerance; a smaller tool finishes them",
+            lifted.len(),
+            around(&lifted)
+        ));
+    }
+    if !narrow.is_empty() {
+        result.warnings.push(format!(
+            "{} drive points{} hold the band over less than {floor:.3} mm on one side (the corner radius at the tolerance); their passes are spaced by that and the simulator judges what is left",
+            narrow.len(),
+            around(&narrow)
         ));
     }
     Ok(result)
