@@ -724,14 +724,15 @@ impl<'a> Planner<'a> {
     /// known before the pass is computed: start from `guess`, compute the pass
     /// on every fourth drive point, and move it closer until its half-width
     /// covers the assumption (or further out while it is wider); then compute
-    /// the whole pass and check again.
+    /// the whole pass and check again. `progress` is checked before every
+    /// trial pass, so a cancel stops the placement, not only the plan.
     fn place_next(
         &self,
         samples: &[(f64, bool)],
-        from: f64,
-        end: f64,
+        (from, end): (f64, f64),
         fixed: f64,
         guess: f64,
+        progress: &dyn Progress,
     ) -> Result<(f64, Vec<DrivePoint>)> {
         let trial = trial_samples(samples);
         let facing_of = |pass: &[DrivePoint]| {
@@ -744,6 +745,7 @@ impl<'a> Planner<'a> {
             let mut accepted: Option<(f64, f64)> = None;
             for _ in 0..8 {
                 let t = self.advance(samples, from, end, fixed + guess);
+                progress.check()?;
                 let facing = facing_of(&self.pass(t, &trial)?);
                 if facing >= guess - 1e-9 {
                     let widen = facing > guess * 1.01 && t != end;
@@ -762,6 +764,7 @@ impl<'a> Planner<'a> {
             let Some((t, used)) = accepted else {
                 break;
             };
+            progress.check()?;
             let full = self.pass(t, samples)?;
             let facing = facing_of(&full);
             if facing >= used - 1e-9 {
@@ -769,7 +772,7 @@ impl<'a> Planner<'a> {
             }
             guess = (facing * 0.999).max(floor);
         }
-        self.place_by_bisection(samples, from, end, fixed)
+        self.place_by_bisection(samples, from, end, fixed, progress)
     }
 
     /// The fallback of [`Self::place_next`] where the strip width changes
@@ -785,6 +788,7 @@ impl<'a> Planner<'a> {
         from: f64,
         end: f64,
         fixed: f64,
+        progress: &dyn Progress,
     ) -> Result<(f64, Vec<DrivePoint>)> {
         let trial = trial_samples(samples);
         let base = self.curve(samples, from);
@@ -802,6 +806,7 @@ impl<'a> Planner<'a> {
                     break;
                 }
                 let mid = 0.5 * (lo + hi);
+                progress.check()?;
                 if holds(mid, &self.pass(mid, &trial)?) {
                     lo = mid;
                 } else {
@@ -863,7 +868,8 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
     // First pass: its lower strip edge on the boundary t0.
     let probe = planner.pass(t0, &trial_samples(&samples))?;
     let (_, minus0) = planner.narrowest(&probe);
-    let (mut t, mut pass) = planner.place_next(&samples, t0, t1, 0.0, planner.usable(minus0))?;
+    let (mut t, mut pass) =
+        planner.place_next(&samples, (t0, t1), 0.0, planner.usable(minus0), progress)?;
     loop {
         let plus = planner.usable(planner.narrowest(&pass).0);
         passes.push(pass);
@@ -878,7 +884,13 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
             ));
         }
         let (_, minus_prev) = planner.narrowest(passes.last().map(Vec::as_slice).unwrap_or(&[]));
-        let (nt, np) = planner.place_next(&samples, t, t1, plus, planner.usable(minus_prev))?;
+        let (nt, np) = planner.place_next(
+            &samples,
+            (t, t1),
+            plus,
+            planner.usable(minus_prev),
+            progress,
+        )?;
         if nt <= t {
             return Err(Error::planning(format!(
                 "the drive curves stopped advancing at cross parameter {t:.6}: zero strip width"
