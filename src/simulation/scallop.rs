@@ -22,6 +22,7 @@
 //! in (u, v) by a compass search from the grid's best local extrema, so the
 //! max scallop is not limited by the grid spacing.
 
+use super::minimum::bracket_min;
 use crate::error::{Error, Result};
 use crate::formats::PlanResult;
 use crate::geometry::NurbsSurface;
@@ -145,6 +146,117 @@ impl Segment {
             .unwrap_or(self.axis0);
         (tip, axis)
     }
+}
+
+/// The drop of the tool along one motion at one sample's line p + t n, as a
+/// function of the motion parameter s. For a flat end the pose's products
+/// with the line are expanded in s once (the unnormalised axis is linear in
+/// s, its squared length quadratic), so each drop is the closed form of
+/// [`CutterShape::lowest_hit`] from a few scalars: two square roots and three
+/// divisions instead of the pose's vectors. Other cutters evaluate the pose.
+struct SweepLine<'a> {
+    sim: &'a Simulator<'a>,
+    seg: &'a Segment,
+    p: &'a Vector3<f64>,
+    n: &'a Vector3<f64>,
+    flat: bool,
+    /// |axis0 + s (axis1 - axis0)|^2.
+    q: [f64; 3],
+    /// (p - tip(s)) . (axis0 + s (axis1 - axis0)).
+    z: [f64; 3],
+    /// n . (axis0 + s (axis1 - axis0)).
+    na: [f64; 2],
+    /// |p - tip(s)|^2.
+    xx: [f64; 3],
+    /// (p - tip(s)) . n.
+    xn: [f64; 2],
+    /// |n|^2.
+    nn: f64,
+}
+
+impl<'a> SweepLine<'a> {
+    fn new(
+        sim: &'a Simulator<'a>,
+        seg: &'a Segment,
+        p: &'a Vector3<f64>,
+        n: &'a Vector3<f64>,
+    ) -> Self {
+        let flat = sim.cutter.corner_radius == 0.0;
+        let (d0, dt) = (p - seg.tip0, seg.tip1 - seg.tip0);
+        let (a0, da) = (seg.axis0, seg.axis1 - seg.axis0);
+        Self {
+            sim,
+            seg,
+            p,
+            n,
+            flat,
+            q: [a0.norm_squared(), 2.0 * a0.dot(&da), da.norm_squared()],
+            z: [d0.dot(&a0), d0.dot(&da) - dt.dot(&a0), -dt.dot(&da)],
+            na: [n.dot(&a0), n.dot(&da)],
+            xx: [d0.norm_squared(), -2.0 * d0.dot(&dt), dt.norm_squared()],
+            xn: [d0.dot(n), -dt.dot(n)],
+            nn: n.norm_squared(),
+        }
+    }
+
+    fn drop(&self, s: f64) -> f64 {
+        let q = self.q[0] + s * (self.q[1] + s * self.q[2]);
+        // The pose falls back to axis0 where the interpolated axis vanishes.
+        if !self.flat || q.is_nan() || q <= 1e-24 {
+            return self.sim.drop_at(self.seg, s, self.p, self.n);
+        }
+        let cutter = &self.sim.cutter;
+        let inv = 1.0 / q.sqrt();
+        let z0 = (self.z[0] + s * (self.z[1] + s * self.z[2])) * inv;
+        let na = (self.na[0] + s * self.na[1]) * inv;
+        let xx = self.xx[0] + s * (self.xx[1] + s * self.xx[2]);
+        let xn = self.xn[0] + s * self.xn[1];
+        // w0 = x0 - axis z0 and m = n - axis na, the parts across the axis.
+        let mm = (self.nn - na * na).max(0.0);
+        let ww = (xx - z0 * z0).max(0.0);
+        let wm = xn - z0 * na;
+        let big_r = cutter.radius;
+        let Some((a, b)) = radial_interval(mm, wm, ww, big_r * big_r) else {
+            return f64::INFINITY;
+        };
+        let (c, d) = if na.abs() <= 1e-15 {
+            if (0.0..=cutter.length).contains(&z0) {
+                (f64::NEG_INFINITY, f64::INFINITY)
+            } else {
+                return f64::INFINITY;
+            }
+        } else {
+            let (lo, hi) = (-z0 / na, (cutter.length - z0) / na);
+            (lo.min(hi), lo.max(hi))
+        };
+        let (entry, exit) = (a.max(c), b.min(d));
+        if entry.is_nan() || entry > exit || entry > self.sim.cap {
+            return f64::INFINITY;
+        }
+        if entry >= -self.sim.depth {
+            return entry;
+        }
+        // The solid starts below the searched range: a hit only if it is still there.
+        if exit >= -self.sim.depth {
+            -self.sim.depth
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// Parameter interval where |w0 + t m|^2 <= r2 (all t when m = 0 and inside);
+/// the same as the cutter's.
+fn radial_interval(mm: f64, wm: f64, ww: f64, r2: f64) -> Option<(f64, f64)> {
+    if mm <= 1e-24 {
+        return (ww <= r2).then_some((f64::NEG_INFINITY, f64::INFINITY));
+    }
+    let disc = wm * wm - mm * (ww - r2);
+    if disc < 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    Some(((-wm - s) / mm, (-wm + s) / mm))
 }
 
 /// Uniform 3-D grid of cells listing the segments whose swept box meets them.
@@ -275,6 +387,31 @@ pub struct Simulator<'a> {
     depth: f64,
     /// Largest spacing of the sub-positions scanned along a motion, mm.
     scan_step: f64,
+}
+
+/// Bisects between `s_in` (drop finite) and `s_out` (line misses the tool)
+/// for the last position that still hits; returns it with its drop.
+fn edge(
+    drop: impl Fn(f64) -> f64,
+    mut s_in: f64,
+    mut f_in: f64,
+    mut s_out: f64,
+    tol: f64,
+) -> (f64, f64) {
+    for _ in 0..80 {
+        if (s_out - s_in).abs() <= tol * 0.1 {
+            break;
+        }
+        let mid = 0.5 * (s_in + s_out);
+        let f = drop(mid);
+        if f.is_finite() {
+            s_in = mid;
+            f_in = f;
+        } else {
+            s_out = mid;
+        }
+    }
+    (s_in, f_in)
 }
 
 /// Slope of the drop between two scanned positions (NaN if either is missing or infinite).
@@ -438,6 +575,7 @@ impl<'a> Simulator<'a> {
     /// secant through two scanned drops bounds the drop beyond them from below,
     /// so a segment that cannot beat `cutoff` is left before its refinement.
     fn sweep_min(&self, seg: &Segment, p: &Vector3<f64>, n: &Vector3<f64>, cutoff: f64) -> f64 {
+        let line = SweepLine::new(self, seg, p, n);
         let k = ((seg.travel / self.scan_step).ceil() as usize).clamp(1, 4096);
         let ds = 1.0 / k as f64;
         let s_close = self.closest_position(seg, p, n);
@@ -468,7 +606,7 @@ impl<'a> Simulator<'a> {
                     grid
                 }
             };
-            let h = self.drop_at(seg, s, p, n);
+            let h = line.drop(s);
             if h < best.1 {
                 best = (s, h);
                 left = prev;
@@ -524,41 +662,77 @@ impl<'a> Simulator<'a> {
         // Probe one tolerance step to each side: a drop that rises on both
         // sides (or leaves the tool's reach) has its minimum at the best position.
         let tol = SWEEP_TOL_MM / seg.travel;
-        let falls = |side: (f64, f64)| {
+        let probe = |side: (f64, f64)| {
             if side.0.is_nan() || (side.0 - best.0).abs() <= tol {
-                return false;
+                return NONE;
             }
             let s = best.0 + tol.copysign(side.0 - best.0);
-            self.drop_at(seg, s, p, n) < best.1
+            (s, line.drop(s))
         };
-        let (to_left, to_right) = (falls(left), falls(right));
+        let probes = [probe(left), probe(right)];
+        let (to_left, to_right) = (probes[0].1 < best.1, probes[1].1 < best.1);
         match (to_left, to_right) {
             (false, false) if best.1 >= cutoff + CONVEXITY_SLACK_MM => return best.1,
             (true, false) if left.1 == f64::INFINITY && right.1.is_finite() => {
-                return self.edge_minimum(seg, p, n, best, left.0, right, tol, cutoff);
+                return Self::edge_minimum(&line, best, left.0, right, tol, cutoff);
             }
             (false, true) if right.1 == f64::INFINITY && left.1.is_finite() => {
-                return self.edge_minimum(seg, p, n, best, right.0, left, tol, cutoff);
+                return Self::edge_minimum(&line, best, right.0, left, tol, cutoff);
             }
-            (true, false) => return self.refine_bracket(seg, p, n, best, left, NONE),
-            (false, true) => return self.refine_bracket(seg, p, n, best, NONE, right),
+            (true, false) => return Self::refine_fast(&line, best, (left, NONE), probes),
+            (false, true) => return Self::refine_fast(&line, best, (NONE, right), probes),
             _ => {}
         }
+        // The drop rises both ways from the best scanned position (or falls
+        // both ways, off convexity): the reference's golden section over both
+        // neighbours, which finds the same minimum as the reference where a
+        // turning axis gives the drop two.
         self.refine_bracket(seg, p, n, best, left, right)
+    }
+
+    /// [`Self::refine_bracket`] with the minimum searched by
+    /// [`bracket_min`] from every drop known around it (the scanned
+    /// neighbours, the reach edges, the probes): the same bracket and the
+    /// same stopping rule as the reference's golden section.
+    fn refine_fast(
+        line: &SweepLine,
+        best: (f64, f64),
+        (left, right): ((f64, f64), (f64, f64)),
+        probes: [(f64, f64); 2],
+    ) -> f64 {
+        if !best.1.is_finite() || line.seg.travel <= 0.0 {
+            return best.1;
+        }
+        let tol = SWEEP_TOL_MM / line.seg.travel;
+        // A scanned neighbour where the line misses gives the reach edge.
+        let end = |q: (f64, f64)| {
+            if q.0.is_nan() || q.1.is_finite() {
+                q
+            } else {
+                edge(|s| line.drop(s), best.0, best.1, q.0, tol)
+            }
+        };
+        let mut pts = [end(left), probes[0], best, probes[1], end(right)];
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut known = [(0.0, 0.0); 5];
+        let mut count = 0;
+        for q in pts {
+            if q.1.is_finite() && !q.0.is_nan() && (count == 0 || q.0 > known[count - 1].0) {
+                known[count] = q;
+                count += 1;
+            }
+        }
+        bracket_min(|s| line.drop(s), &known[..count], tol, 200)
     }
 
     /// Minimum of the drop between the edge of the tool's reach (between
     /// `s_out`, where the line misses, and `inner.0`) and the finite scanned
     /// drop `far` beyond `inner`, or infinity once it cannot beat `cutoff`.
-    /// The edge is bisected as in [`Self::edge`], each step checking the
-    /// convexity bound of the drop past the last hit; a drop that rises from
-    /// the edge has its minimum there, else golden section finishes it.
-    #[allow(clippy::too_many_arguments)]
+    /// The edge is bisected as in [`edge`], each step checking the convexity
+    /// bound of the drop past the last hit; a drop that rises from the edge
+    /// has its minimum there, else [`bracket_min`] finishes it.
     fn edge_minimum(
-        &self,
-        seg: &Segment,
-        p: &Vector3<f64>,
-        n: &Vector3<f64>,
+        line: &SweepLine,
         inner: (f64, f64),
         mut s_out: f64,
         far: (f64, f64),
@@ -588,7 +762,7 @@ impl<'a> Simulator<'a> {
                 break;
             }
             let mid = 0.5 * (s_in + s_out);
-            let f = self.drop_at(seg, mid, p, n);
+            let f = line.drop(mid);
             if f.is_finite() {
                 s_in = mid;
                 f_in = f;
@@ -597,15 +771,20 @@ impl<'a> Simulator<'a> {
             }
         }
         let step = if far.0 > s_in { tol } else { -tol };
-        if (far.0 - s_in).abs() > tol && self.drop_at(seg, s_in + step, p, n) >= f_in {
+        if (far.0 - s_in).abs() > tol && line.drop(s_in + step) >= f_in {
             return f_in.min(inner.1).min(far.1);
         }
-        let (lo, hi) = if far.0 > s_in {
-            ((s_in, f_in), far)
-        } else {
-            (far, (s_in, f_in))
-        };
-        self.golden(seg, p, n, lo, hi, tol).min(inner.1)
+        let mut pts = [(s_in, f_in), inner, far];
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut known = [(0.0, 0.0); 3];
+        let mut count = 0;
+        for q in pts {
+            if q.1.is_finite() && (count == 0 || q.0 > known[count - 1].0) {
+                known[count] = q;
+                count += 1;
+            }
+        }
+        bracket_min(|s| line.drop(s), &known[..count], tol, 200)
     }
 
     /// Motion parameter where the line passes closest to the tool axis at the
@@ -707,7 +886,7 @@ impl<'a> Simulator<'a> {
             (lo, f_lo) = if left.1.is_finite() {
                 left
             } else {
-                self.edge(seg, p, n, s_best, best, left.0, tol)
+                edge(|s| self.drop_at(seg, s, p, n), s_best, best, left.0, tol)
             };
         }
         let (mut hi, mut f_hi) = (s_best, best);
@@ -715,7 +894,7 @@ impl<'a> Simulator<'a> {
             (hi, f_hi) = if right.1.is_finite() {
                 right
             } else {
-                self.edge(seg, p, n, s_best, best, right.0, tol)
+                edge(|s| self.drop_at(seg, s, p, n), s_best, best, right.0, tol)
             };
         }
         best = best.min(f_lo).min(f_hi);
@@ -757,35 +936,6 @@ impl<'a> Simulator<'a> {
             }
         }
         f_lo.min(f_hi).min(f1).min(f2)
-    }
-
-    /// Bisects between `s_in` (drop finite) and `s_out` (line misses the tool)
-    /// for the last position that still hits; returns it with its drop.
-    #[allow(clippy::too_many_arguments)]
-    fn edge(
-        &self,
-        seg: &Segment,
-        p: &Vector3<f64>,
-        n: &Vector3<f64>,
-        mut s_in: f64,
-        mut f_in: f64,
-        mut s_out: f64,
-        tol: f64,
-    ) -> (f64, f64) {
-        for _ in 0..80 {
-            if (s_out - s_in).abs() <= tol * 0.1 {
-                break;
-            }
-            let mid = 0.5 * (s_in + s_out);
-            let f = self.drop_at(seg, mid, p, n);
-            if f.is_finite() {
-                s_in = mid;
-                f_in = f;
-            } else {
-                s_out = mid;
-            }
-        }
-        (s_in, f_in)
     }
 
     /// Residual at surface point `p` with tool-side unit normal `n`; `None` if uncovered.
@@ -1474,4 +1624,93 @@ fn segment_distance(
         }
     }
     ((p0 + d1 * s) - (q0 + d2 * t)).norm()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::{Pass, PathPoint};
+
+    /// Pseudo-random numbers in [-1, 1) (xorshift), for reproducible cases.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        }
+        fn unit(&mut self) -> Vector3<f64> {
+            Vector3::new(self.next(), self.next(), self.next())
+                .try_normalize(1e-3)
+                .unwrap_or(Vector3::z())
+        }
+    }
+
+    /// The flat end's drop expanded in the motion parameter ([`SweepLine`])
+    /// against the cutter's own `lowest_hit` at the interpolated pose, on
+    /// translating and turning motions and on lines that meet the bottom
+    /// disc, the side, the rim, start inside the tool below the searched
+    /// range, or miss it.
+    #[test]
+    fn expanded_flat_end_drop_matches_the_cutter_at_the_pose() {
+        let job = crate::samples::job("plane").unwrap();
+        let surface = job.surface().unwrap();
+        let tool = Tool::FlatEnd {
+            radius: 2.5,
+            length: None,
+        };
+        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+        let mut result = PlanResult::new("test", "iso_parametric");
+        for _ in 0..40 {
+            let tip = Vector3::new(rng.next(), rng.next(), rng.next()) * 3.0;
+            let axis0 = (Vector3::z() + rng.unit() * 0.4).normalize();
+            // Half the motions translate, half turn by up to about 20 deg.
+            let turn = if rng.next() > 0.0 { 0.35 } else { 0.0 };
+            let axis1 = (axis0 + rng.unit() * turn).normalize();
+            let tip1 = tip + rng.unit() * 2.0 * rng.next().abs();
+            let point = |t: Vector3<f64>, a: Vector3<f64>| PathPoint {
+                cl: [t.x, t.y, t.z],
+                axis: [a.x, a.y, a.z],
+                ..Default::default()
+            };
+            result.passes.push(Pass {
+                region: 0,
+                points: vec![point(tip, axis0), point(tip1, axis1)],
+                min_strip_width: None,
+            });
+        }
+        let sim = Simulator::new(surface, &tool, &result).unwrap();
+        let (mut hits, mut misses, mut clamped) = (0, 0, 0);
+        for seg in &sim.segments {
+            for _ in 0..200 {
+                let p = seg.tip0
+                    + Vector3::new(rng.next(), rng.next(), rng.next()) * 4.0
+                    + seg.axis0 * 4.0 * (rng.next() + 1.0);
+                let n = (Vector3::z() + rng.unit() * 0.5).normalize();
+                let line = SweepLine::new(&sim, seg, &p, &n);
+                for s in [0.0, 0.25 * (rng.next() + 1.0), 0.5, 1.0] {
+                    let want = sim.drop_at(seg, s, &p, &n);
+                    let got = line.drop(s);
+                    if want.is_finite() {
+                        assert!(
+                            (got - want).abs() <= 1e-9,
+                            "s {s}: expanded {got} against {want}"
+                        );
+                        hits += 1;
+                        if want == -sim.depth {
+                            clamped += 1;
+                        }
+                    } else {
+                        assert_eq!(got, want, "s {s}");
+                        misses += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            hits > 5000 && misses > 5000 && clamped > 100,
+            "{hits} {misses} {clamped}"
+        );
+    }
 }
