@@ -27,6 +27,7 @@ use crate::error::{Error, Result};
 use crate::formats::PlanResult;
 use crate::geometry::NurbsSurface;
 use crate::planners::{NoProgress, Progress};
+use crate::tools::cutter_shape::radial_interval;
 use crate::tools::{CutterShape, Tool};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -243,20 +244,6 @@ impl<'a> SweepLine<'a> {
             f64::INFINITY
         }
     }
-}
-
-/// Parameter interval where |w0 + t m|^2 <= r2 (all t when m = 0 and inside);
-/// the same as the cutter's.
-fn radial_interval(mm: f64, wm: f64, ww: f64, r2: f64) -> Option<(f64, f64)> {
-    if mm <= 1e-24 {
-        return (ww <= r2).then_some((f64::NEG_INFINITY, f64::INFINITY));
-    }
-    let disc = wm * wm - mm * (ww - r2);
-    if disc < 0.0 {
-        return None;
-    }
-    let s = disc.sqrt();
-    Some(((-wm - s) / mm, (-wm + s) / mm))
 }
 
 /// Uniform 3-D grid of cells listing the segments whose swept box meets them.

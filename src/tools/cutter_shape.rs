@@ -253,7 +253,7 @@ impl CutterShape {
 }
 
 /// Parameter interval where |w0 + t m|^2 <= r2 (all t when m = 0 and inside).
-fn radial_interval(mm: f64, wm: f64, ww: f64, r2: f64) -> Option<(f64, f64)> {
+pub(crate) fn radial_interval(mm: f64, wm: f64, ww: f64, r2: f64) -> Option<(f64, f64)> {
     if mm <= 1e-24 {
         return (ww <= r2).then_some((f64::NEG_INFINITY, f64::INFINITY));
     }
