@@ -16,4 +16,17 @@ fi
 # rebuilds RustDDS, ros2-client and this crate once more with the security plugins (OpenSSL).
 # Last: it rebuilds target/debug/toolpath with security, and the Python tests above drive the
 # default build.
-cargo test --locked --features security --test node_secure
+# RustDDS 0.15's security plugins can deadlock on a lock they share with discovery while a test
+# participant is created (seen once in many runs: threads waiting on each other, no progress). A run
+# that hangs (its three tests take seconds) is stopped after 5 minutes and tried once more; a run
+# that fails an assertion fails CI at once.
+cargo test --locked --features security --test node_secure --no-run
+for attempt in 1 2; do
+  status=0
+  timeout --kill-after=10 300 cargo test --locked --features security --test node_secure || status=$?
+  if [ "$status" -ne 124 ] && [ "$status" -ne 137 ]; then
+    break
+  fi
+  echo "node_secure hung (attempt $attempt of 2): stopped after 300 s" >&2
+done
+exit "$status"
