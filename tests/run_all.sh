@@ -16,11 +16,10 @@ fi
 # rebuilds RustDDS, ros2-client and this crate once more with the security plugins (OpenSSL).
 # Last: it rebuilds target/debug/toolpath with security, and the Python tests above drive the
 # default build.
-# RustDDS 0.15's security plugins can deadlock while a participant is created: a thread waits in
-# SecurityPluginsHandle::get_plugins for a lock nobody releases while discovery and the DP event loop
-# wait on it too (seen this stop in the node's start-up and in a test client's; not yet fixed in
-# vendor/rustdds). A run that hangs (its three tests take seconds) is stopped after 2 minutes and
-# tried again, up to 5 runs; a run that fails an assertion fails CI at once.
+# RustDDS 0.15's security plugins deadlocked while a participant was created (a lock-order bug,
+# patched in vendor/rustdds, PATCH.md "Lock order of the access-control checks"). Should another
+# hang of that kind remain, a run that hangs (its three tests take seconds) is stopped after 2
+# minutes and tried again, up to 5 runs; a run that fails an assertion fails CI at once.
 cargo test --locked --features security --test node_secure --no-run
 for attempt in 1 2 3 4 5; do
   status=0
