@@ -526,7 +526,7 @@ fn mpec_job(name: &str) -> Job {
     job
 }
 
-/// Issue 22: mpec plans both STEP samples' freeform faces (bent to radii of
+/// mpec plans both STEP samples' freeform faces (bent to radii of
 /// about 50 mm, trimmed, one with a hole) and the simulator finds the face
 /// within the tolerance band: residual and gouge at most 0.05, nothing
 /// uncovered, the machined area the face's own.
