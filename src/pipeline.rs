@@ -125,9 +125,18 @@ pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<Pl
     let candidates = planners::plan_candidates(job, progress)?;
     progress.check()?;
     let mut planning_s = start.elapsed().as_secs_f64();
+    let verify_belt = !options.skip_verify && is_belt(job.strategy);
     let mut result = if verify {
         let (result, repair_s) = verify_candidates(job, candidates, progress)?;
         planning_s += repair_s;
+        result
+    } else if verify_belt {
+        let first = candidates
+            .into_iter()
+            .next()
+            .ok_or_else(|| crate::error::Error::planning("the planner returned no plan"))?;
+        let (result, refine_s) = verify_and_refine_belt(job, first, progress)?;
+        planning_s += refine_s;
         result
     } else {
         candidates
@@ -145,10 +154,6 @@ pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<Pl
     } else {
         (planning_s * 1e6).round() / 1000.0
     };
-    if !options.skip_verify && is_belt(job.strategy) {
-        progress.check()?;
-        verify_belt(job, &mut result)?;
-    }
     progress.set(1.0);
     Ok(result)
 }
@@ -429,11 +434,65 @@ pub fn is_belt(strategy: Strategy) -> bool {
     )
 }
 
-/// Belt results: the material-removal simulation gives `max_scallop_mm` and,
-/// in `extra`, the removal figures (the planner's rigid-belt `max_gouge_mm`
-/// stays as planned).
-pub fn verify_belt(job: &Job, result: &mut PlanResult) -> Result<()> {
-    let sim = crate::simulation::removal::simulate_job(job, result)?;
+/// Rounds of belt refinement after the first removal simulation.
+pub const BELT_REFINE_ROUNDS: usize = 4;
+/// The first rounds re-step the gaps left above h; the later ones split them.
+pub const BELT_TIGHTEN_ROUNDS: usize = 2;
+
+/// Belt results: simulates the removal; where nodes are left above h,
+/// re-steps the gaps holding them, later adds paths at their middle
+/// (`planners::belt::refine`), and simulates again, at most [`BELT_REFINE_ROUNDS`] times. The result
+/// carries the simulation's figures (`max_scallop_mm`; in `extra` the
+/// removal figures, `simulated_gouge_mm` and, when paths were added,
+/// `repair_passes` and `repair_length_mm`; the planner's rigid-belt
+/// `max_gouge_mm` stays as planned), `within_scallop` and, where h is not
+/// held, a warning saying where. Returns the result and the seconds spent
+/// planning the added paths.
+pub fn verify_and_refine_belt(
+    job: &Job,
+    mut result: PlanResult,
+    progress: &dyn Progress,
+) -> Result<(PlanResult, f64)> {
+    use crate::planners::belt::{self, refine};
+    let h = job.scallop()?;
+    let surface = job.surface()?;
+    let (raw_passes, raw_length) = (result.passes.len(), result.cl_path_length());
+    let mut refinement = refine::Refinement::default();
+    let mut planning_s = 0.0;
+    progress.check()?;
+    let mut sim = crate::simulation::removal::simulate_job(job, &result)?;
+    for round in 0..BELT_REFINE_ROUNDS {
+        if sim.stats.max_scallop_mm <= h {
+            break;
+        }
+        let residuals: Vec<refine::Residual> = sim
+            .nodes_above(h)
+            .into_iter()
+            .map(|(uv, height)| {
+                let p = surface.point(uv[0], uv[1]);
+                refine::Residual {
+                    uv,
+                    point: [p.x, p.y, p.z],
+                    height,
+                }
+            })
+            .collect();
+        // Re-step first; what that leaves above h is split.
+        let mode = if round < BELT_TIGHTEN_ROUNDS {
+            refine::Mode::Tighten
+        } else {
+            refine::Mode::Split
+        };
+        if !refine::refine(job, &result, &residuals, mode, &mut refinement)? {
+            break;
+        }
+        progress.check()?;
+        let started = Instant::now();
+        result = belt::plan_with(job, progress, &refinement)?;
+        planning_s += started.elapsed().as_secs_f64();
+        progress.check()?;
+        sim = crate::simulation::removal::simulate_job(job, &result)?;
+    }
     let s = &sim.stats;
     result.stats.max_scallop_mm = Some(s.max_scallop_mm);
     for (key, value) in [
@@ -445,7 +504,36 @@ pub fn verify_belt(job: &Job, result: &mut PlanResult) -> Result<()> {
     ] {
         result.stats.extra.insert(key.into(), value);
     }
-    Ok(())
+    if result.passes.len() > raw_passes {
+        result.stats.extra.insert(
+            "repair_passes".into(),
+            (result.passes.len() - raw_passes) as f64,
+        );
+        result.stats.extra.insert(
+            "repair_length_mm".into(),
+            result.cl_path_length() - raw_length,
+        );
+    }
+    let within = s.max_scallop_mm <= h;
+    result.within_scallop = Some(within);
+    if !within {
+        let above = sim.nodes_above(h);
+        let cell = s.resolution_mm * s.resolution_mm;
+        let worst = above
+            .iter()
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(uv, _)| surface.point(uv[0], uv[1]));
+        result.warnings.push(format!(
+            "{ABOVE_LIMIT} {h} mm: the removal simulation finds {:.4} mm at most, {:.2} mm^2 above h{}",
+            s.max_scallop_mm,
+            above.len() as f64 * cell,
+            worst.map_or(String::new(), |p| format!(
+                ", the highest at ({:.1}, {:.1}, {:.1}) mm",
+                p.x, p.y, p.z
+            ))
+        ));
+    }
+    Ok((result, planning_s))
 }
 
 /// Path length, pass and point counts and machining time at `feed_rate` (mm/min).

@@ -300,18 +300,30 @@ fn check_plan(name: &str, s: &NurbsSurface, strategy: Strategy, pole: Point3<f64
         near_pole <= r.passes.len().max(20),
         "{name} {strategy:?}: {near_pole} points within 1 mm of the pole"
     );
-    assert!(st.max_gouge_mm.unwrap() <= 0.005, "{name} {strategy:?}");
     match strategy {
         Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => {
             let h = job_file(strategy).scallop.unwrap();
-            // The removal simulation, within the belt's own 1 % sampling margin.
-            assert!(
-                st.max_scallop_mm.unwrap() <= 1.01 * h,
-                "{name} {strategy:?}"
-            );
-            assert!(st.extra["simulated_gouge_mm"] < 0.01, "{name} {strategy:?}");
+            // The removal simulation, refined until within h.
+            assert!(st.max_scallop_mm.unwrap() <= h, "{name} {strategy:?}");
+            assert_eq!(r.within_scallop, Some(true), "{name} {strategy:?}");
+            let rigid = st.max_gouge_mm.unwrap();
+            if rigid > 0.005 {
+                // A rigid belt across a concave section sinks in: reported,
+                // and the simulation finds about as much.
+                assert!(
+                    r.warnings.iter().any(|w| w.contains("rigid belt gouges")),
+                    "{name} {strategy:?}"
+                );
+                assert!(
+                    st.extra["simulated_gouge_mm"] < 1.25 * rigid + 0.005,
+                    "{name} {strategy:?}"
+                );
+            } else {
+                assert!(st.extra["simulated_gouge_mm"] < 0.01, "{name} {strategy:?}");
+            }
         }
         _ => {
+            assert!(st.max_gouge_mm.unwrap() <= 0.005, "{name} {strategy:?}");
             let f = job_file(strategy);
             let h = f.scallop.or(f.tolerance).unwrap();
             assert!(st.max_scallop_mm.unwrap() <= h, "{name} {strategy:?}");
@@ -366,12 +378,51 @@ fn flat_end_strategies_plan_tiny_weights_within_h() {
     }
 }
 
-/// Belt grinding across the pole: the contact paths converge on it without
-/// a pile of points, the removal simulation within h.
+/// Belt grinding over the pole, the revolved profile's axis and the apex:
+/// the contact paths converge without a pile of points, and the removal
+/// simulation finds the part within h (refined where the contact model,
+/// which takes neighbouring paths as parallel, stepped too far).
 #[test]
-fn belt_iso_parametric_plans_the_sphere_cap_within_h() {
-    let (name, s, pole) = shapes().into_iter().next().unwrap();
-    check_plan(name, &s, Strategy::BeltIsoParametric, pole);
+fn belt_strategies_plan_poles_and_apexes_within_h() {
+    for (name, s, pole) in shapes() {
+        for strategy in [Strategy::BeltIsoParametric, Strategy::BeltIsoPlanar] {
+            check_plan(name, &s, strategy, pole);
+        }
+    }
+}
+
+/// Without the refinement the contact model alone leaves the fanning paths
+/// above h somewhere: the refinement is what holds h, and it is needed.
+#[test]
+fn belt_refinement_is_needed_on_fanning_paths() {
+    let mut above = 0;
+    for (name, s, _) in shapes() {
+        for strategy in [Strategy::BeltIsoParametric, Strategy::BeltIsoPlanar] {
+            let job = Job::new(job_file(strategy), Shape::Surface(s.clone())).unwrap();
+            let raw = toolpath_planner::planners::plan(&job, &NoProgress).unwrap();
+            let sim = toolpath_planner::simulation::removal::simulate_job(&job, &raw).unwrap();
+            let refined = pipeline::run(&job, &NoProgress, RunOptions::default()).unwrap();
+            let h = job.scallop().unwrap();
+            eprintln!(
+                "{name} {strategy:?}: {} paths, {:.4} mm unrefined; {} paths, {:.4} mm refined",
+                raw.passes.len(),
+                sim.stats.max_scallop_mm,
+                refined.passes.len(),
+                refined.stats.max_scallop_mm.unwrap()
+            );
+            if sim.stats.max_scallop_mm > h {
+                above += 1;
+                assert!(refined.stats.extra["repair_passes"] >= 1.0);
+            } else {
+                assert_eq!(
+                    refined.passes.len(),
+                    raw.passes.len(),
+                    "{name} {strategy:?}"
+                );
+            }
+        }
+    }
+    assert!(above >= 3, "only {above} unrefined plans above h");
 }
 
 /// MPEC over the pole: the torus's footprint reads the part past the pole

@@ -101,10 +101,43 @@ pub struct Simulation {
     pub depth: Vec<f64>,
     /// Geometric clearance of the closest wheel position; +inf where not ground.
     pub clearance: Vec<f64>,
+    /// Reported rigid-belt gouge of the closest wheel position, mm.
+    pub near_gouge: Vec<f32>,
     pub stats: RemovalStats,
 }
 
 impl Simulation {
+    /// The (u, v) of node (i, j).
+    pub fn node_uv(&self, i: usize, j: usize) -> [f64; 2] {
+        let at = |k: usize, n: usize, [lo, hi]: [f64; 2]| {
+            if k + 1 == n {
+                hi
+            } else {
+                lo + (hi - lo) / (n - 1) as f64 * k as f64
+            }
+        };
+        [at(i, self.nu, self.u_range), at(j, self.nv, self.v_range)]
+    }
+
+    /// The nodes left more than `h` above the surface, by the rule of
+    /// `stats.max_scallop_mm` (clearance above h where the closest wheel
+    /// position reports no gouge), as (uv, clearance).
+    pub fn nodes_above(&self, h: f64) -> Vec<([f64; 2], f64)> {
+        let mut out = Vec::new();
+        for i in 0..self.nu {
+            for j in 0..self.nv {
+                let k = i * self.nv + j;
+                let c = self.clearance[k];
+                if c.is_finite()
+                    && c > h
+                    && f64::from(self.near_gouge[k]) <= crate::tools::BELT_GOUGE_EPS
+                {
+                    out.push((self.node_uv(i, j), c));
+                }
+            }
+        }
+        out
+    }
     pub fn map(&self) -> RemovalMap {
         let depth = (0..self.nu)
             .map(|i| {
@@ -241,6 +274,7 @@ pub fn simulate_on_grid(
         v_range: [v0, v1],
         depth: fields.depth,
         clearance: fields.clearance,
+        near_gouge: fields.near_gouge,
         stats,
     })
 }

@@ -7,6 +7,7 @@
 //! belt width; a last curve runs along the far edge.
 
 use super::contact::{self, BeltSpec};
+use super::refine::Refinement;
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, PlanResult};
 use crate::geometry::{LocalGeometry, NurbsSurface};
@@ -17,13 +18,68 @@ use nalgebra::{Vector2, Vector3};
 const MAX_PASSES: usize = 20_000;
 
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+    plan_with(job, progress, &Refinement::default())
+}
+
+/// [`plan`] as refined by the removal simulation (`super::refine`): steps
+/// aiming below h where it found material left, more paths on the
+/// iso-curves at its added cross parameters.
+pub fn plan_with(
+    job: &Job,
+    progress: &dyn Progress,
+    refinement: &Refinement,
+) -> Result<PlanResult> {
     let surface = job.surface()?;
     let spec = BeltSpec::from_job(job)?;
     let feed_dir = job.feed_direction.unwrap_or(FeedDirection::U);
     let mut result = PlanResult::new(&job.job_id, job.strategy.name());
-    let (paths, diag) = plan_paths(surface, &spec, feed_dir, progress)?;
-    contact::assemble(paths, &spec, &mut result, &diag)?;
+    let (mut paths, mut diag) = plan_paths(surface, &spec, feed_dir, refinement, progress)?;
+    let feed_u = feed_dir == FeedDirection::U;
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let (c0, c1) = if feed_u { (v0, v1) } else { (u0, u1) };
+    let (feed, hint) = frames(feed_u);
+    for &c in &refinement.added {
+        if !(c0..=c1).contains(&c) {
+            continue;
+        }
+        let uvs = iso_curve(surface, feed_u, c, contact::point_spacing(&spec));
+        let path = contact::analyse_path(surface, &uvs, &feed, &hint, &spec, false, &mut diag);
+        paths.push((c, path));
+    }
+    // Stable: the planned paths keep their order among equal levels.
+    paths.sort_by(|a, b| a.0.total_cmp(&b.0));
+    contact::assemble(
+        paths.into_iter().map(|(_, p)| p).collect(),
+        &spec,
+        &mut result,
+        &diag,
+    )?;
     Ok(result)
+}
+
+/// Feed direction and next-path side at a point: along and across the feed parameter.
+#[allow(clippy::type_complexity)]
+fn frames(
+    feed_u: bool,
+) -> (
+    impl Fn(&LocalGeometry) -> Vector3<f64>,
+    impl Fn(&LocalGeometry) -> Vector3<f64>,
+) {
+    let feed = move |g: &LocalGeometry| -> Vector3<f64> {
+        if feed_u {
+            g.derivs.su
+        } else {
+            g.derivs.sv
+        }
+    };
+    let hint = move |g: &LocalGeometry| -> Vector3<f64> {
+        if feed_u {
+            g.derivs.sv
+        } else {
+            g.derivs.su
+        }
+    };
+    (feed, hint)
 }
 
 /// uv points of the iso-curve `c` (the cross parameter) along the feed parameter.
@@ -53,13 +109,16 @@ fn iso_curve(surface: &NurbsSurface, feed_u: bool, c: f64, spacing: f64) -> Vec<
         .collect()
 }
 
-/// The contact paths in machining order, and what was noticed on the way.
+/// The contact paths in machining order with their cross parameters, and
+/// what was noticed on the way.
+#[allow(clippy::type_complexity)]
 pub fn plan_paths(
     surface: &NurbsSurface,
     spec: &BeltSpec,
     feed_dir: FeedDirection,
+    refinement: &Refinement,
     progress: &dyn Progress,
-) -> Result<(Vec<Vec<contact::ContactPoint>>, contact::Diagnostics)> {
+) -> Result<(Vec<(f64, Vec<contact::ContactPoint>)>, contact::Diagnostics)> {
     let feed_u = feed_dir == FeedDirection::U;
     let ((u0, u1), (v0, v1)) = surface.domain();
     let (c0, c1) = if feed_u { (v0, v1) } else { (u0, u1) };
@@ -67,27 +126,18 @@ pub fn plan_paths(
     let range = c1 - c0;
     let eps = 1e-9 * range;
     let spacing = contact::point_spacing(spec);
-    let feed = move |g: &LocalGeometry| -> Vector3<f64> {
-        if feed_u {
-            g.derivs.su
-        } else {
-            g.derivs.sv
-        }
-    };
-    let hint = move |g: &LocalGeometry| -> Vector3<f64> {
-        if feed_u {
-            g.derivs.sv
-        } else {
-            g.derivs.su
-        }
-    };
+    let (feed, hint) = frames(feed_u);
     let mut paths = Vec::new();
     let mut diag = contact::Diagnostics::default();
     let mut c = c0;
     loop {
         let last = c >= c1 - eps;
         let uvs = iso_curve(surface, feed_u, c, spacing);
-        let path = contact::analyse_path(surface, &uvs, &feed, &hint, spec, !last, &mut diag);
+        let aim = BeltSpec {
+            scallop: spec.scallop * refinement.factor(c, true),
+            ..*spec
+        };
+        let path = contact::analyse_path(surface, &uvs, &feed, &hint, &aim, !last, &mut diag);
         let mut c_next = c1;
         for cp in &path {
             let Some(nc) = cp.next else { continue };
@@ -98,7 +148,7 @@ pub fn plan_paths(
             }
             c_next = c_next.min(reached);
         }
-        paths.push(path);
+        paths.push((c, path));
         progress.set(((c - c0) / range).clamp(0.0, 1.0) as f32 * 0.95);
         progress.check()?;
         if last {

@@ -17,6 +17,7 @@
 //! section by the belt contact model. A last plane touches each far edge.
 
 use super::contact::{self, BeltSpec, ContactPoint};
+use super::refine::Refinement;
 use crate::error::{Error, Result};
 use crate::formats::{Job, PlanResult};
 use crate::geometry::plane_intersection::{intersect_plane, Plane, SectionOptions};
@@ -47,6 +48,16 @@ pub struct SectionNormal {
 /// Minimum-|curvature| principal directions on a grid of `n x n` cell centres
 /// in parameter space, leaving out points without a defined direction.
 pub fn min_curvature_directions(surface: &NurbsSurface, n: usize) -> Vec<Vector3<f64>> {
+    belt_directions(surface, n, f64::INFINITY)
+}
+
+/// The directions a rigid belt should lie along, on a grid of `n x n` cell
+/// centres in parameter space: of the two principal directions, the one of
+/// smaller |kappa| unless it is concave beyond `concave_limit` (the rigid
+/// belt would sink into the surface more than h there: kappa w^2 / 8 > h),
+/// then the other one if that is not, else the less concave one. Points
+/// where both curvatures are equal in size have no direction and are left out.
+pub fn belt_directions(surface: &NurbsSurface, n: usize, concave_limit: f64) -> Vec<Vector3<f64>> {
     let ((u0, u1), (v0, v1)) = surface.domain();
     let mut dirs = Vec::with_capacity(n * n);
     for i in 0..n {
@@ -61,7 +72,18 @@ pub fn min_curvature_directions(surface: &NurbsSurface, n: usize) -> Vec<Vector3
             if (kmin - kmax).abs() <= 1e-9 * (kmin + kmax) + 1e-12 {
                 continue;
             }
-            dirs.push(if kmin < kmax { g.dir_min } else { g.dir_max });
+            // Positive curvature is concave (towards the tool).
+            let (flat, other) = if kmin < kmax {
+                ((g.k_min, g.dir_min), (g.k_max, g.dir_max))
+            } else {
+                ((g.k_max, g.dir_max), (g.k_min, g.dir_min))
+            };
+            let chosen = if flat.0 <= concave_limit || flat.0 <= other.0 {
+                flat.1
+            } else {
+                other.1
+            };
+            dirs.push(chosen);
         }
     }
     dirs
@@ -99,12 +121,67 @@ pub fn section_normal_from_directions(dirs: &[Vector3<f64>]) -> Option<SectionNo
     })
 }
 
-/// The automatic section normal of a surface.
-pub fn automatic_section_normal(surface: &NurbsSurface) -> Option<SectionNormal> {
-    section_normal_from_directions(&min_curvature_directions(surface, NORMAL_SAMPLES))
+/// The automatic section normal of a surface for a belt of this width and
+/// scallop height: the mean of the least-curvature directions, unless the
+/// mean of [`belt_directions`] (which turn away from concave sections) lets
+/// the rigid belt sink in less by more than h / 2 ([`rigid_sinking`]).
+pub fn automatic_section_normal(surface: &NurbsSurface, spec: &BeltSpec) -> Option<SectionNormal> {
+    let least = section_normal_from_directions(&min_curvature_directions(surface, NORMAL_SAMPLES));
+    let concave_limit = 8.0 * spec.scallop / (spec.width * spec.width);
+    let aware =
+        section_normal_from_directions(&belt_directions(surface, NORMAL_SAMPLES, concave_limit));
+    match (least, aware) {
+        (Some(l), Some(a)) => {
+            let sink = |n: &SectionNormal| rigid_sinking(surface, n.normal, spec.width);
+            Some(if sink(&a) < sink(&l) - 0.5 * spec.scallop {
+                a
+            } else {
+                l
+            })
+        }
+        (l, a) => l.or(a),
+    }
+}
+
+/// How deep a rigid belt of width `w` lying along the tangent projection of
+/// `normal` (the belt axis of the section planes with that normal) sinks into
+/// concave sections at most, kappa w^2 / 8 over the grid of the section normal.
+pub fn rigid_sinking(surface: &NurbsSurface, normal: Vector3<f64>, width: f64) -> f64 {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let n = NORMAL_SAMPLES;
+    let mut worst: f64 = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let u = u0 + (u1 - u0) * (i as f64 + 0.5) / n as f64;
+            let v = v0 + (v1 - v0) * (j as f64 + 0.5) / n as f64;
+            let Some(g) = LocalGeometry::at(surface, u, v) else {
+                continue;
+            };
+            let axis = normal - g.n * normal.dot(&g.n);
+            if axis.norm() <= 1e-9 {
+                continue;
+            }
+            let kappa = g.normal_curvature(axis);
+            if kappa.is_finite() {
+                worst = worst.max(kappa * width * width / 8.0);
+            }
+        }
+    }
+    worst
 }
 
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+    plan_with(job, progress, &Refinement::default())
+}
+
+/// [`plan`] as refined by the removal simulation (`super::refine`): steps
+/// aiming below h where it found material left, more paths in the section
+/// planes at its added offsets along the section normal.
+pub fn plan_with(
+    job: &Job,
+    progress: &dyn Progress,
+    refinement: &Refinement,
+) -> Result<PlanResult> {
     let surface = job.surface()?;
     let spec = BeltSpec::from_job(job)?;
     let mut result = PlanResult::new(&job.job_id, job.strategy.name());
@@ -112,7 +189,7 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
         Some(n) => Vector3::new(n[0], n[1], n[2])
             .try_normalize(1e-12)
             .ok_or_else(|| Error::invalid("section_normal", "must be a finite non-zero vector"))?,
-        None => match automatic_section_normal(surface) {
+        None => match automatic_section_normal(surface, &spec) {
             Some(sn) => {
                 result.section_normal_eigen_ratio = Some(sn.eigen_ratio);
                 result
@@ -143,8 +220,33 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
         },
     };
     result.section_normal = Some([normal.x, normal.y, normal.z]);
-    let (paths, diag) = plan_paths(surface, &spec, normal, progress)?;
-    contact::assemble(paths, &spec, &mut result, &diag)?;
+    let (mut paths, mut diag) = plan_paths(surface, &spec, normal, refinement, progress)?;
+    let spacing = contact::point_spacing(&spec);
+    let (cells_u, cells_v) = cells(surface, spacing);
+    let options = SectionOptions {
+        cells_u,
+        cells_v,
+        max_segment: spacing,
+    };
+    let feed = move |g: &LocalGeometry| -> Vector3<f64> { normal.cross(&g.n) };
+    let hint = move |_: &LocalGeometry| -> Vector3<f64> { normal };
+    for &offset in &refinement.added {
+        let Some(plane) = Plane::new(Point3::from(normal * offset), normal) else {
+            continue;
+        };
+        for uvs in section_curves(surface, &plane, &options) {
+            let path = contact::analyse_path(surface, &uvs, &feed, &hint, &spec, false, &mut diag);
+            paths.push((offset, path));
+        }
+    }
+    // Stable: the planned sections keep their order among equal offsets.
+    paths.sort_by(|a, b| a.0.total_cmp(&b.0));
+    contact::assemble(
+        paths.into_iter().map(|(_, p)| p).collect(),
+        &spec,
+        &mut result,
+        &diag,
+    )?;
     Ok(result)
 }
 
@@ -172,12 +274,16 @@ fn extent(surface: &NurbsSurface, normal: Vector3<f64>, (cu, cv): (usize, usize)
 }
 
 /// The section curves of one plane in (u, v), closed ones with their first
-/// point repeated at the end.
+/// point repeated at the end. Points closer than a quarter of the point
+/// spacing to the last one kept are dropped: the section is traced over uv
+/// cells, and where a pole squeezes a row of cells into one point the trace
+/// would pile points up there.
 fn section_curves(
     surface: &NurbsSurface,
     plane: &Plane,
     options: &SectionOptions,
 ) -> Vec<Vec<Vector2<f64>>> {
+    let min_gap = 0.25 * options.max_segment;
     intersect_plane(surface, plane, options)
         .into_iter()
         .map(|c| {
@@ -187,10 +293,33 @@ fn section_curves(
                     uv.push(first);
                 }
             }
-            uv
+            thin_out(surface, uv, min_gap)
         })
         .filter(|uv| uv.len() >= 2)
         .collect()
+}
+
+/// `uv` without the points closer than `min_gap` (mm, on the surface) to
+/// the last point kept; both ends stay (the last one replacing a close point
+/// before it), so a short section still grinds its bit of the part.
+fn thin_out(surface: &NurbsSurface, uv: Vec<Vector2<f64>>, min_gap: f64) -> Vec<Vector2<f64>> {
+    let n = uv.len();
+    let mut out: Vec<Vector2<f64>> = Vec::with_capacity(n);
+    let mut last_kept: Option<Point3<f64>> = None;
+    for (k, q) in uv.into_iter().enumerate() {
+        let p = surface.point(q.x, q.y);
+        let close = last_kept.is_some_and(|l| (p - l).norm() < min_gap);
+        if !close {
+            out.push(q);
+            last_kept = Some(p);
+        } else if k + 1 == n {
+            if out.len() > 1 {
+                out.pop();
+            }
+            out.push(q);
+        }
+    }
+    out
 }
 
 /// The smallest advance along `dir` to the next contacts of a path's points
@@ -221,13 +350,15 @@ fn next_step(
 }
 
 /// The contact paths in machining order (plane offsets increasing along the
-/// normal), and what was noticed on the way.
+/// normal) with their plane offsets, and what was noticed on the way.
+#[allow(clippy::type_complexity)]
 pub fn plan_paths(
     surface: &NurbsSurface,
     spec: &BeltSpec,
     normal: Vector3<f64>,
+    refinement: &Refinement,
     progress: &dyn Progress,
-) -> Result<(Vec<Vec<ContactPoint>>, contact::Diagnostics)> {
+) -> Result<(Vec<(f64, Vec<ContactPoint>)>, contact::Diagnostics)> {
     let spacing = contact::point_spacing(spec);
     let (cu, cv) = cells(surface, spacing);
     let options = SectionOptions {
@@ -249,7 +380,7 @@ pub fn plan_paths(
     let start = 0.5 * (lo + hi);
     let feed = move |g: &LocalGeometry| -> Vector3<f64> { normal.cross(&g.n) };
     let mut diag = contact::Diagnostics::default();
-    let mut sides: Vec<Vec<Vec<ContactPoint>>> = Vec::new();
+    let mut sides: Vec<Vec<(f64, Vec<ContactPoint>)>> = Vec::new();
     for (side, sign) in [(0usize, 1.0), (1, -1.0)] {
         let dir = normal * sign;
         let hint = move |_: &LocalGeometry| -> Vector3<f64> { dir };
@@ -267,15 +398,19 @@ pub fn plan_paths(
             let mut step = f64::INFINITY;
             let mut any_curve = false;
             let mut analysed = Vec::new();
+            let aim = BeltSpec {
+                scallop: spec.scallop * refinement.factor(offset, sign > 0.0),
+                ..*spec
+            };
             for uvs in &curves {
                 let path =
-                    contact::analyse_path(surface, uvs, &feed, &hint, spec, !last, &mut diag);
+                    contact::analyse_path(surface, uvs, &feed, &hint, &aim, !last, &mut diag);
                 step = step.min(next_step(surface, spec, &path, dir, extent));
                 any_curve |= !path.is_empty();
                 analysed.push(path);
             }
             if !(side == 1 && first) {
-                paths_side.extend(analysed);
+                paths_side.extend(analysed.into_iter().map(|p| (offset, p)));
             }
             progress.set(
                 0.45 * side as f32
@@ -318,7 +453,7 @@ pub fn plan_paths(
     let plus = sides.pop().unwrap_or_default();
     minus.reverse();
     minus.extend(plus);
-    if minus.iter().all(|p| p.is_empty()) {
+    if minus.iter().all(|(_, p)| p.is_empty()) {
         return Err(Error::planning(
             "the belt cannot reach the surface: the section planes give no contact path",
         ));
