@@ -200,6 +200,43 @@ impl<'a> SweepLine<'a> {
         }
     }
 
+    /// A lower bound of the drop over the whole motion (s in [0, 1]), any
+    /// cutter: every cutter lies above the plane through its tip across its
+    /// axis, so at pose s the line can only meet it at t >= c(s) = -z(s) / na(s)
+    /// (for n . axis > 0; the normalisation of the axis cancels). c is a
+    /// quadratic over a linear function of s, its minimum at an end or where
+    /// -z2 na1 s^2 - 2 z2 na0 s + (z0 na1 - z1 na0) = 0. Minus infinity where
+    /// the line is within 0.06 deg of the tip plane somewhere along the motion
+    /// (na linear in s, so checked at the ends), where rounding could matter.
+    fn plane_bound(&self) -> f64 {
+        let [na0, na1] = self.na;
+        let [z0, z1, z2] = self.z;
+        let (d0, d1) = (na0, na0 + na1);
+        if !(d0 > 1e-3 && d1 > 1e-3) {
+            return f64::NEG_INFINITY;
+        }
+        let c = |s: f64| -(z0 + s * (z1 + s * z2)) / (na0 + s * na1);
+        let mut low = c(0.0).min(c(1.0));
+        let (qa, qb, qc) = (-z2 * na1, -2.0 * z2 * na0, z0 * na1 - z1 * na0);
+        let mut root = |s: f64| {
+            if s > 0.0 && s < 1.0 {
+                low = low.min(c(s));
+            }
+        };
+        if qa.abs() > 1e-300 {
+            let disc = qb * qb - 4.0 * qa * qc;
+            if disc >= 0.0 {
+                let r = disc.sqrt();
+                root((-qb - r) / (2.0 * qa));
+                root((-qb + r) / (2.0 * qa));
+            }
+        } else if qb.abs() > 1e-300 {
+            root(-qc / qb);
+        }
+        // Rounding (terms of a few mm over na >= 1e-3): below 1e-11 mm.
+        low - 1e-9
+    }
+
     fn drop(&self, s: f64) -> f64 {
         let q = self.q[0] + s * (self.q[1] + s * self.q[2]);
         // The pose falls back to axis0 where the interpolated axis vanishes.
@@ -561,8 +598,13 @@ impl<'a> Simulator<'a> {
     /// the scan stops there (and where the line leaves the tool's reach); a
     /// secant through two scanned drops bounds the drop beyond them from below,
     /// so a segment that cannot beat `cutoff` is left before its refinement.
+    /// Before any of that, a motion whose tip plane stays at or above `cutoff`
+    /// along the line ([`SweepLine::plane_bound`], exact) is left unscanned.
     fn sweep_min(&self, seg: &Segment, p: &Vector3<f64>, n: &Vector3<f64>, cutoff: f64) -> f64 {
         let line = SweepLine::new(self, seg, p, n);
+        if line.plane_bound() >= cutoff {
+            return f64::INFINITY;
+        }
         let k = ((seg.travel / self.scan_step).ceil() as usize).clamp(1, 4096);
         let ds = 1.0 / k as f64;
         let s_close = self.closest_position(seg, p, n);
@@ -995,12 +1037,12 @@ impl<'a> Simulator<'a> {
     /// meets the box of all the tile's lines, once each, into `sc.ids`.
     fn tile_candidates<'f>(
         &self,
-        frames: impl Iterator<Item = &'f (Vector3<f64>, Vector3<f64>, f64)>,
+        frames: impl Iterator<Item = &'f (Vector3<f64>, Vector3<f64>, f64)> + Clone,
         sc: &mut Scratch,
     ) {
         let mut lo = Vector3::repeat(f64::INFINITY);
         let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-        for (p, n, _) in frames {
+        for (p, n, _) in frames.clone() {
             let (a, b) = self.line_box(p, n);
             lo = lo.inf(&a);
             hi = hi.sup(&b);
@@ -1009,6 +1051,34 @@ impl<'a> Simulator<'a> {
         if lo.x <= hi.x {
             self.collect_stamped(&lo, &hi, sc);
         }
+        // Every line of the tile lies within `rho` of the mean line (the
+        // distance to a segment is convex, so its ends bound it): a motion
+        // whose axis stays further than R + margin + rho from the mean line
+        // fails `may_reach` at every sample of the tile.
+        let (mut pc, mut nc, mut count) = (Vector3::zeros(), Vector3::zeros(), 0.0);
+        for (p, n, _) in frames.clone() {
+            pc += p;
+            nc += n;
+            count += 1.0;
+        }
+        let Some(nc) = nc.try_normalize(1e-12) else {
+            return;
+        };
+        pc /= count;
+        let (a, b) = (pc - nc * self.depth, pc + nc * self.cap);
+        let mut rho: f64 = 0.0;
+        for (p, n, _) in frames {
+            for q in [p - n * self.depth, p + n * self.cap] {
+                rho = rho.max(segment_distance(&q, &q, &a, &b));
+            }
+        }
+        rho += 1e-9 * (self.depth + self.cap);
+        let (segments, radius) = (&self.segments, self.cutter.radius);
+        sc.ids.retain(|&id| {
+            segments.get(id as usize).is_some_and(|seg| {
+                segment_distance(&a, &b, &seg.mid_tip, &seg.mid_top) <= radius + seg.margin + rho
+            })
+        });
     }
 
     /// Ids of the segments whose own box meets [lo, hi], once each (marked in a
@@ -1638,7 +1708,7 @@ mod tests {
     /// against the cutter's own `lowest_hit` at the interpolated pose, on
     /// translating and turning motions and on lines that meet the bottom
     /// disc, the side, the rim, start inside the tool below the searched
-    /// range, or miss it.
+    /// range, or miss it; and the tip-plane bound below every drop.
     #[test]
     fn expanded_flat_end_drop_matches_the_cutter_at_the_pose() {
         let job = crate::samples::job("plane").unwrap();
@@ -1668,7 +1738,7 @@ mod tests {
             });
         }
         let sim = Simulator::new(surface, &tool, &result).unwrap();
-        let (mut hits, mut misses, mut clamped) = (0, 0, 0);
+        let (mut hits, mut misses, mut clamped, mut bounded) = (0, 0, 0, 0);
         for seg in &sim.segments {
             for _ in 0..200 {
                 let p = seg.tip0
@@ -1676,9 +1746,14 @@ mod tests {
                     + seg.axis0 * 4.0 * (rng.next() + 1.0);
                 let n = (Vector3::z() + rng.unit() * 0.5).normalize();
                 let line = SweepLine::new(&sim, seg, &p, &n);
+                let bound = line.plane_bound();
+                if bound.is_finite() {
+                    bounded += 1;
+                }
                 for s in [0.0, 0.25 * (rng.next() + 1.0), 0.5, 1.0] {
                     let want = sim.drop_at(seg, s, &p, &n);
                     let got = line.drop(s);
+                    assert!(bound <= want, "s {s}: bound {bound} above the drop {want}");
                     if want.is_finite() {
                         assert!(
                             (got - want).abs() <= 1e-9,
@@ -1696,8 +1771,8 @@ mod tests {
             }
         }
         assert!(
-            hits > 5000 && misses > 5000 && clamped > 100,
-            "{hits} {misses} {clamped}"
+            hits > 5000 && misses > 5000 && clamped > 100 && bounded > 4000,
+            "{hits} {misses} {clamped} {bounded}"
         );
     }
 }
