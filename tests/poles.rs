@@ -432,3 +432,42 @@ fn mpec_plans_the_sphere_cap_within_tolerance() {
     let (name, s, pole) = shapes().into_iter().next().unwrap();
     check_plan(name, &s, Strategy::Mpec, pole);
 }
+
+/// MPEC on the triangular patch (torus R8 r2, band 0.01): the plan goes
+/// through the simulator and says where it leaves its band, never a silent
+/// success: `within_scallop` is the simulated residual against the band,
+/// a residual or gouge beyond it comes with its warning. (The revolved
+/// profile behaves the same way but needs minutes in the test profile:
+/// docs/limits.md.)
+#[test]
+fn mpec_on_the_triangle_patch_reports_its_band() {
+    let s = surfaces::triangle_patch();
+    let job = Job::new(job_file(Strategy::Mpec), Shape::Surface(s)).unwrap();
+    let r = pipeline::run(&job, &NoProgress, RunOptions::default()).unwrap();
+    let st = &r.stats;
+    let delta = job.tolerance.unwrap();
+    let (scallop, gouge) = (st.max_scallop_mm.unwrap(), st.max_gouge_mm.unwrap());
+    eprintln!(
+        "triangle mpec: {} passes, residual {scallop:.4}, gouge {gouge:.4}, within {:?}",
+        r.passes.len(),
+        r.within_scallop
+    );
+    assert!(r.passes.iter().flat_map(|p| &p.points).all(|p| p
+        .cl
+        .iter()
+        .chain(&p.axis)
+        .all(|x| x.is_finite())));
+    let within = scallop <= delta && st.extra["uncovered_area_mm2"] <= 0.0;
+    assert_eq!(r.within_scallop, Some(within));
+    if !within {
+        assert!(r
+            .warnings
+            .iter()
+            .any(|w| w.starts_with(pipeline::ABOVE_LIMIT)));
+    }
+    let conformance = pipeline::Conformance::of(&job, &r);
+    assert_eq!(
+        conformance.gouge.is_some(),
+        gouge > delta + pipeline::CONFORMANCE_SLACK_MM
+    );
+}
