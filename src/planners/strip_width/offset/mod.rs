@@ -113,7 +113,10 @@ pub fn cover(
 /// the surface where its strip edge meets the domain edge at the scallop
 /// height (the edge curve walked inwards, on the surface, by the half-width
 /// of a pass there), and the passes are offset to the inner side only. A
-/// pass on the edge itself would cut half its strip beyond it.
+/// pass on the edge itself would cut half its strip beyond it. On a surface
+/// with a collapsed edge (a pole) the first pass stays on the edge: the
+/// passes converge on the pole, and the inset moves the last one into a
+/// small loop round it.
 pub fn cover_from_edge(
     surface: &NurbsSurface,
     s: &PassSettings,
@@ -121,6 +124,9 @@ pub fn cover_from_edge(
     edge: &[Vector2<f64>],
     progress: &dyn Progress,
 ) -> Result<Vec<Pass>> {
+    if surface.collapsed_boundaries().iter().any(|&c| c) {
+        return cover(surface, s, region, edge, progress);
+    }
     let contacts = front_from_uv(surface, edge, None)?;
     if contacts.len() < 2 {
         return cover(surface, s, region, edge, progress);
