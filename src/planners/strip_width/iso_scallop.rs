@@ -1,10 +1,11 @@
 //! Strategy `iso_scallop`: the whole surface as one region, Lee-style
 //! iso-scallop offsetting from the boundary curve at the start of the
-//! cross-feed parameter (feed along `feed_direction`, u by default). Same
+//! cross-feed parameter (feed along `feed_direction`, u by default), its
+//! first pass inset so that its strip edge meets that curve. Same
 //! cutter model and tool axis as `tensor_regions` (docs/methods.md,
 //! "Iso-scallop offsetting").
 
-use super::offset::{boundary_start, cover};
+use super::offset::{boundary_start, cover_from_edge};
 use super::passes::PassSettings;
 use super::regions::whole_domain;
 use crate::error::Result;
@@ -19,7 +20,7 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     let initial = boundary_start(surface, &settings, feed, false);
     progress.set(0.1);
     progress.check()?;
-    let passes = cover(surface, &settings, &region, &initial, progress)?;
+    let passes = cover_from_edge(surface, &settings, &region, &initial, progress)?;
     let mut result = PlanResult::new(&job.job_id, job.strategy.name());
     result.passes = passes;
     result.stats.path_length_lower_bound_mm = Some(

@@ -12,6 +12,20 @@ use crate::formats::PathPoint;
 use crate::geometry::{LocalGeometry, NurbsSurface};
 use nalgebra::{Point3, Vector2, Vector3};
 
+/// The wider of the two half-widths of the strip at a pass end (the strip's
+/// far side there), `None` where no contact or width can be given.
+fn wider_half_width(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    end: &PathPoint,
+    travel: Vector3<f64>,
+) -> Option<f64> {
+    let c = Contact::new(surface, Vector2::from(end.uv), travel)?;
+    let a = c.half_width_towards(s, c.cross()).ok()?;
+    let b = c.half_width_towards(s, -c.cross()).ok()?;
+    Some(a.max(b))
+}
+
 /// Unit 3-D tangents of the domain edges `uv` lies on (none inside).
 fn boundary_edges(surface: &NurbsSurface, uv: Vector2<f64>) -> Vec<Vector3<f64>> {
     edges_at(surface, uv, None)
@@ -111,7 +125,9 @@ fn walk_along_edge(
 /// How far:
 /// - Lag: the rim points of the flat end lag R (1 - cos phi) cos(lambda)
 ///   behind the contact at lateral offset R sin phi, so a pass end continues
-///   by that lag (5 % margin) past its last contact. A pass start needs none,
+///   by that lag (5 % margin) past its last contact: on a domain edge at the
+///   strip's far side (the wider of the two half-widths at the end), inside
+///   the surface (a region boundary) at the strip width; at most R. A pass start needs none,
 ///   except where it starts on a domain edge and runs along it with the edge
 ///   going on behind the start: it runs in by the lag too.
 /// - Oblique edges: where an end meets a surface edge at an angle theta, one
@@ -239,7 +255,18 @@ impl<'a> Extension<'a> {
         let lag = if s.cutter.ball || !(at_end || along_edge()) {
             0.0
         } else {
-            let y = w.min(r);
+            // On a domain edge the strip's far side decides (the edge's
+            // obliqueness is added below). A pass ending inside the surface
+            // ends on a region boundary, which adds no oblique overrun for
+            // the neighbour region's passes meeting it at an angle: there
+            // the full strip width (at most R) keeps the corners cut.
+            let on_edge = !boundary_edges(surface, Vector2::from(end.uv)).is_empty();
+            let y = if on_edge {
+                wider_half_width(surface, s, end, travel).unwrap_or(w)
+            } else {
+                w
+            }
+            .min(r);
             r * (1.0 - (1.0 - (y / r).powi(2)).max(0.0).sqrt()) * s.cutter.lead.cos() * 1.05
         };
         Self {

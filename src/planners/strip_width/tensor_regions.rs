@@ -5,7 +5,7 @@
 //! each region an initial pass through its widest-strip point along the
 //! optimal feed, then iso-scallop passes offset to both sides.
 
-use super::offset::{boundary_start, cover};
+use super::offset::{boundary_start, cover, cover_from_edge};
 use super::parametric::plan_passes;
 use super::passes::PassSettings;
 use super::regions::degenerate_points::{self, Analysis};
@@ -315,7 +315,7 @@ impl<'a> Setup<'a> {
                 step,
                 checks,
             ),
-            Candidate::EdgeOffset(feed, far) => cover(
+            Candidate::EdgeOffset(feed, far) => cover_from_edge(
                 surface,
                 settings,
                 whole,

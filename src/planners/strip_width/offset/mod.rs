@@ -1,6 +1,7 @@
 //! Lee-style iso-scallop offsetting (after Lee 1998; docs/methods.md,
 //! "Iso-scallop offsetting"), shared by
-//! `iso_scallop` (the whole surface as one region, from a boundary curve) and
+//! `iso_scallop` (the whole surface as one region, from a boundary curve,
+//! the first pass inset by its half-width) and
 //! `tensor_regions` (per region, from the pass through its widest-strip
 //! point). Each point of the current pass is carried across the feed, on the
 //! surface, to where the current pass's half-width on that side and the next
@@ -9,7 +10,7 @@
 //! current pass still leaves region material uncut.
 
 use super::pass_ends::{edges_at, extend_pass};
-use super::passes::{sample_curve, Contact, PassSettings};
+use super::passes::{sample_curve, walk_on_surface, Contact, PassSettings};
 use super::regions::Region;
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Pass};
@@ -104,6 +105,84 @@ pub fn cover(
     initial: &[Vector2<f64>],
     progress: &dyn Progress,
 ) -> Result<Vec<Pass>> {
+    cover_sides(surface, s, region, initial, &[1.0, -1.0], progress)
+}
+
+/// Covers the whole surface `region` from a domain edge (`edge`, a uv
+/// polyline along it from [`boundary_start`]): the first pass lies inside
+/// the surface where its strip edge meets the domain edge at the scallop
+/// height (the edge curve walked inwards, on the surface, by the half-width
+/// of a pass there), and the passes are offset to the inner side only. A
+/// pass on the edge itself would cut half its strip beyond it. On a surface
+/// with a collapsed edge (a pole) the first pass stays on the edge: the
+/// passes converge on the pole, and the inset moves the last one into a
+/// small loop round it.
+pub fn cover_from_edge(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    edge: &[Vector2<f64>],
+    progress: &dyn Progress,
+) -> Result<Vec<Pass>> {
+    if surface.collapsed_boundaries().iter().any(|&c| c) {
+        return cover(surface, s, region, edge, progress);
+    }
+    let contacts = front_from_uv(surface, edge, None)?;
+    if contacts.len() < 2 {
+        return cover(surface, s, region, edge, progress);
+    }
+    // The side of the edge the domain lies on, from the middle contact.
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let centre = Vector2::new(0.5 * (u0 + u1), 0.5 * (v0 + v1));
+    let mid = &contacts[contacts.len() / 2];
+    let side = if mid.g.tangent_to_uv(mid.cross()).dot(&(centre - mid.uv())) >= 0.0 {
+        1.0
+    } else {
+        -1.0
+    };
+    let mut inset = Vec::with_capacity(contacts.len());
+    for c in &contacts {
+        let away = c.cross() * side;
+        let mut dist = c.half_width_towards(s, away)?;
+        let mut end =
+            walk_on_surface(surface, c.uv(), away, dist).ok_or_else(|| singular(c.uv()))?;
+        for _ in 0..3 {
+            if end.2 {
+                break;
+            }
+            let Some(q) = Contact::new(surface, end.0, c.travel) else {
+                break;
+            };
+            let w = q.half_width_towards(s, -end.1)?;
+            let settled = (w - dist).abs() < 1e-4;
+            dist = w;
+            end = walk_on_surface(surface, c.uv(), away, dist).ok_or_else(|| singular(c.uv()))?;
+            if settled {
+                break;
+            }
+        }
+        if !end.2 {
+            inset.push(end.0);
+        }
+    }
+    if inset.len() < 2 {
+        return cover(surface, s, region, edge, progress);
+    }
+    let keep = smooth_indices(surface, &inset, 2.0 * s.point_step);
+    let inset: Vec<Vector2<f64>> = keep.iter().map(|&k| inset[k]).collect();
+    cover_sides(surface, s, region, &inset, &[side], progress)
+}
+
+/// [`cover`] offsetting only to the given sides of the first pass (1: n x
+/// travel, -1: the other).
+fn cover_sides(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    initial: &[Vector2<f64>],
+    sides_to_cover: &[f64],
+    progress: &dyn Progress,
+) -> Result<Vec<Pass>> {
     let mut initial = initial.to_vec();
     extend_ends(surface, s, region, &mut initial);
     let first = front_from_uv(surface, &initial, None)?;
@@ -115,6 +194,10 @@ pub fn cover(
     let mut coverage = Coverage::new(s, FOLD_SHARE);
     coverage.add(s, 0, &first);
     for side in [1.0, -1.0] {
+        if !sides_to_cover.contains(&side) {
+            sides.push(Vec::new());
+            continue;
+        }
         let mut done: Vec<Vec<Contact>> = Vec::new();
         let start: Vec<FrontPoint> = first
             .iter()
