@@ -295,6 +295,77 @@ pub fn verify_and_repair_checked(
             );
         }
     }
+    if let (Some(delta), Strategy::Mpec) = (job.tolerance, job.strategy) {
+        // Passes added at the middle of the gaps left above the band
+        // (`planners::refine`; MPEC has no scallop to aim its steps at).
+        let mut added: Vec<f64> = Vec::new();
+        for _ in 0..REPAIR_ROUNDS {
+            if report.max_scallop_mm <= delta {
+                break;
+            }
+            let map = &report.map;
+            // The grid peak may sit well below a refined maximum between
+            // samples (a part edge): the band below the grid maximum as wide
+            // as the refinement's gain counts, down to delta / 2.
+            let threshold = residual_threshold(&report, delta, 0.5);
+            // Where the tool is lifted (no lead holds the band) more passes
+            // do not help: those places are reported, not refined.
+            let reach = job.tool()?.radius();
+            let lifted: Vec<nalgebra::Point3<f64>> = result
+                .passes
+                .iter()
+                .flat_map(|p| &p.points)
+                .filter(|q| q.mpec.as_deref() == Some("lifted"))
+                .map(|q| nalgebra::Point3::from(q.cc))
+                .collect();
+            let by_lifted = |xyz: [f64; 3]| {
+                let p = nalgebra::Point3::from(xyz);
+                lifted.iter().any(|q| (p - q).norm() <= reach)
+            };
+            let residuals: Vec<planners::refine::Residual> = (0..map.uv.len())
+                .filter(|&k| map.on_face(k))
+                .filter_map(|k| {
+                    map.residual[k]
+                        .filter(|r| *r > threshold && !by_lifted(map.xyz[k]))
+                        .map(|height| planners::refine::Residual {
+                            uv: map.uv[k],
+                            point: map.xyz[k],
+                            height,
+                        })
+                })
+                .collect();
+            let mut refinement = planners::refine::Refinement {
+                added: added.clone(),
+                ..Default::default()
+            };
+            let mode = planners::refine::Mode::Split;
+            let changed = planners::refine::refine(
+                job,
+                &result,
+                &residuals,
+                threshold,
+                mode,
+                &mut refinement,
+            )?;
+            if !changed {
+                break;
+            }
+            added = refinement.added;
+            progress.check()?;
+            result = planners::mpec::positioning::plan_refined(job, progress, &added)?;
+            report = simulate(&result)?;
+        }
+        if result.passes.len() > raw_passes {
+            result.stats.extra.insert(
+                "repair_passes".into(),
+                (result.passes.len() - raw_passes) as f64,
+            );
+            result.stats.extra.insert(
+                "repair_length_mm".into(),
+                result.cl_path_length() - raw_length,
+            );
+        }
+    }
     if let Some(h) = limit {
         let within = report.max_scallop_mm <= h && report.uncovered_area_mm2 <= 0.0;
         result.within_scallop = Some(within);
@@ -372,19 +443,28 @@ pub fn islands(
         .collect()
 }
 
-fn map_islands(report: &ScallopReport, h: f64, radius: f64) -> Vec<MapIsland> {
-    let map = &report.map;
-    let grid_max = map
+/// The residual above which grid samples count as above `h`: `h`, or, where
+/// the simulator's refined maximum exceeds h but no grid sample does, h
+/// lowered by the refinement's gain (at least 0.9 h), so the peak's samples
+/// are found.
+fn residual_threshold(report: &ScallopReport, h: f64, floor: f64) -> f64 {
+    let grid_max = report
+        .map
         .residual
         .iter()
         .flatten()
         .copied()
         .fold(f64::NEG_INFINITY, f64::max);
-    let threshold = if report.max_scallop_mm > h && grid_max <= h {
-        (h - (report.max_scallop_mm - grid_max)).max(0.9 * h)
+    if report.max_scallop_mm > h && grid_max <= h {
+        (h - (report.max_scallop_mm - grid_max)).max(floor * h)
     } else {
         h
-    };
+    }
+}
+
+fn map_islands(report: &ScallopReport, h: f64, radius: f64) -> Vec<MapIsland> {
+    let map = &report.map;
+    let threshold = residual_threshold(report, h, 0.9);
     let (nu, nv) = (map.nu, map.nv);
     let flagged: Vec<bool> = map
         .residual
@@ -441,7 +521,7 @@ pub const BELT_TIGHTEN_ROUNDS: usize = 2;
 
 /// Belt results: simulates the removal; where nodes are left above h,
 /// re-steps the gaps holding them, later adds paths at their middle
-/// (`planners::belt::refine`), and simulates again, at most [`BELT_REFINE_ROUNDS`] times. The result
+/// (`planners::refine`), and simulates again, at most [`BELT_REFINE_ROUNDS`] times. The result
 /// carries the simulation's figures (`max_scallop_mm`; in `extra` the
 /// removal figures, `simulated_gouge_mm` and, when paths were added,
 /// `repair_passes` and `repair_length_mm`; the planner's rigid-belt
@@ -453,7 +533,7 @@ pub fn verify_and_refine_belt(
     mut result: PlanResult,
     progress: &dyn Progress,
 ) -> Result<(PlanResult, f64)> {
-    use crate::planners::belt::{self, refine};
+    use crate::planners::{belt, refine};
     let h = job.scallop()?;
     let surface = job.surface()?;
     let (raw_passes, raw_length) = (result.passes.len(), result.cl_path_length());
@@ -483,7 +563,7 @@ pub fn verify_and_refine_belt(
         } else {
             refine::Mode::Split
         };
-        if !refine::refine(job, &result, &residuals, mode, &mut refinement)? {
+        if !refine::refine(job, &result, &residuals, h, mode, &mut refinement)? {
             break;
         }
         progress.check()?;

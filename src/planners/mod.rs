@@ -7,10 +7,13 @@
 //! - [`mpec`]: torus-cutter positioning by mid-point error control.
 //! - [`pocket`]: 2.5-axis pockets with tools chosen from the medial axis.
 //! - [`belt`]: 6-axis belt grinding (`belt_iso_parametric`, `belt_iso_planar`).
+//! - [`refine`]: more paths where a simulation finds material above the
+//!   limit (belts, MPEC), from plain residual places.
 
 pub mod belt;
 pub mod mpec;
 pub mod pocket;
+pub mod refine;
 pub mod strip_width;
 #[cfg(test)]
 pub mod test_surfaces;

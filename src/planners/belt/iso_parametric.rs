@@ -7,10 +7,10 @@
 //! belt width; a last curve runs along the far edge.
 
 use super::contact::{self, BeltSpec};
-use super::refine::Refinement;
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, PlanResult};
 use crate::geometry::{LocalGeometry, NurbsSurface};
+use crate::planners::refine::Refinement;
 use crate::planners::Progress;
 use nalgebra::{Vector2, Vector3};
 
@@ -21,7 +21,7 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     plan_with(job, progress, &Refinement::default())
 }
 
-/// [`plan`] as refined by the removal simulation (`super::refine`): steps
+/// [`plan`] as refined by the removal simulation (`crate::planners::refine`): steps
 /// aiming below h where it found material left, more paths on the
 /// iso-curves at its added cross parameters.
 pub fn plan_with(

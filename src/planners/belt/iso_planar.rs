@@ -17,11 +17,11 @@
 //! section by the belt contact model. A last plane touches each far edge.
 
 use super::contact::{self, BeltSpec, ContactPoint};
-use super::refine::Refinement;
 use crate::error::{Error, Result};
 use crate::formats::{Job, PlanResult};
 use crate::geometry::plane_intersection::{intersect_plane, Plane, SectionOptions};
 use crate::geometry::{LocalGeometry, NurbsSurface};
+use crate::planners::refine::Refinement;
 use crate::planners::Progress;
 use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector2, Vector3};
 
@@ -174,7 +174,7 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     plan_with(job, progress, &Refinement::default())
 }
 
-/// [`plan`] as refined by the removal simulation (`super::refine`): steps
+/// [`plan`] as refined by the removal simulation (`crate::planners::refine`): steps
 /// aiming below h where it found material left, more paths in the section
 /// planes at its added offsets along the section normal.
 pub fn plan_with(

@@ -8,23 +8,21 @@
 //! - [`iso_planar`]: contact paths in parallel section planes whose normal is
 //!   the dominant minimum-curvature direction (orientation tensor), stepped the
 //!   same way.
-//! - [`refine`]: paths added where the removal simulation finds material
-//!   above h.
 
 pub mod contact;
 pub mod iso_parametric;
 pub mod iso_planar;
-pub mod refine;
 
 use crate::error::{Error, Result};
 use crate::formats::{Job, PlanResult, Strategy};
 use crate::planners::Progress;
 
-/// Plans a belt job as refined by the removal simulation ([`refine::refine`]).
+/// Plans a belt job as refined by the removal simulation
+/// ([`crate::planners::refine`]).
 pub fn plan_with(
     job: &Job,
     progress: &dyn Progress,
-    refinement: &refine::Refinement,
+    refinement: &crate::planners::refine::Refinement,
 ) -> Result<PlanResult> {
     match job.strategy {
         Strategy::BeltIsoParametric => iso_parametric::plan_with(job, progress, refinement),

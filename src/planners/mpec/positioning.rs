@@ -856,15 +856,27 @@ fn trial_samples(samples: &[(f64, bool)]) -> Vec<(f64, bool)> {
 
 /// Plans an MPEC job.
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-    let planner = Planner::from_job(job)?;
-    plan_with(&planner, &job.job_id, progress)
+    plan_refined(job, progress, &[])
 }
 
-/// Plans with a prepared [`Planner`] (tests use it to force exact heights).
-pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Result<PlanResult> {
+/// [`plan`] with more passes at the cross parameters `added` (the levels
+/// of `crate::planners::refine`), in order of the cross parameter.
+pub fn plan_refined(job: &Job, progress: &dyn Progress, added: &[f64]) -> Result<PlanResult> {
+    let planner = Planner::from_job(job)?;
+    plan_with(&planner, &job.job_id, progress, added)
+}
+
+/// Plans with a prepared [`Planner`] (tests use it to force exact heights),
+/// adding passes at the cross parameters `added`.
+pub fn plan_with(
+    planner: &Planner,
+    job_id: &str,
+    progress: &dyn Progress,
+    added: &[f64],
+) -> Result<PlanResult> {
     let samples = planner.feed_samples();
     let (t0, t1) = planner.face_cross_range();
-    let mut passes: Vec<Vec<DrivePoint>> = Vec::new();
+    let mut passes: Vec<(f64, Vec<DrivePoint>)> = Vec::new();
     // First pass: its lower strip edge on the boundary t0.
     let probe = planner.pass(t0, &trial_samples(&samples))?;
     let (_, minus0) = planner.narrowest(&probe);
@@ -872,7 +884,7 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
         planner.place_next(&samples, (t0, t1), 0.0, planner.usable(minus0), progress)?;
     loop {
         let plus = planner.usable(planner.narrowest(&pass).0);
-        passes.push(pass);
+        passes.push((t, pass));
         progress.set(((t - t0) / (t1 - t0)).clamp(0.0, 1.0) as f32 * 0.99);
         progress.check()?;
         if t >= t1 || planner.gap(&samples, t, t1) <= plus {
@@ -883,7 +895,8 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
                 "more than 10 000 passes: the strips are far too narrow for this surface",
             ));
         }
-        let (_, minus_prev) = planner.narrowest(passes.last().map(Vec::as_slice).unwrap_or(&[]));
+        let (_, minus_prev) =
+            planner.narrowest(passes.last().map(|p| p.1.as_slice()).unwrap_or(&[]));
         let (nt, np) = planner.place_next(
             &samples,
             (t, t1),
@@ -899,6 +912,14 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
         t = nt;
         pass = np;
     }
+    for &t in added {
+        if (t0..=t1).contains(&t) {
+            progress.check()?;
+            passes.push((t, planner.pass(t, &samples)?));
+        }
+    }
+    // Stable: the planned passes keep their order among equal levels.
+    passes.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut result = PlanResult::new(job_id, "mpec");
     let mut not_applicable = 0usize;
     let mut lifted: Vec<Point3<f64>> = Vec::new();
@@ -906,7 +927,7 @@ pub fn plan_with(planner: &Planner, job_id: &str, progress: &dyn Progress) -> Re
     let floor = planner.floor_half_width();
     let sign = planner.cross_sign();
     let mut widths = Vec::new();
-    for pass in &passes {
+    for (_, pass) in &passes {
         let inside: Vec<f64> = pass
             .iter()
             .filter(|p| p.inside)

@@ -1,18 +1,21 @@
-//! Belt paths refined where the removal simulation finds material above h
-//! (docs/methods.md, "Belt refinement").
+//! Paths refined where a simulation finds material above the job's limit
+//! (docs/methods.md, "Belt refinement" and "MPEC refinement"), for the
+//! strategies whose paths each lie on one level.
 //!
-//! The contact model steps each path by assuming the neighbouring contact has
-//! the same feed. Where neighbouring paths are not parallel (iso-curves that
-//! fan out from a pole or an apex, sections oblique to an edge) the next belt
-//! lies tilted against the traced section and the step can be too long. Every
-//! path of both belt strategies lies on one level (iso-parametric: its cross
-//! parameter; iso-planar: its offset along the section normal), so a node the
-//! simulation leaves above h lies between two levels or beyond the last one.
-//! A gap left at s > h is first re-stepped aiming at h x 0.95 h / s (the
+//! The belt contact model steps each path by assuming the neighbouring
+//! contact has the same feed; MPEC steps by strip widths measured at the
+//! drive points. Where neighbouring paths are not parallel (iso-curves that
+//! fan out from a pole or an apex, sections oblique to an edge) or the part
+//! ends under the tool, the step can be too long. Every path of these
+//! strategies lies on one level (iso-parametric belt and MPEC: its cross
+//! parameter; iso-planar belt: its offset along the section normal), so a
+//! place the simulation leaves above the limit lies between two levels or
+//! beyond the last one. A gap left at s > h is first re-stepped aiming at
+//! h x 0.95 h / s where the planner has a scallop to aim at (belts; the
 //! scallop grows with the step, so the model's error there is divided out);
-//! a gap still above h after that (a step the scallop does not limit) gets a
-//! path at its middle level. A node beyond the last path gets a path at its
-//! own level.
+//! a gap still above h after that (a step the scallop does not limit), or
+//! any gap of a planner without such an aim (MPEC), gets a path at its
+//! middle level. A place beyond the last path gets a path at its own level.
 
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, PlanResult, Strategy};
@@ -73,7 +76,7 @@ pub enum Mode {
 /// How a belt strategy lays its paths on levels.
 #[derive(Clone, Copy, Debug)]
 enum Levels {
-    /// Iso-parametric: the level is `uv[index]` (the cross parameter).
+    /// Iso-parametric belt and MPEC: the level is `uv[index]` (the cross parameter).
     Cross { index: usize, range: f64 },
     /// Iso-planar: the level is `point . normal`.
     Plane { normal: Vector3<f64> },
@@ -82,7 +85,7 @@ enum Levels {
 impl Levels {
     fn of(job: &Job, result: &PlanResult) -> Result<Self> {
         match job.strategy {
-            Strategy::BeltIsoParametric => {
+            Strategy::BeltIsoParametric | Strategy::Mpec => {
                 let feed_u = job.feed_direction.unwrap_or(FeedDirection::U) == FeedDirection::U;
                 let ((u0, u1), (v0, v1)) = job.surface()?.domain();
                 Ok(if feed_u {
@@ -108,7 +111,7 @@ impl Levels {
                 })
             }
             other => Err(Error::planning(format!(
-                "internal: belt refinement asked for strategy {}",
+                "internal: refinement asked for strategy {}",
                 other.name()
             ))),
         }
@@ -123,18 +126,19 @@ impl Levels {
 }
 
 /// One refinement round: finds the gaps between `result`'s path levels
-/// that hold `residuals` and records in `refinement` how they are treated
-/// (`mode`); a residual beyond the first or last path adds the level of the
-/// farthest one. Returns false when nothing could change (every gap holding a
-/// residual is already below the levels' resolution).
+/// that hold `residuals` above `h` (the job's scallop height or tolerance)
+/// and records in `refinement` how they are treated (`mode`); a residual
+/// beyond the first or last path adds the level of the farthest one. Returns
+/// false when nothing could change (every gap holding a residual is already
+/// below the levels' resolution).
 pub fn refine(
     job: &Job,
     result: &PlanResult,
     residuals: &[Residual],
+    h: f64,
     mode: Mode,
     refinement: &mut Refinement,
 ) -> Result<bool> {
-    let h = job.scallop()?;
     let levels_of = Levels::of(job, result)?;
     let mut levels: Vec<f64> = result
         .passes
@@ -225,7 +229,7 @@ mod tests {
 
     fn refined(job: &Job, result: &PlanResult, residuals: &[Residual], mode: Mode) -> Refinement {
         let mut refinement = Refinement::default();
-        refine(job, result, residuals, mode, &mut refinement).unwrap();
+        refine(job, result, residuals, 0.01, mode, &mut refinement).unwrap();
         refinement
     }
 
@@ -262,7 +266,7 @@ mod tests {
         assert!((tight.factor(0.5, false) - 0.475).abs() < 1e-15);
         assert_eq!(tight.factor(0.1, true), 1.0);
         let mut none = Refinement::default();
-        assert!(!refine(&job, &result, &[], Mode::Split, &mut none).unwrap());
+        assert!(!refine(&job, &result, &[], 0.01, Mode::Split, &mut none).unwrap());
         assert_eq!(none, Refinement::default());
     }
 
