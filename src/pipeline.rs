@@ -235,9 +235,9 @@ pub fn is_flat_end(strategy: Strategy) -> bool {
 /// Simulates `result`; for a flat-end plan, turns the islands above the
 /// job's scallop height h (and the samples the tool never reached) into
 /// repair passes (`planners::strip_width::repair`) and simulates again, at
-/// most [`REPAIR_ROUNDS`] times. Sets `within_scallop` (h, or the MPEC
-/// tolerance band) and, where the limit is not held, a warning naming the
-/// area and where it is. Returns the final report and the seconds the
+/// most [`REPAIR_ROUNDS`] times (MPEC: passes added, `planners::refine`).
+/// Sets `within_scallop` (h, or both sides of the MPEC tolerance band) and,
+/// where the limit is not held, a warning naming the area and where it is. Returns the final report and the seconds the
 /// simulations took.
 pub fn verify_and_repair(
     job: &Job,
@@ -367,12 +367,21 @@ pub fn verify_and_repair_checked(
         }
     }
     if let Some(h) = limit {
-        let within = report.max_scallop_mm <= h && report.uncovered_area_mm2 <= 0.0;
-        result.within_scallop = Some(within);
-        if !within {
+        let above = report.max_scallop_mm > h || report.uncovered_area_mm2 > 0.0;
+        // MPEC's band has a gouge side too: -delta.
+        let below =
+            job.strategy == Strategy::Mpec && report.max_gouge_mm > h + CONFORMANCE_SLACK_MM;
+        result.within_scallop = Some(!above && !below);
+        if above {
             result
                 .warnings
                 .push(above_limit_warning(&report, h, job.tool()?.radius()));
+        }
+        if below {
+            result.warnings.push(format!(
+                "{BELOW_BAND} -{h} mm: the simulator finds a gouge of {:.4} mm",
+                report.max_gouge_mm
+            ));
         }
     }
     Ok((result, report, sim_s))
@@ -380,6 +389,8 @@ pub fn verify_and_repair_checked(
 
 /// How the warning of a plan above its scallop height (or tolerance) begins.
 pub const ABOVE_LIMIT: &str = "not within the scallop height";
+/// How the warning of an MPEC plan that cuts below its band begins.
+pub const BELOW_BAND: &str = "not within the tolerance band: it cuts below";
 
 /// The warning for a plan the simulator finds above `h` (or not reaching
 /// part of the surface): the largest islands, their area and where they are.

@@ -577,6 +577,36 @@ fn die_saddle_simulated_within_the_band() {
     assert_simulated_within_band(&job, &r);
 }
 
+/// The band has a gouge side: the die_saddle plan with every tool lowered
+/// by 3 delta along its axis is refused `within_scallop` by the simulator,
+/// with a warning saying it cuts below the band; as planned it is within.
+#[test]
+fn a_plan_cutting_below_the_band_is_not_within_it() {
+    let job = toolpath_planner::samples::job("die_saddle").unwrap();
+    let planned = planners::plan(&job, &NoProgress).unwrap();
+    let (ok, _, _) = pipeline::verify_and_repair(&job, planned.clone()).unwrap();
+    assert_eq!(ok.within_scallop, Some(true), "{:?}", ok.warnings);
+    let delta = job.tolerance.unwrap();
+    let mut lowered = planned;
+    for p in lowered.passes.iter_mut().flat_map(|p| p.points.iter_mut()) {
+        for k in 0..3 {
+            p.cl[k] -= 3.0 * delta * p.axis[k];
+        }
+    }
+    let (low, report, _) = pipeline::verify_and_repair(&job, lowered).unwrap();
+    assert!(
+        report.max_gouge_mm > 2.0 * delta,
+        "gouge {}",
+        report.max_gouge_mm
+    );
+    assert!(report.max_scallop_mm <= delta);
+    assert_eq!(low.within_scallop, Some(false));
+    assert!(low
+        .warnings
+        .iter()
+        .any(|w| w.starts_with(pipeline::BELOW_BAND)));
+}
+
 /// A bicubic surface whose curvatures vary along and across the feed (v):
 /// heights from the real surface, strips of varying width.
 #[test]

@@ -768,15 +768,19 @@ fn plan_and_publish(
         out.summary(),
         result.stats.compute_ms
     );
-    // A plan the simulator finds above the scallop height still succeeds,
-    // but its final status says so.
+    // A plan the simulator finds above the scallop height (or an MPEC plan
+    // below its band) still succeeds, but its final status says so.
     if result.within_scallop == Some(false) {
-        let why = result
+        let why: Vec<&str> = result
             .warnings
             .iter()
-            .find(|w| w.starts_with(crate::pipeline::ABOVE_LIMIT))
-            .map_or("", String::as_str);
-        summary.push_str(&format!("; WARNING: {why}"));
+            .filter(|w| {
+                w.starts_with(crate::pipeline::ABOVE_LIMIT)
+                    || w.starts_with(crate::pipeline::BELOW_BAND)
+            })
+            .map(String::as_str)
+            .collect();
+        summary.push_str(&format!("; WARNING: {}", why.join("; ")));
     }
     let trajectory_topic = out.trajectory_topic();
     let executes = job
