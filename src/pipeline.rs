@@ -284,21 +284,11 @@ pub fn verify_and_repair_checked(
             result.passes.extend(passes);
             report = simulate(&result)?;
         }
-        if result.passes.len() > raw_passes {
-            result.stats.extra.insert(
-                "repair_passes".into(),
-                (result.passes.len() - raw_passes) as f64,
-            );
-            result.stats.extra.insert(
-                "repair_length_mm".into(),
-                result.cl_path_length() - raw_length,
-            );
-        }
     }
     if let (Some(delta), Strategy::Mpec) = (job.tolerance, job.strategy) {
         // Passes added at the middle of the gaps left above the band
         // (`planners::refine`; MPEC has no scallop to aim its steps at).
-        let mut added: Vec<f64> = Vec::new();
+        let mut refinement = planners::refine::Refinement::default();
         for _ in 0..REPAIR_ROUNDS {
             if report.max_scallop_mm <= delta {
                 break;
@@ -334,10 +324,6 @@ pub fn verify_and_repair_checked(
                         })
                 })
                 .collect();
-            let mut refinement = planners::refine::Refinement {
-                added: added.clone(),
-                ..Default::default()
-            };
             let mode = planners::refine::Mode::Split;
             let changed = planners::refine::refine(
                 job,
@@ -350,22 +336,12 @@ pub fn verify_and_repair_checked(
             if !changed {
                 break;
             }
-            added = refinement.added;
             progress.check()?;
-            result = planners::mpec::positioning::plan_refined(job, progress, &added)?;
+            result = planners::mpec::positioning::plan_refined(job, progress, &refinement.added)?;
             report = simulate(&result)?;
         }
-        if result.passes.len() > raw_passes {
-            result.stats.extra.insert(
-                "repair_passes".into(),
-                (result.passes.len() - raw_passes) as f64,
-            );
-            result.stats.extra.insert(
-                "repair_length_mm".into(),
-                result.cl_path_length() - raw_length,
-            );
-        }
     }
+    record_repair(&mut result, raw_passes, raw_length);
     if let Some(h) = limit {
         let above = report.max_scallop_mm > h || report.uncovered_area_mm2 > 0.0;
         // MPEC's band has a gouge side too: -delta.
@@ -385,6 +361,22 @@ pub fn verify_and_repair_checked(
         }
     }
     Ok((result, report, sim_s))
+}
+
+/// Puts into `extra` what repair passes (or refinement paths) added to a
+/// plan that had `raw_passes` passes of `raw_length` mm: `repair_passes`
+/// and `repair_length_mm`, nothing when none were added.
+fn record_repair(result: &mut PlanResult, raw_passes: usize, raw_length: f64) {
+    if result.passes.len() > raw_passes {
+        result.stats.extra.insert(
+            "repair_passes".into(),
+            (result.passes.len() - raw_passes) as f64,
+        );
+        result.stats.extra.insert(
+            "repair_length_mm".into(),
+            result.cl_path_length() - raw_length,
+        );
+    }
 }
 
 /// How the warning of a plan above its scallop height (or tolerance) begins.
@@ -595,16 +587,7 @@ pub fn verify_and_refine_belt(
     ] {
         result.stats.extra.insert(key.into(), value);
     }
-    if result.passes.len() > raw_passes {
-        result.stats.extra.insert(
-            "repair_passes".into(),
-            (result.passes.len() - raw_passes) as f64,
-        );
-        result.stats.extra.insert(
-            "repair_length_mm".into(),
-            result.cl_path_length() - raw_length,
-        );
-    }
+    record_repair(&mut result, raw_passes, raw_length);
     let within = s.max_scallop_mm <= h;
     result.within_scallop = Some(within);
     if !within {

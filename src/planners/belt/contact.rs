@@ -545,6 +545,24 @@ pub fn analyse_path(
     out
 }
 
+/// [`assemble`] of paths given with their levels (cross parameter or section
+/// offset), put in order of level first; a stable sort, so the planned
+/// paths keep their order among equal levels (the sections of one plane).
+pub fn assemble_levelled(
+    mut paths: Vec<(f64, Vec<ContactPoint>)>,
+    spec: &BeltSpec,
+    result: &mut crate::formats::PlanResult,
+    diag: &Diagnostics,
+) -> Result<()> {
+    paths.sort_by(|a, b| a.0.total_cmp(&b.0));
+    assemble(
+        paths.into_iter().map(|(_, p)| p).collect(),
+        spec,
+        result,
+        diag,
+    )
+}
+
 /// Turns analysed paths (in machining order) into result passes: each pass
 /// runs opposite to the previous one (zig-zag), feed and wheel axis follow the
 /// travel direction. Fills `max_gouge_mm` and the contact-path length.

@@ -46,14 +46,7 @@ pub fn plan_with(
         let path = contact::analyse_path(surface, &uvs, &feed, &hint, &spec, false, &mut diag);
         paths.push((c, path));
     }
-    // Stable: the planned paths keep their order among equal levels.
-    paths.sort_by(|a, b| a.0.total_cmp(&b.0));
-    contact::assemble(
-        paths.into_iter().map(|(_, p)| p).collect(),
-        &spec,
-        &mut result,
-        &diag,
-    )?;
+    contact::assemble_levelled(paths, &spec, &mut result, &diag)?;
     Ok(result)
 }
 

@@ -48,43 +48,51 @@ pub struct SectionNormal {
 /// Minimum-|curvature| principal directions on a grid of `n x n` cell centres
 /// in parameter space, leaving out points without a defined direction.
 pub fn min_curvature_directions(surface: &NurbsSurface, n: usize) -> Vec<Vector3<f64>> {
-    belt_directions(surface, n, f64::INFINITY)
+    belt_directions(&cell_geometry(surface, n), f64::INFINITY)
 }
 
-/// The directions a rigid belt should lie along, on a grid of `n x n` cell
-/// centres in parameter space: of the two principal directions, the one of
-/// smaller |kappa| unless it is concave beyond `concave_limit` (the rigid
-/// belt would sink into the surface more than h there: kappa w^2 / 8 > h),
-/// then the other one if that is not, else the less concave one. Points
-/// where both curvatures are equal in size have no direction and are left out.
-pub fn belt_directions(surface: &NurbsSurface, n: usize, concave_limit: f64) -> Vec<Vector3<f64>> {
+/// The local geometry at the centres of a grid of `n x n` cells in
+/// parameter space, row by row along u; points where it is undefined are
+/// left out.
+pub fn cell_geometry(surface: &NurbsSurface, n: usize) -> Vec<LocalGeometry> {
     let ((u0, u1), (v0, v1)) = surface.domain();
-    let mut dirs = Vec::with_capacity(n * n);
+    let mut cells = Vec::with_capacity(n * n);
     for i in 0..n {
         for j in 0..n {
             let u = u0 + (u1 - u0) * (i as f64 + 0.5) / n as f64;
             let v = v0 + (v1 - v0) * (j as f64 + 0.5) / n as f64;
-            let Some(g) = LocalGeometry::at(surface, u, v) else {
-                continue;
-            };
-            let (kmin, kmax) = (g.k_min.abs(), g.k_max.abs());
-            // Equal |kappa| (plane, umbilic): the direction is undefined.
-            if (kmin - kmax).abs() <= 1e-9 * (kmin + kmax) + 1e-12 {
-                continue;
-            }
-            // Positive curvature is concave (towards the tool).
-            let (flat, other) = if kmin < kmax {
-                ((g.k_min, g.dir_min), (g.k_max, g.dir_max))
-            } else {
-                ((g.k_max, g.dir_max), (g.k_min, g.dir_min))
-            };
-            let chosen = if flat.0 <= concave_limit || flat.0 <= other.0 {
-                flat.1
-            } else {
-                other.1
-            };
-            dirs.push(chosen);
+            cells.extend(LocalGeometry::at(surface, u, v));
         }
+    }
+    cells
+}
+
+/// The directions a rigid belt should lie along at the points `cells`: of
+/// the two principal directions, the one of smaller |kappa| unless it is
+/// concave beyond `concave_limit` (the rigid belt would sink into the
+/// surface more than h there: kappa w^2 / 8 > h), then the other one if that
+/// is not, else the less concave one. Points where both curvatures are equal
+/// in size have no direction and are left out.
+pub fn belt_directions(cells: &[LocalGeometry], concave_limit: f64) -> Vec<Vector3<f64>> {
+    let mut dirs = Vec::with_capacity(cells.len());
+    for g in cells {
+        let (kmin, kmax) = (g.k_min.abs(), g.k_max.abs());
+        // Equal |kappa| (plane, umbilic): the direction is undefined.
+        if (kmin - kmax).abs() <= 1e-9 * (kmin + kmax) + 1e-12 {
+            continue;
+        }
+        // Positive curvature is concave (towards the tool).
+        let (flat, other) = if kmin < kmax {
+            ((g.k_min, g.dir_min), (g.k_max, g.dir_max))
+        } else {
+            ((g.k_max, g.dir_max), (g.k_min, g.dir_min))
+        };
+        let chosen = if flat.0 <= concave_limit || flat.0 <= other.0 {
+            flat.1
+        } else {
+            other.1
+        };
+        dirs.push(chosen);
     }
     dirs
 }
@@ -126,13 +134,13 @@ pub fn section_normal_from_directions(dirs: &[Vector3<f64>]) -> Option<SectionNo
 /// mean of [`belt_directions`] (which turn away from concave sections) lets
 /// the rigid belt sink in less by more than h / 2 ([`rigid_sinking`]).
 pub fn automatic_section_normal(surface: &NurbsSurface, spec: &BeltSpec) -> Option<SectionNormal> {
-    let least = section_normal_from_directions(&min_curvature_directions(surface, NORMAL_SAMPLES));
+    let cells = cell_geometry(surface, NORMAL_SAMPLES);
+    let least = section_normal_from_directions(&belt_directions(&cells, f64::INFINITY));
     let concave_limit = 8.0 * spec.scallop / (spec.width * spec.width);
-    let aware =
-        section_normal_from_directions(&belt_directions(surface, NORMAL_SAMPLES, concave_limit));
+    let aware = section_normal_from_directions(&belt_directions(&cells, concave_limit));
     match (least, aware) {
         (Some(l), Some(a)) => {
-            let sink = |n: &SectionNormal| rigid_sinking(surface, n.normal, spec.width);
+            let sink = |n: &SectionNormal| rigid_sinking(&cells, n.normal, spec.width);
             Some(if sink(&a) < sink(&l) - 0.5 * spec.scallop {
                 a
             } else {
@@ -145,26 +153,17 @@ pub fn automatic_section_normal(surface: &NurbsSurface, spec: &BeltSpec) -> Opti
 
 /// How deep a rigid belt of width `w` lying along the tangent projection of
 /// `normal` (the belt axis of the section planes with that normal) sinks into
-/// concave sections at most, kappa w^2 / 8 over the grid of the section normal.
-pub fn rigid_sinking(surface: &NurbsSurface, normal: Vector3<f64>, width: f64) -> f64 {
-    let ((u0, u1), (v0, v1)) = surface.domain();
-    let n = NORMAL_SAMPLES;
+/// concave sections at most, kappa w^2 / 8 over the points `cells`.
+pub fn rigid_sinking(cells: &[LocalGeometry], normal: Vector3<f64>, width: f64) -> f64 {
     let mut worst: f64 = 0.0;
-    for i in 0..n {
-        for j in 0..n {
-            let u = u0 + (u1 - u0) * (i as f64 + 0.5) / n as f64;
-            let v = v0 + (v1 - v0) * (j as f64 + 0.5) / n as f64;
-            let Some(g) = LocalGeometry::at(surface, u, v) else {
-                continue;
-            };
-            let axis = normal - g.n * normal.dot(&g.n);
-            if axis.norm() <= 1e-9 {
-                continue;
-            }
-            let kappa = g.normal_curvature(axis);
-            if kappa.is_finite() {
-                worst = worst.max(kappa * width * width / 8.0);
-            }
+    for g in cells {
+        let axis = normal - g.n * normal.dot(&g.n);
+        if axis.norm() <= 1e-9 {
+            continue;
+        }
+        let kappa = g.normal_curvature(axis);
+        if kappa.is_finite() {
+            worst = worst.max(kappa * width * width / 8.0);
         }
     }
     worst
@@ -239,14 +238,7 @@ pub fn plan_with(
             paths.push((offset, path));
         }
     }
-    // Stable: the planned sections keep their order among equal offsets.
-    paths.sort_by(|a, b| a.0.total_cmp(&b.0));
-    contact::assemble(
-        paths.into_iter().map(|(_, p)| p).collect(),
-        &spec,
-        &mut result,
-        &diag,
-    )?;
+    contact::assemble_levelled(paths, &spec, &mut result, &diag)?;
     Ok(result)
 }
 
