@@ -136,6 +136,12 @@ pub struct FramePoint {
 /// (u, v) from `seed`, i.e. the surface hit by the line through
 /// origin + x e1 + y e2 along e3 = e1 x e2. Converges where the surface is a
 /// graph over the e1-e2 plane near the seed.
+///
+/// Where plain Newton does not converge (a seed at or next to a pole, where
+/// the Jacobian is singular or nearly so and a full step overshoots onto the
+/// continuation far past the edge), the target is reached by continuation:
+/// damped Newton steps that must reduce the residual, along a path of
+/// targets from the seed's own position to `xy` ([`invert_by_continuation`]).
 pub fn invert_in_frame(
     surface: &NurbsSurface,
     origin: &Point3<f64>,
@@ -144,41 +150,167 @@ pub fn invert_in_frame(
     xy: [f64; 2],
     seed: Vector2<f64>,
 ) -> FramePoint {
-    let jac =
-        |d: &SurfaceDerivs| Matrix2::new(d.su.dot(e1), d.sv.dot(e1), d.su.dot(e2), d.sv.dot(e2));
+    let frame = InFrame {
+        surface,
+        origin,
+        e1,
+        e2,
+    };
     let mut uv = seed;
     let mut d = extended_derivs(surface, uv.x, uv.y);
     for _ in 0..12 {
-        let r = d.p - origin;
-        let res = Vector2::new(r.dot(e1) - xy[0], r.dot(e2) - xy[1]);
+        let res = frame.residual(&d, xy);
         if res.norm() < 1e-10 {
             break;
         }
-        let Some(ji) = jac(&d).try_inverse() else {
+        let Some(ji) = frame.jacobian(&d).try_inverse() else {
             break;
         };
         uv -= ji * res;
         d = extended_derivs(surface, uv.x, uv.y);
     }
-    let e3 = e1.cross(e2);
-    // dh/dx, dh/dy: the parameter steps that move one unit along e1, e2.
-    let slope = jac(&d)
-        .try_inverse()
-        .map(|ji| {
-            let a = ji.column(0);
-            let b = ji.column(1);
-            [
-                (d.su * a.x + d.sv * a.y).dot(&e3),
-                (d.su * b.x + d.sv * b.y).dot(&e3),
-            ]
-        })
-        .unwrap_or([0.0, 0.0]);
-    FramePoint {
-        uv,
-        derivs: d,
-        height: (d.p - origin).dot(&e3),
-        slope,
+    let miss = frame.residual(&d, xy).norm();
+    if !(miss <= CONVERGED_MM) {
+        let (uv2, d2) = invert_by_continuation(&frame, xy, seed);
+        let miss2 = frame.residual(&d2, xy).norm();
+        if miss2 < miss || !miss.is_finite() {
+            (uv, d) = (uv2, d2);
+        }
     }
+    frame.found(uv, d)
+}
+
+/// A frame inversion's residual below which plain Newton has converged, mm.
+const CONVERGED_MM: f64 = 1e-7;
+
+/// The frame of [`invert_in_frame`].
+struct InFrame<'a> {
+    surface: &'a NurbsSurface,
+    origin: &'a Point3<f64>,
+    e1: &'a Vector3<f64>,
+    e2: &'a Vector3<f64>,
+}
+
+impl InFrame<'_> {
+    fn residual(&self, d: &SurfaceDerivs, xy: [f64; 2]) -> Vector2<f64> {
+        let r = d.p - self.origin;
+        Vector2::new(r.dot(self.e1) - xy[0], r.dot(self.e2) - xy[1])
+    }
+
+    fn jacobian(&self, d: &SurfaceDerivs) -> Matrix2<f64> {
+        Matrix2::new(
+            d.su.dot(self.e1),
+            d.sv.dot(self.e1),
+            d.su.dot(self.e2),
+            d.sv.dot(self.e2),
+        )
+    }
+
+    fn found(&self, uv: Vector2<f64>, d: SurfaceDerivs) -> FramePoint {
+        let e3 = self.e1.cross(self.e2);
+        // dh/dx, dh/dy: the parameter steps that move one unit along e1, e2.
+        let slope = self
+            .jacobian(&d)
+            .try_inverse()
+            .map(|ji| {
+                let a = ji.column(0);
+                let b = ji.column(1);
+                [
+                    (d.su * a.x + d.sv * a.y).dot(&e3),
+                    (d.su * b.x + d.sv * b.y).dot(&e3),
+                ]
+            })
+            .unwrap_or([0.0, 0.0]);
+        FramePoint {
+            uv,
+            derivs: d,
+            height: (d.p - self.origin).dot(&e3),
+            slope,
+        }
+    }
+
+    /// Damped Newton towards `xy` from (uv, d): Levenberg-Marquardt steps
+    /// (the Jacobian may be singular at a pole), the damping raised tenfold
+    /// until a step reduces the residual. Returns the last point and whether
+    /// it converged.
+    fn damped(
+        &self,
+        xy: [f64; 2],
+        mut uv: Vector2<f64>,
+        mut d: SurfaceDerivs,
+    ) -> (Vector2<f64>, SurfaceDerivs, bool) {
+        let mut res = self.residual(&d, xy);
+        for _ in 0..40 {
+            if res.norm() <= 0.1 * CONVERGED_MM {
+                return (uv, d, true);
+            }
+            let j = self.jacobian(&d);
+            let jtj = j.transpose() * j;
+            let gradient = j.transpose() * res;
+            let mut lambda = 1e-12 * jtj.trace().max(1e-300);
+            let mut improved = false;
+            for _ in 0..24 {
+                let Some(inv) = (jtj + Matrix2::identity() * lambda).try_inverse() else {
+                    lambda *= 10.0;
+                    continue;
+                };
+                let trial = uv - inv * gradient;
+                let dt = extended_derivs(self.surface, trial.x, trial.y);
+                let rt = self.residual(&dt, xy);
+                if rt.norm() < res.norm() {
+                    (uv, d, res) = (trial, dt, rt);
+                    improved = true;
+                    break;
+                }
+                lambda *= 10.0;
+            }
+            if !improved {
+                break;
+            }
+        }
+        let ok = res.norm() <= CONVERGED_MM;
+        (uv, d, ok)
+    }
+}
+
+/// [`invert_in_frame`]'s fallback: damped Newton along 2^k equal steps
+/// from the seed's own frame position to `xy` (k = 0..=6), each target
+/// seeded by the last, until one run converges; the closest point found
+/// otherwise.
+fn invert_by_continuation(
+    frame: &InFrame,
+    xy: [f64; 2],
+    seed: Vector2<f64>,
+) -> (Vector2<f64>, SurfaceDerivs) {
+    let d0 = extended_derivs(frame.surface, seed.x, seed.y);
+    let start = frame.residual(&d0, [0.0, 0.0]);
+    let mut best = (seed, d0, frame.residual(&d0, xy).norm());
+    for k in 0..=6u32 {
+        let n = 1usize << k;
+        let (mut uv, mut d) = (seed, d0);
+        let mut ok = true;
+        for i in 1..=n {
+            let f = i as f64 / n as f64;
+            let target = [
+                start.x + (xy[0] - start.x) * f,
+                start.y + (xy[1] - start.y) * f,
+            ];
+            let (u2, d2, converged) = frame.damped(target, uv, d);
+            (uv, d) = (u2, d2);
+            if !converged && i < n {
+                ok = false;
+                break;
+            }
+        }
+        let miss = frame.residual(&d, xy).norm();
+        if miss < best.2 {
+            best = (uv, d, miss);
+        }
+        if ok && miss <= CONVERGED_MM {
+            break;
+        }
+    }
+    (best.0, best.1)
 }
 
 /// Result of an inversion.

@@ -88,6 +88,24 @@ impl Pose {
         }
     }
 
+    /// The flat bottom: its centre (the tool tip) and two orthonormal
+    /// directions in its plane (along the lead, across), in the local frame.
+    fn disc(&self) -> ([f64; 3], [f64; 3], [f64; 3]) {
+        let (st, ct) = (self.r0s / self.r0, self.r0c / self.r0);
+        // Tube-circle centre (-R0 cos, 0, r + m + R0 sin), axis (sin, 0, cos).
+        let tip = [
+            -self.r0c - self.r * st,
+            0.0,
+            self.base + self.r0s - self.r * ct,
+        ];
+        let d1 = [ct, 0.0, -st];
+        let turn = |v: [f64; 3]| match self.phi {
+            None => v,
+            Some((sp, cp)) => [v[0] * cp - v[1] * sp, v[0] * sp + v[1] * cp, v[2]],
+        };
+        (turn(tip), turn(d1), turn([0.0, 1.0, 0.0]))
+    }
+
     #[inline]
     fn centre(&self, psi: f64) -> [f64; 3] {
         let (s, c) = psi.sin_cos();
@@ -288,7 +306,8 @@ fn minimum_candidates(pose: &Pose, h: &dyn LocalHeight) -> Vec<f64> {
     out
 }
 
-/// Refinement of each candidate within one sample step.
+/// Refinement of each candidate within one sample step; then the flat
+/// bottom's own lowest point where it is lower still ([`disc_clearance`]).
 fn refine_minimum(pose: &Pose, h: &dyn LocalHeight, cands: &[f64]) -> (f64, f64) {
     let mut best = (f64::INFINITY, 0.0);
     for &c in cands {
@@ -299,7 +318,95 @@ fn refine_minimum(pose: &Pose, h: &dyn LocalHeight, cands: &[f64]) -> (f64, f64)
             best = (v, psi);
         }
     }
+    let disc = disc_clearance(pose, h);
+    if disc < best.0 - DISC_MARGIN {
+        best.0 = disc;
+    }
     best
+}
+
+/// How far the flat bottom must dip below the tube's lowest point before it
+/// counts, mm: on a part it touches only at its rim the two agree to
+/// rounding, and the tube's value is kept.
+const DISC_MARGIN: f64 = 1e-9;
+
+/// Rings and spokes of the flat bottom's sampling before refinement.
+const DISC_RINGS: usize = 4;
+const DISC_SPOKES: usize = 12;
+
+/// Smallest vertical gap between the flat bottom (the disc of radius R0 in
+/// the tip plane) and the part. The tube's spheres cover the disc's rim;
+/// inside it the gap is lowest where the part bulges towards the tool
+/// within the footprint (h minus the tip plane has a maximum there: an S-
+/// shaped feed curve, concave at the contact and convex behind it, lifts the
+/// part under the middle of the bottom). Sampled on rings and spokes, then
+/// Newton on the gap's gradient (Hessian by differences of the slopes),
+/// kept inside the disc.
+fn disc_clearance(pose: &Pose, h: &dyn LocalHeight) -> f64 {
+    if !(pose.r0 > 0.0) {
+        return f64::INFINITY;
+    }
+    let (tip, d1, d2) = pose.disc();
+    let point = |a: f64, b: f64| {
+        [
+            tip[0] + a * d1[0] + b * d2[0],
+            tip[1] + a * d1[1] + b * d2[1],
+            tip[2] + a * d1[2] + b * d2[2],
+        ]
+    };
+    // Gap and its gradient in disc coordinates (a, b).
+    let gap = |a: f64, b: f64| {
+        let p = point(a, b);
+        let (z, hx, hy) = h.height(p[0], p[1]);
+        let ga = d1[2] - hx * d1[0] - hy * d1[1];
+        let gb = d2[2] - hx * d2[0] - hy * d2[1];
+        (p[2] - z, ga, gb)
+    };
+    let r0 = pose.r0;
+    let mut best = (gap(0.0, 0.0).0, 0.0, 0.0);
+    for ring in 1..=DISC_RINGS {
+        let rho = r0 * ring as f64 / (DISC_RINGS + 1) as f64;
+        for spoke in 0..DISC_SPOKES {
+            let (s, c) = (std::f64::consts::TAU * spoke as f64 / DISC_SPOKES as f64).sin_cos();
+            let (a, b) = (rho * c, rho * s);
+            let v = gap(a, b).0;
+            if v < best.0 {
+                best = (v, a, b);
+            }
+        }
+    }
+    let (mut a, mut b) = (best.1, best.2);
+    let step = 1e-3 * r0;
+    for _ in 0..6 {
+        let (_, ga, gb) = gap(a, b);
+        let (_, ga_a, gb_a) = gap(a + step, b);
+        let (_, ga_b, gb_b) = gap(a, b + step);
+        let (haa, hab, hbb) = (
+            (ga_a - ga) / step,
+            0.5 * ((gb_a - gb) + (ga_b - ga)) / step,
+            (gb_b - gb) / step,
+        );
+        let det = haa * hbb - hab * hab;
+        if !(haa > 0.0 && det > 0.0) {
+            break;
+        }
+        let (da, db) = ((hbb * ga - hab * gb) / det, (haa * gb - hab * ga) / det);
+        let (mut na, mut nb) = (a - da, b - db);
+        let rho = na.hypot(nb);
+        if rho > r0 {
+            (na, nb) = (na * r0 / rho, nb * r0 / rho);
+        }
+        let v = gap(na, nb).0;
+        if !(v < best.0) {
+            break;
+        }
+        best.0 = v;
+        (a, b) = (na, nb);
+        if da.abs() + db.abs() < 1e-7 {
+            break;
+        }
+    }
+    best.0
 }
 
 /// The error curve E(y): min over the spheres that reach y (front and back
@@ -310,13 +417,18 @@ pub fn error_at(tool: CutterShape, pos: Position, h: &dyn LocalHeight, y: f64) -
 }
 
 fn pose_error_at(pose: &Pose, h: &dyn LocalHeight, y: f64) -> f64 {
+    pose_error_and_sphere(pose, h, y).0
+}
+
+/// [`pose_error_at`] and the sphere psi that gives it (NaN beyond the tool).
+fn pose_error_and_sphere(pose: &Pose, h: &dyn LocalHeight, y: f64) -> (f64, f64) {
     let lo = ((y - pose.r) / pose.r0).clamp(-1.0, 1.0).asin();
     let hi = ((y + pose.r) / pose.r0).clamp(-1.0, 1.0).asin();
     if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
-        return f64::INFINITY;
+        return (f64::INFINITY, f64::NAN);
     }
     let f = |psi: f64| sphere_error(pose, h, psi, y).unwrap_or(f64::INFINITY);
-    let mut best = f64::INFINITY;
+    let mut best = (f64::INFINITY, f64::NAN);
     // Front branch psi in [lo, hi], back branch pi - psi (same cy, further back).
     for back in [false, true] {
         let map = |s: f64| if back { std::f64::consts::PI - s } else { s };
@@ -332,10 +444,42 @@ fn pose_error_at(pose: &Pose, h: &dyn LocalHeight, y: f64) -> f64 {
         }
         let a = (arg.1 - step).max(lo);
         let b = (arg.1 + step).min(hi);
-        let (_, v) = brent_min(a, b, PSI_TOL, |s| f(map(s)));
-        best = best.min(v).min(arg.0);
+        let (s_min, v) = brent_min(a, b, PSI_TOL, |s| f(map(s)));
+        for (value, at) in [(v, s_min), (arg.0, arg.1)] {
+            if value < best.0 {
+                best = (value, map(at));
+            }
+        }
     }
     best
+}
+
+/// How far behind the drive point, along the feed, the strip between
+/// `y_left` and `y_right` is finished, mm: the lowest points of the spheres
+/// that form the error curve there (sampled at 9 offsets) lie up to this far
+/// back, plus the corner radius. The heel forms the strip where the part
+/// rises behind the contact (a concave feed curve), up to 2 R0 + r back; a
+/// run-out past the far edge must carry the tool that far for the last
+/// sections of the face to be cut as planned.
+pub fn strip_trailing_reach(
+    tool: CutterShape,
+    pos: Position,
+    h: &dyn LocalHeight,
+    y_left: f64,
+    y_right: f64,
+) -> f64 {
+    let pose = Pose::new(tool, pos);
+    const SAMPLES: usize = 9;
+    let mut reach: f64 = 0.0;
+    for k in 0..SAMPLES {
+        let y = y_left + (y_right - y_left) * k as f64 / (SAMPLES - 1) as f64;
+        let (_, psi) = pose_error_and_sphere(&pose, h, y);
+        if psi.is_finite() {
+            // The local frame's x is the feed (the side tilt is in c already).
+            reach = reach.max(-pose.centre(psi)[0]);
+        }
+    }
+    reach + pose.r
 }
 
 /// Cross offsets of the outermost crossings of `level` by the error curve,
@@ -888,5 +1032,80 @@ mod tests {
             solve(tool(), &h, h.kyy, 0.01, &LeadSearch::default()),
             Err(SolveError::TooCurved { .. })
         ));
+    }
+
+    /// A dome under the middle of the flat bottom (the part behind the
+    /// contact of an S-shaped feed curve): the lowest gap is inside the
+    /// bottom, not on the tube; brute force over a dense sampling of the
+    /// whole lower surface (tube spheres and bottom disc) agrees.
+    #[test]
+    fn min_error_sees_the_flat_bottom() {
+        struct Dome {
+            centre: [f64; 2],
+            top: f64,
+            spread: f64,
+        }
+        impl LocalHeight for Dome {
+            fn height(&self, x: f64, y: f64) -> (f64, f64, f64) {
+                let (dx, dy) = (x - self.centre[0], y - self.centre[1]);
+                let k = self.top / (self.spread * self.spread);
+                (
+                    self.top - k * (dx * dx + dy * dy),
+                    -2.0 * k * dx,
+                    -2.0 * k * dy,
+                )
+            }
+        }
+        let t = tool();
+        for (theta, phi) in [(0.0, 0.0), (0.03, 0.0), (0.05, 0.4)] {
+            let pos = Position {
+                theta,
+                middle: 0.0,
+                phi,
+            };
+            let (tip, axis) = tip_and_axis(t, pos);
+            let dome = Dome {
+                centre: [tip[0] + 3.0, tip[1] - 2.0],
+                top: 0.5,
+                spread: 60.0,
+            };
+            let gap = |p: [f64; 3]| p[2] - dome.height(p[0], p[1]).0;
+            let mut brute = f64::INFINITY;
+            // The bottom disc: radius R0 about the tip, normal to the axis.
+            let a = nalgebra::Vector3::from(axis);
+            let d1 = (nalgebra::Vector3::x() - a * a.x).normalize();
+            let d2 = a.cross(&d1);
+            let r0 = t.tube_radius();
+            for i in 0..=200 {
+                let rho = r0 * i as f64 / 200.0;
+                for j in 0..720 {
+                    let (sa, ca) = (std::f64::consts::TAU * j as f64 / 720.0).sin_cos();
+                    let p = nalgebra::Vector3::from(tip) + (d1 * ca + d2 * sa) * rho;
+                    brute = brute.min(gap([p.x, p.y, p.z]));
+                }
+            }
+            // The tube: spheres on the tube circle, their lower halves.
+            for i in 0..360 {
+                let psi = std::f64::consts::TAU * i as f64 / 360.0;
+                let c = sphere_centre(t, pos, psi);
+                for j in 0..=40 {
+                    let polar = std::f64::consts::FRAC_PI_2 * j as f64 / 40.0;
+                    for k in 0..36 {
+                        let az = std::f64::consts::TAU * k as f64 / 36.0;
+                        let p = [
+                            c[0] + t.corner_radius * polar.sin() * az.cos(),
+                            c[1] + t.corner_radius * polar.sin() * az.sin(),
+                            c[2] - t.corner_radius * polar.cos(),
+                        ];
+                        brute = brute.min(gap(p));
+                    }
+                }
+            }
+            let (lowest, _) = min_error(t, pos, &dome);
+            assert!(
+                (lowest - brute).abs() < 2e-4,
+                "theta {theta} phi {phi}: min_error {lowest} brute force {brute}"
+            );
+        }
     }
 }

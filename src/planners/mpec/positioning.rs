@@ -20,7 +20,7 @@
 use super::error_curve::{self as ec, LeadSearch, LocalHeight, Status};
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, Pass, PathPoint, PlanResult};
-use crate::geometry::inversion::{extended_derivs, extended_point, invert_in_frame};
+use crate::geometry::inversion::{extended_derivs, extended_point, invert_in_frame, FramePoint};
 use crate::geometry::numeric::Bracket;
 use crate::geometry::{LocalGeometry, NurbsSurface};
 use crate::planners::Progress;
@@ -54,18 +54,57 @@ impl Frame {
 }
 
 /// Exact height of the part over the tangent plane: the shared point
-/// inversion in the drive point's frame, on the (extended) surface.
+/// inversion in the drive point's frame, on the (extended) surface, seeded
+/// at the drive point or, where the footprint's parameters were marched
+/// ([`march_footprint`]), at the nearest marched grid point (next to a pole
+/// the parameters are far from linear in the distance and one seed strays).
 pub struct ExactHeight<'a> {
     pub surface: &'a NurbsSurface,
     pub frame: Frame,
     pub uv: Vector2<f64>,
+    pub seeds: Option<SeedGrid>,
 }
 
 impl LocalHeight for ExactHeight<'_> {
     fn height(&self, x: f64, y: f64) -> (f64, f64, f64) {
         let f = &self.frame;
-        let q = invert_in_frame(self.surface, &f.p, &f.e1, &f.e2, [x, y], self.uv);
+        let seed = self.seeds.as_ref().map_or(self.uv, |g| g.nearest(x, y));
+        let q = invert_in_frame(self.surface, &f.p, &f.e1, &f.e2, [x, y], seed);
         (q.height, q.slope[0], q.slope[1])
+    }
+}
+
+/// Surface parameters at the [`fit_box`]'s 7 x 7 grid points.
+#[derive(Clone, Copy, Debug)]
+pub struct SeedGrid {
+    bx: (f64, f64),
+    by: (f64, f64),
+    uv: [Vector2<f64>; FIT_GRID * FIT_GRID],
+}
+
+impl SeedGrid {
+    fn nearest(&self, x: f64, y: f64) -> Vector2<f64> {
+        let index = |t: f64, (lo, hi): (f64, f64)| {
+            let k = ((t - lo) / (hi - lo) * (FIT_GRID - 1) as f64).round();
+            k.clamp(0.0, (FIT_GRID - 1) as f64) as usize
+        };
+        self.uv[index(x, self.bx) * FIT_GRID + index(y, self.by)]
+    }
+}
+
+/// The part under the tool at one drive point, and its error against the
+/// real surface (mm, 0 for exact heights).
+enum PartModel<'a> {
+    Fitted(FittedHeight, f64),
+    Exact(ExactHeight<'a>),
+}
+
+impl PartModel<'_> {
+    fn height(&self) -> (&dyn LocalHeight, f64) {
+        match self {
+            PartModel::Fitted(fit, e) => (fit, *e),
+            PartModel::Exact(exact) => (exact, 0.0),
+        }
     }
 }
 
@@ -222,40 +261,75 @@ pub fn fit_height(
 }
 
 /// The quartic fitted to the heights over the 7 x 7 grid of the footprint
-/// itself, each found by the frame inversion (from its neighbour's
-/// parameters): where the parameters are far from linear in the distance
-/// (next to a pole or a collapsed edge) the linear step of [`fit_height`]
-/// strays, while the height field stays smooth.
+/// itself, found by [`march_footprint`]: where the parameters are far from
+/// linear in the distance (next to a pole or a collapsed edge) the linear
+/// step of [`fit_height`] strays, while the height field stays smooth.
+/// Returns the fit, its largest residual (mm) and the marched parameters.
 pub fn fit_height_inverted(
     surface: &NurbsSurface,
     g: &LocalGeometry,
     frame: &Frame,
     tool: CutterShape,
-) -> Option<(FittedHeight, f64)> {
+) -> (Option<(FittedHeight, f64)>, SeedGrid) {
+    let (samples, seeds) = march_footprint(surface, g, frame, tool);
+    let scale = tool.tube_radius() + tool.corner_radius;
+    (fit_samples(&samples, scale), seeds)
+}
+
+/// Heights over the [`fit_box`]'s 7 x 7 grid (x and y in units of R0 + r),
+/// found by [`march`].
+pub fn march_footprint(
+    surface: &NurbsSurface,
+    g: &LocalGeometry,
+    frame: &Frame,
+    tool: CutterShape,
+) -> ([(f64, f64, f64); FIT_GRID * FIT_GRID], SeedGrid) {
     let ((x0, x1), (y0, y1)) = fit_box(tool);
     let scale = tool.tube_radius() + tool.corner_radius;
+    let points = march(surface, g.uv, frame, fit_box(tool), FIT_GRID);
     let mut samples = [(0.0, 0.0, 0.0); FIT_GRID * FIT_GRID];
-    // Rows outwards from the drive point's own y, each seeded by the last.
-    let mut row_seed = g.uv;
-    for a in (0..FIT_GRID).rev() {
-        let x = x0 + (x1 - x0) * a as f64 / (FIT_GRID - 1) as f64;
-        let mid = (FIT_GRID - 1) / 2;
+    let mut seeds = SeedGrid {
+        bx: (x0, x1),
+        by: (y0, y1),
+        uv: [g.uv; FIT_GRID * FIT_GRID],
+    };
+    for (k, (x, y, q)) in points.into_iter().enumerate() {
+        samples[k] = (x / scale, y / scale, q.height);
+        seeds.uv[k] = q.uv;
+    }
+    (samples, seeds)
+}
+
+/// The surface over an n x n grid (n odd) of the box `((x0, x1), (y0, y1))`
+/// in the frame, row-major from x0, each point found by the frame inversion
+/// from its neighbour's parameters: rows outwards from the drive point's own
+/// y, each row's middle seeded by the last row's.
+fn march(
+    surface: &NurbsSurface,
+    seed: Vector2<f64>,
+    frame: &Frame,
+    ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64)),
+    n: usize,
+) -> Vec<(f64, f64, FramePoint)> {
+    let blank = invert_in_frame(surface, &frame.p, &frame.e1, &frame.e2, [0.0, 0.0], seed);
+    let mut out = vec![(0.0, 0.0, blank); n * n];
+    let mut row_seed = seed;
+    let mid = (n - 1) / 2;
+    for a in (0..n).rev() {
+        let x = x0 + (x1 - x0) * a as f64 / (n - 1) as f64;
         let centre = invert_in_frame(surface, &frame.p, &frame.e1, &frame.e2, [x, 0.0], row_seed);
         row_seed = centre.uv;
-        for half in [
-            (mid..FIT_GRID).collect::<Vec<_>>(),
-            (0..=mid).rev().collect(),
-        ] {
+        for half in [(mid..n).collect::<Vec<_>>(), (0..=mid).rev().collect()] {
             let mut seed = centre.uv;
             for b in half {
-                let y = y0 + (y1 - y0) * b as f64 / (FIT_GRID - 1) as f64;
+                let y = y0 + (y1 - y0) * b as f64 / (n - 1) as f64;
                 let q = invert_in_frame(surface, &frame.p, &frame.e1, &frame.e2, [x, y], seed);
                 seed = q.uv;
-                samples[a * FIT_GRID + b] = (x / scale, y / scale, q.height);
+                out[a * n + b] = (x, y, q);
             }
         }
     }
-    fit_samples(&samples, scale)
+    out
 }
 
 /// One positioned drive point.
@@ -464,6 +538,52 @@ impl<'a> Planner<'a> {
         Ok((g, Frame { p: d.p, e1, e2, e3 }))
     }
 
+    /// The part under the tool at a drive point (docs/methods.md, "The part
+    /// under the tool"): within delta / 50 the linear-step fit as it is;
+    /// failing that, the better of the two fits within delta / 5 (its
+    /// residual is taken off both sides of the band), far faster than
+    /// inverting every height; failing both, exact heights seeded from the
+    /// marched footprint.
+    fn part_model(&self, g: &LocalGeometry, frame: Frame) -> PartModel<'a> {
+        let good = |f: &(FittedHeight, f64)| f.1 <= self.delta / 50.0;
+        let linear = fit_height(self.surface, g, &frame, self.tool);
+        let (fitted, seeds) = match linear.filter(good) {
+            Some(f) if !self.exact_heights => (Some(f), None),
+            _ => {
+                let (inverted, seeds) = fit_height_inverted(self.surface, g, &frame, self.tool);
+                let best = [linear, inverted]
+                    .into_iter()
+                    .flatten()
+                    .filter(|f| f.1 <= self.delta / 5.0)
+                    .min_by(|a, b| a.1.total_cmp(&b.1));
+                (best.filter(|_| !self.exact_heights), Some(seeds))
+            }
+        };
+        match fitted {
+            Some((fit, e)) => PartModel::Fitted(fit, e),
+            None => PartModel::Exact(ExactHeight {
+                surface: self.surface,
+                frame,
+                uv: g.uv,
+                seeds,
+            }),
+        }
+    }
+
+    /// How far past a drive point the pass must run for its strip to be
+    /// finished ([`ec::strip_trailing_reach`]), mm.
+    fn trailing_reach(&self, p: &DrivePoint) -> f64 {
+        let uv = Vector2::new(p.uv[0], p.uv[1]);
+        let d = extended_derivs(self.surface, uv.x, uv.y);
+        let Some(g) = LocalGeometry::from_derivs(uv, d) else {
+            return self.tool.tube_radius() + self.tool.corner_radius;
+        };
+        let model = self.part_model(&g, p.frame);
+        let (h, _) = model.height();
+        let s = &p.solution;
+        ec::strip_trailing_reach(self.tool, s.pos, h, s.y_left, s.y_right)
+    }
+
     /// Positions the tool at (s, t).
     pub fn drive_point(
         &self,
@@ -481,36 +601,8 @@ impl<'a> Planner<'a> {
             strip_hint: hint.map(|p| (p.solution.y_left, p.solution.y_right)),
             ..LeadSearch::default()
         };
-        let exact = ExactHeight {
-            surface: self.surface,
-            frame,
-            uv: g.uv,
-        };
-        let fitted = if self.exact_heights {
-            None
-        } else {
-            // Within delta / 50 the fit is used as it is; failing that, the
-            // better of the two fits within delta / 5 is used with its
-            // residual taken off both sides of the band (below), which is
-            // far faster than inverting every height.
-            let good = |f: &(FittedHeight, f64)| f.1 <= self.delta / 50.0;
-            let linear = fit_height(self.surface, &g, &frame, self.tool);
-            match linear.filter(good) {
-                Some(f) => Some(f),
-                None => {
-                    let inverted = fit_height_inverted(self.surface, &g, &frame, self.tool);
-                    [linear, inverted]
-                        .into_iter()
-                        .flatten()
-                        .filter(|f| f.1 <= self.delta / 5.0)
-                        .min_by(|a, b| a.1.total_cmp(&b.1))
-                }
-            }
-        };
-        let h: &dyn LocalHeight = match &fitted {
-            Some((fit, _)) => fit,
-            None => &exact,
-        };
+        let model = self.part_model(&g, frame);
+        let (h, model_error) = model.height();
         // A fit whose error matters against the band (over delta / 1000)
         // keeps it off the band's gouge side; die_saddle's quartic
         // reproduces its quadric to rounding and its plan is unchanged.
@@ -532,9 +624,10 @@ impl<'a> Planner<'a> {
             } else {
                 0.0
             },
-            fit_error: match &fitted {
-                Some((_, res)) if *res > 1e-3 * self.delta => *res,
-                _ => 0.0,
+            fit_error: if model_error > 1e-3 * self.delta {
+                model_error
+            } else {
+                0.0
             },
             ..search
         };
@@ -611,10 +704,23 @@ impl<'a> Planner<'a> {
     }
 
     /// Feed parameters of the drive points: the domain at about
-    /// [`POINT_SPACING`], then a run-out of R0 + r past the far edge so that
+    /// [`POINT_SPACING`], then a run-out past the far edge long enough for
     /// the trailing characteristic points (behind the contact, down to
-    /// -2 R0 along the feed) finish the last sections.
+    /// -2 R0 along the feed) to finish the last sections: 2 R0 + r, trimmed
+    /// per pass by [`Self::pass`] to what its strip needs, never below
+    /// R0 + r.
     pub fn feed_samples(&self) -> Vec<(f64, bool)> {
+        let ((s0, s1), _) = self.ranges();
+        let (n, ds, _) = self.feed_grid();
+        let mut out: Vec<(f64, bool)> = (0..=n).map(|i| (s0 + ds * i as f64, true)).collect();
+        let (_, longest) = self.runout_counts();
+        out.extend((1..=longest).map(|i| (s1 + ds * i as f64, false)));
+        out
+    }
+
+    /// Drive points over the domain along the feed: (intervals n, parameter
+    /// step, step in mm along the longest of three drive curves).
+    fn feed_grid(&self) -> (usize, f64, f64) {
         let ((s0, s1), (t0, t1)) = self.ranges();
         let length = |t: f64| {
             (0..64)
@@ -630,16 +736,22 @@ impl<'a> Planner<'a> {
             .map(length)
             .fold(0.0, f64::max);
         let n = ((len / POINT_SPACING).ceil() as usize).max(2);
-        let ds = (s1 - s0) / n as f64;
-        let mut out: Vec<(f64, bool)> = (0..=n).map(|i| (s0 + ds * i as f64, true)).collect();
-        let step_len = len / n as f64;
-        let extra = if step_len > 0.0 {
-            ((self.tool.tube_radius() + self.tool.corner_radius) / step_len).ceil() as usize
-        } else {
-            0
+        (n, (s1 - s0) / n as f64, len / n as f64)
+    }
+
+    /// Run-out drive points past the far edge: (at least, at most), for
+    /// R0 + r and 2 R0 + r.
+    fn runout_counts(&self) -> (usize, usize) {
+        let (_, _, step_len) = self.feed_grid();
+        let count = |mm: f64| {
+            if step_len > 0.0 {
+                (mm / step_len).ceil() as usize
+            } else {
+                0
+            }
         };
-        out.extend((1..=extra).map(|i| (s1 + ds * i as f64, false)));
-        out
+        let (r0, r) = (self.tool.tube_radius(), self.tool.corner_radius);
+        (count(r0 + r), count(2.0 * r0 + r))
     }
 
     /// Positions every drive point of the pass at cross parameter `t`, in
@@ -658,6 +770,21 @@ impl<'a> Planner<'a> {
         let mut out = Vec::with_capacity(samples.len());
         for part in parts {
             out.extend(part?);
+        }
+        // The run-out: as far as the strip at the far edge is finished
+        // ([`Self::trailing_reach`]), at least R0 + r.
+        let last_inside = samples.iter().rposition(|&(_, inside)| inside);
+        let runout = samples.len() - last_inside.map_or(samples.len(), |i| i + 1);
+        if let Some(i) = last_inside.filter(|_| runout > 0) {
+            let (least, _) = self.runout_counts();
+            let (_, _, step_len) = self.feed_grid();
+            let reach = self.trailing_reach(&out[i]);
+            let needed = if step_len > 0.0 && reach.is_finite() {
+                (reach / step_len).ceil() as usize
+            } else {
+                runout
+            };
+            out.truncate(i + 1 + needed.max(least).min(runout));
         }
         Ok(out)
     }
@@ -971,10 +1098,30 @@ pub fn plan_with(
         .stats
         .extra
         .insert("not_applicable_points".into(), not_applicable as f64);
-    result.warnings.push(format!(
-        "every pass runs {:.1} mm (R0 + r) past the far edge of the surface, on its second-order continuation, so the tool's trailing part finishes the last sections",
-        planner.tool.tube_radius() + planner.tool.corner_radius
-    ));
+    let (least, _) = planner.runout_counts();
+    let ((_, s1), _) = planner.ranges();
+    let feed_of = |p: &DrivePoint| match planner.feed {
+        FeedDirection::U => p.uv[0],
+        FeedDirection::V => p.uv[1],
+    };
+    let longest = passes
+        .iter()
+        .map(|(_, pass)| pass.iter().filter(|p| feed_of(p) > s1).count())
+        .max()
+        .unwrap_or(0);
+    let (r0, r) = (planner.tool.tube_radius(), planner.tool.corner_radius);
+    if longest <= least {
+        result.warnings.push(format!(
+            "every pass runs {:.1} mm (R0 + r) past the far edge of the surface, on its second-order continuation, so the tool's trailing part finishes the last sections",
+            r0 + r
+        ));
+    } else {
+        result.warnings.push(format!(
+            "every pass runs {:.1} mm (R0 + r) past the far edge of the surface, on its second-order continuation, so the tool's trailing part finishes the last sections; up to {:.1} mm (2 R0 + r) where the heel finishes the strip further behind the contact",
+            r0 + r,
+            2.0 * r0 + r
+        ));
+    }
     if not_applicable > 0 {
         result.warnings.push(format!(
             "{not_applicable} drive points are convex (or flat) across the feed, or twisted so that the \"W\" is narrower on one side than the conventional strip: MPEC does not apply there; they use the conventional position (tool touching, smallest non-gouging lead) with the strip where the scallop stays below the tolerance"
