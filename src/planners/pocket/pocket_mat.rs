@@ -123,13 +123,41 @@ fn lerp3(a: [f64; 3], b: [f64; 3], t: f64) -> [f64; 3] {
     ]
 }
 
+/// Which medial-axis samples the tools swept so far, kept from one corner
+/// tool to the next: tools are only ever added, so a swept sample stays
+/// swept and an unswept one need only be tested against the new tools.
+#[derive(Default)]
+struct SweptFlags {
+    flags: Vec<Vec<bool>>,
+    /// Tools of the `Swept` already tested against every unswept sample.
+    tools_done: usize,
+}
+
+impl SweptFlags {
+    fn update(&mut self, dense: &[Vec<[f64; 3]>], swept: &Swept) {
+        if self.flags.is_empty() {
+            self.flags = dense.iter().map(|b| vec![false; b.len()]).collect();
+        }
+        let new = self.tools_done..swept.len();
+        for (b, flags) in dense.iter().zip(&mut self.flags) {
+            for (q, f) in b.iter().zip(flags.iter_mut()) {
+                if !*f {
+                    *f = swept.covers_by(new.clone(), [q[0], q[1]], 1e-9);
+                }
+            }
+        }
+        self.tools_done = swept.len();
+    }
+}
+
 /// Twice the largest radius of the medial-axis points that no tool has swept
-/// (the transitions refined by bisection): Dmax_i of the paper. 0 when all swept.
-fn residual_dmax(dense: &[Vec<[f64; 3]>], swept: &Swept) -> f64 {
+/// (the transitions refined by bisection): Dmax_i of the paper. 0 when all
+/// swept. `flags` carries the samples' swept flags from the previous call.
+fn residual_dmax(dense: &[Vec<[f64; 3]>], swept: &Swept, flags: &mut SweptFlags) -> f64 {
     let covered = |q: [f64; 3]| swept.covers([q[0], q[1]], 1e-9);
+    flags.update(dense, swept);
     let mut best: f64 = 0.0;
-    for b in dense {
-        let flags: Vec<bool> = b.iter().map(|&q| covered(q)).collect();
+    for (b, flags) in dense.iter().zip(&flags.flags) {
         for (k, &q) in b.iter().enumerate() {
             if flags[k] {
                 continue;
@@ -382,9 +410,10 @@ pub fn plan_pocket(
     // Corner cleaning: tools in decreasing order while the medial axis still
     // leaves circles unmachined that the root tool would not clear.
     let mut previous = d_rough;
+    let mut flags = SweptFlags::default();
     loop {
         progress.check()?;
-        let residual = residual_dmax(&dense, &done.swept);
+        let residual = residual_dmax(&dense, &done.swept, &mut flags);
         if residual <= 0.0 {
             break;
         }
