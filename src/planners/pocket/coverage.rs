@@ -1,10 +1,12 @@
 //! What the tools sweep: exact point-to-path distances through a uniform
-//! grid of segments, and a raster of the pocket for the uncut area
-//! (docs/methods.md, "Tool sequence").
+//! grid of segments (nearest point) and a box tree of them (within reach),
+//! and a raster of the pocket for the uncut area (docs/methods.md, "Tool
+//! sequence").
 
 use crate::geometry::pocket::{Pocket, Point2};
 
-/// Segments in a uniform grid of buckets, for nearest-segment queries.
+/// Segments in a uniform grid of buckets, for nearest-segment queries, and
+/// in a bounding-box tree, for within-reach tests.
 pub struct SegmentIndex {
     segs: Vec<(Point2, Point2)>,
     origin: Point2,

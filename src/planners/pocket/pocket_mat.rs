@@ -547,3 +547,41 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     progress.set(1.0);
     Ok(result)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn residual_with_carried_flags_matches_exact_answers() {
+        // One branch from (0, 0) with r = 5 to (20, 0) with r = 1, samples
+        // 0.1 mm apart: r = 5 - x / 5. Tools are discs (one-point paths),
+        // each sweeping an interval of the branch, added one at a time; the
+        // residual is twice r at the unswept end nearest x = 0.
+        let dense = vec![(0..=200)
+            .map(|i| {
+                let x = i as f64 * 0.1;
+                [x, 0.0, 5.0 - x / 5.0]
+            })
+            .collect::<Vec<[f64; 3]>>()];
+        let mut swept = Swept::default();
+        let mut flags = SweptFlags::default();
+        // Sweeps x <= 3: residual 2 (5 - 3/5) = 8.8.
+        swept.add(&[vec![[-3.0, 0.0]]], 6.0);
+        // Sweeps 8 <= x <= 16: the residual stays 8.8.
+        let tools = [([12.0, 0.0], 4.0, 8.8), ([5.5, 0.0], 3.5, 3.6)];
+        let got = residual_dmax(&dense, &swept, &mut flags);
+        assert!((got - 8.8).abs() < 1e-8, "{got}");
+        for (centre, r, want) in tools {
+            swept.add(&[vec![centre]], r);
+            let got = residual_dmax(&dense, &swept, &mut flags);
+            // The same with flags worked out afresh.
+            let fresh = residual_dmax(&dense, &swept, &mut SweptFlags::default());
+            assert_eq!(got.to_bits(), fresh.to_bits());
+            assert!((got - want).abs() < 1e-8, "{got} want {want}");
+        }
+        // Sweeps the rest: nothing left.
+        swept.add(&[vec![[18.0, 0.0]]], 2.5);
+        assert_eq!(residual_dmax(&dense, &swept, &mut flags), 0.0);
+    }
+}
