@@ -1,10 +1,12 @@
 //! What the tools sweep: exact point-to-path distances through a uniform
-//! grid of segments, and a raster of the pocket for the uncut area
-//! (docs/methods.md, "Tool sequence").
+//! grid of segments (nearest point) and a box tree of them (within reach),
+//! and a raster of the pocket for the uncut area (docs/methods.md, "Tool
+//! sequence").
 
 use crate::geometry::pocket::{Pocket, Point2};
 
-/// Segments in a uniform grid of buckets, for nearest-segment queries.
+/// Segments in a uniform grid of buckets, for nearest-segment queries, and
+/// in a bounding-box tree, for within-reach tests.
 pub struct SegmentIndex {
     segs: Vec<(Point2, Point2)>,
     origin: Point2,
@@ -12,6 +14,88 @@ pub struct SegmentIndex {
     nx: usize,
     ny: usize,
     buckets: Vec<Vec<u32>>,
+    /// Bounding-box tree of the same segments, for `within`: it skips the
+    /// empty space round a point no path reaches in a few box tests, where
+    /// the grid scans every bucket within reach.
+    tree: Vec<BoxNode>,
+    /// Segment numbers in tree order (each leaf a contiguous run).
+    order: Vec<u32>,
+}
+
+/// A node of the segment tree: the box of its segments, and either two
+/// children (`leaf == false`, at `a` and `b`) or the run `order[a..b]`.
+#[derive(Clone, Copy)]
+struct BoxNode {
+    lo: Point2,
+    hi: Point2,
+    leaf: bool,
+    a: u32,
+    b: u32,
+}
+
+/// At most this many segments in a leaf of the tree.
+const LEAF_SEGMENTS: usize = 8;
+
+/// Squared distance from p to the box lo..hi (0 inside). The same
+/// expression as a segment's own box test: a node's box bounds its
+/// segments' boxes, so its value is never above theirs, rounding included.
+fn box_dist2(lo: Point2, hi: Point2, p: Point2) -> f64 {
+    let bx = (lo[0] - p[0]).max(p[0] - hi[0]).max(0.0);
+    let by = (lo[1] - p[1]).max(p[1] - hi[1]).max(0.0);
+    bx * bx + by * by
+}
+
+fn seg_box(a: Point2, b: Point2) -> (Point2, Point2) {
+    (
+        [a[0].min(b[0]), a[1].min(b[1])],
+        [a[0].max(b[0]), a[1].max(b[1])],
+    )
+}
+
+/// Builds the tree over `order[s..e]` (split at the median of the segment
+/// midpoints along the box's longer side); returns the node's number.
+fn build_tree(
+    segs: &[(Point2, Point2)],
+    order: &mut [u32],
+    s: usize,
+    tree: &mut Vec<BoxNode>,
+) -> u32 {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for &k in order.iter() {
+        let (a, b) = segs[k as usize];
+        let (l, h) = seg_box(a, b);
+        for t in 0..2 {
+            lo[t] = lo[t].min(l[t]);
+            hi[t] = hi[t].max(h[t]);
+        }
+    }
+    let id = tree.len();
+    let n = order.len();
+    tree.push(BoxNode {
+        lo,
+        hi,
+        leaf: true,
+        a: s as u32,
+        b: (s + n) as u32,
+    });
+    if n <= LEAF_SEGMENTS {
+        return id as u32;
+    }
+    let axis = usize::from(hi[1] - lo[1] > hi[0] - lo[0]);
+    let mid = |k: &u32| {
+        let (a, b) = segs[*k as usize];
+        a[axis] + b[axis]
+    };
+    let half = n / 2;
+    // Ties broken by the segment number: the same tree whatever the input order.
+    order.select_nth_unstable_by(half, |x, y| mid(x).total_cmp(&mid(y)).then(x.cmp(y)));
+    let (left, right) = order.split_at_mut(half);
+    let l = build_tree(segs, left, s, tree);
+    let r = build_tree(segs, right, s + half, tree);
+    tree[id].leaf = false;
+    tree[id].a = l;
+    tree[id].b = r;
+    id as u32
 }
 
 /// Nearest point of segment ab to p.
@@ -89,6 +173,11 @@ impl SegmentIndex {
                 }
             }
         }
+        let mut order: Vec<u32> = (0..segs.len() as u32).collect();
+        let mut tree = Vec::with_capacity(2 * segs.len() / LEAF_SEGMENTS + 1);
+        if !segs.is_empty() {
+            build_tree(&segs, &mut order, 0, &mut tree);
+        }
         Self {
             segs,
             origin: lo,
@@ -96,6 +185,8 @@ impl SegmentIndex {
             nx,
             ny,
             buckets,
+            tree,
+            order,
         }
     }
 
@@ -152,30 +243,21 @@ impl SegmentIndex {
     }
 
     /// Is any segment within `r` of p? The same answer as
-    /// `nearest(p, r).is_some()`, but the search stops at the first segment
-    /// found, in the buckets nearest p first; squared distances decide
-    /// unless within rounding of r, where `hypot` decides as in
-    /// [`SegmentIndex::nearest`].
+    /// `nearest(p, r).is_some()`: squared distances decide unless within
+    /// rounding of r, where `hypot` decides as in [`SegmentIndex::nearest`].
+    /// The search walks the box tree, nearer child first, leaves out the
+    /// boxes beyond reach and stops at the first segment found; the answer
+    /// does not depend on the order.
     pub fn within(&self, p: Point2, r: f64) -> bool {
         if self.segs.is_empty() || r.is_nan() || r < 0.0 {
             return false;
         }
-        let span = |v: f64, o: f64, n: usize| -> (usize, usize) {
-            let lo = ((v - r - o) / self.cell).floor();
-            let hi = ((v + r - o) / self.cell).floor();
-            let lo = lo.max(0.0).min((n - 1) as f64) as usize;
-            let hi = hi.max(0.0).min((n - 1) as f64) as usize;
-            (lo, hi)
-        };
-        let (x0, x1) = span(p[0], self.origin[0], self.nx);
-        let (y0, y1) = span(p[1], self.origin[1], self.ny);
         let r2 = r * r;
         let (inside, outside) = (r2 * (1.0 - 1e-12), r2 * (1.0 + 1e-12));
         let hit = |k: u32| -> bool {
             let (a, b) = self.segs[k as usize];
-            let bx = (a[0].min(b[0]) - p[0]).max(p[0] - a[0].max(b[0])).max(0.0);
-            let by = (a[1].min(b[1]) - p[1]).max(p[1] - a[1].max(b[1])).max(0.0);
-            if bx * bx + by * by > outside {
+            let (lo, hi) = seg_box(a, b);
+            if box_dist2(lo, hi, p) > outside {
                 return false;
             }
             let f = segment_foot(a, b, p);
@@ -183,32 +265,40 @@ impl SegmentIndex {
             let d2 = dx * dx + dy * dy;
             d2 <= inside || (d2 <= outside && dist(f, p) <= r)
         };
-        // Rings of buckets round the one holding p (clamped into the
-        // searched box), nearest ring first: a covered point's segment is
-        // usually near it, and the answer does not depend on the order.
-        let home = |v: f64, o: f64, n: usize| -> usize {
-            (((v - o) / self.cell).floor().max(0.0).min((n - 1) as f64)) as usize
-        };
-        let hx = home(p[0], self.origin[0], self.nx).clamp(x0, x1);
-        let hy = home(p[1], self.origin[1], self.ny).clamp(y0, y1);
-        let bucket_hits =
-            |x: usize, y: usize| self.buckets[y * self.nx + x].iter().any(|&k| hit(k));
-        let rings = (hx - x0).max(x1 - hx).max(hy - y0).max(y1 - hy);
-        for d in 0..=rings {
-            let (xa, xb) = (hx.saturating_sub(d).max(x0), (hx + d).min(x1));
-            let (ya, yb) = (hy.saturating_sub(d).max(y0), (hy + d).min(y1));
-            for y in ya..=yb {
-                if y + d == hy || y == hy + d {
-                    // A row of the ring: all its buckets.
-                    if (xa..=xb).any(|x| bucket_hits(x, y)) {
-                        return true;
-                    }
-                } else if (d <= hx && hx - d >= x0 && bucket_hits(hx - d, y))
-                    || (d > 0 && hx + d <= x1 && bucket_hits(hx + d, y))
+        let mut stack: [u32; 128] = [0; 128];
+        let mut top = 0usize;
+        if box_dist2(self.tree[0].lo, self.tree[0].hi, p) > outside {
+            return false;
+        }
+        stack[0] = 0;
+        top += 1;
+        while top > 0 {
+            top -= 1;
+            let node = self.tree[stack[top] as usize];
+            if node.leaf {
+                if self.order[node.a as usize..node.b as usize]
+                    .iter()
+                    .any(|&k| hit(k))
                 {
-                    // Inside the ring's rows: its two columns only.
                     return true;
                 }
+                continue;
+            }
+            let (ca, cb) = (self.tree[node.a as usize], self.tree[node.b as usize]);
+            let (da, db) = (box_dist2(ca.lo, ca.hi, p), box_dist2(cb.lo, cb.hi, p));
+            // Push the farther child first so that the nearer is searched first.
+            let (near, dn, far, df) = if da <= db {
+                (node.a, da, node.b, db)
+            } else {
+                (node.b, db, node.a, da)
+            };
+            if df <= outside {
+                stack[top] = far;
+                top += 1;
+            }
+            if dn <= outside {
+                stack[top] = near;
+                top += 1;
             }
         }
         false
@@ -232,6 +322,19 @@ impl Swept {
     pub fn covers(&self, p: Point2, tol: f64) -> bool {
         self.tools.iter().any(|(idx, r)| idx.within(p, r + tol))
     }
+    /// Is p swept by one of the tools numbered `tools` (in the order added)?
+    pub fn covers_by(&self, tools: std::ops::Range<usize>, p: Point2, tol: f64) -> bool {
+        self.tools
+            .get(tools)
+            .is_some_and(|t| t.iter().any(|(idx, r)| idx.within(p, r + tol)))
+    }
+    /// Number of tools added.
+    pub fn len(&self) -> usize {
+        self.tools.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.tools.is_empty()
+    }
 }
 
 /// A raster of the pocket (cell centres inside the pocket) and which cells
@@ -245,39 +348,61 @@ pub struct Raster {
     cells: Vec<u8>,
 }
 
-/// The x-interval where the horizontal line at y meets the capsule of radius r around segment ab.
-fn capsule_span(a: Point2, b: Point2, r: f64, y: f64) -> Option<(f64, f64)> {
-    let mut lo = f64::INFINITY;
-    let mut hi = f64::NEG_INFINITY;
-    for c in [a, b] {
-        let dy = y - c[1];
-        if dy.abs() <= r {
-            let w = (r * r - dy * dy).sqrt();
-            lo = lo.min(c[0] - w);
-            hi = hi.max(c[0] + w);
+/// The capsule of radius r around segment ab, with its rectangle's corners
+/// a +- r n, b +- r n worked out once for all the rows it crosses.
+struct Capsule {
+    ends: [Point2; 2],
+    r: f64,
+    /// None for a zero-length segment (a disc).
+    rect: Option<[Point2; 4]>,
+}
+
+impl Capsule {
+    fn new(a: Point2, b: Point2, r: f64) -> Self {
+        let d = [b[0] - a[0], b[1] - a[1]];
+        let l = d[0].hypot(d[1]);
+        let rect = (l > 0.0).then(|| {
+            let n = [-d[1] / l * r, d[0] / l * r];
+            [
+                [a[0] + n[0], a[1] + n[1]],
+                [b[0] + n[0], b[1] + n[1]],
+                [b[0] - n[0], b[1] - n[1]],
+                [a[0] - n[0], a[1] - n[1]],
+            ]
+        });
+        Self {
+            ends: [a, b],
+            r,
+            rect,
         }
     }
-    // The rectangle a +- r n, b +- r n: intersect its four edges with the line.
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let l = d[0].hypot(d[1]);
-    if l > 0.0 {
-        let n = [-d[1] / l * r, d[0] / l * r];
-        let q = [
-            [a[0] + n[0], a[1] + n[1]],
-            [b[0] + n[0], b[1] + n[1]],
-            [b[0] - n[0], b[1] - n[1]],
-            [a[0] - n[0], a[1] - n[1]],
-        ];
-        for i in 0..4 {
-            let (p0, p1) = (q[i], q[(i + 1) % 4]);
-            if (p0[1] - y) * (p1[1] - y) <= 0.0 && p0[1] != p1[1] {
-                let x = p0[0] + (y - p0[1]) / (p1[1] - p0[1]) * (p1[0] - p0[0]);
-                lo = lo.min(x);
-                hi = hi.max(x);
+
+    /// The x-interval where the horizontal line at y meets the capsule.
+    fn span(&self, y: f64) -> Option<(f64, f64)> {
+        let r = self.r;
+        let mut lo = f64::INFINITY;
+        let mut hi = f64::NEG_INFINITY;
+        for c in self.ends {
+            let dy = y - c[1];
+            if dy.abs() <= r {
+                let w = (r * r - dy * dy).sqrt();
+                lo = lo.min(c[0] - w);
+                hi = hi.max(c[0] + w);
             }
         }
+        // The rectangle: intersect its four edges with the line.
+        if let Some(q) = &self.rect {
+            for i in 0..4 {
+                let (p0, p1) = (q[i], q[(i + 1) % 4]);
+                if (p0[1] - y) * (p1[1] - y) <= 0.0 && p0[1] != p1[1] {
+                    let x = p0[0] + (y - p0[1]) / (p1[1] - p0[1]) * (p1[0] - p0[0]);
+                    lo = lo.min(x);
+                    hi = hi.max(x);
+                }
+            }
+        }
+        (lo <= hi).then_some((lo, hi))
     }
-    (lo <= hi).then_some((lo, hi))
 }
 
 impl Raster {
@@ -350,10 +475,22 @@ impl Raster {
                     continue;
                 }
                 let y1 = (y1 as usize).min(self.ny.saturating_sub(1));
+                let capsule = Capsule::new(a, b, r);
                 for (j, row) in rows.iter_mut().enumerate().take(y1 + 1).skip(y0) {
                     let y = self.origin[1] + (j as f64 + 0.5) * h;
-                    if let Some(s) = capsule_span(a, b, r, y) {
-                        row.push(s);
+                    if let Some(s) = capsule.span(y) {
+                        // Consecutive segments' spans mostly overlap: an
+                        // overlapping span joins the row's last one. The
+                        // cell range of the union is the union of the two
+                        // cell ranges (the cell bounds are monotone in x),
+                        // so the same cells are marked, each once.
+                        match row.last_mut() {
+                            Some(last) if s.0 <= last.1 && s.1 >= last.0 => {
+                                last.0 = last.0.min(s.0);
+                                last.1 = last.1.max(s.1);
+                            }
+                            _ => row.push(s),
+                        }
                     }
                 }
             }
@@ -424,6 +561,55 @@ mod tests {
         r.sweep(&[vec![[10.0, 10.0], [30.0, 30.0]]], 5.0);
         let want = 20.0 * 2f64.sqrt() * 10.0 + std::f64::consts::PI * 25.0;
         assert!((1600.0 - r.uncut_area() - want).abs() < 0.05);
+    }
+
+    #[test]
+    fn swept_cells_match_brute_force_distances() {
+        // Wavy paths of short segments (their spans overlap row by row and
+        // are joined), a path doubling back, and a lone point; each cell
+        // centre is marked when within r of some segment (brute force),
+        // except within 1e-9 of r, where rounding may decide either way.
+        let p = Pocket::new(&[[0.0, 0.0], [30.0, 0.0], [30.0, 20.0], [0.0, 20.0]], &[]).unwrap();
+        let wave: Vec<Point2> = (0..160)
+            .map(|i| [2.0 + i as f64 * 0.16, 8.0 + (i as f64 * 0.11).sin() * 4.0])
+            .collect();
+        let back: Vec<Point2> = vec![[5.0, 17.0], [25.0, 15.0], [6.0, 14.5], [29.5, 19.5]];
+        let lone = vec![[27.0, 3.0]];
+        let paths = vec![wave, back, lone];
+        for r in [0.3, 1.7] {
+            let mut raster = Raster::new(&p, 0.05);
+            raster.sweep(&paths, r);
+            let segs: Vec<(Point2, Point2)> = paths
+                .iter()
+                .flat_map(|l| {
+                    if l.len() == 1 {
+                        vec![(l[0], l[0])]
+                    } else {
+                        l.windows(2).map(|w| (w[0], w[1])).collect()
+                    }
+                })
+                .collect();
+            let mut swept = 0;
+            for j in 0..raster.ny {
+                for i in 0..raster.nx {
+                    let c = [
+                        raster.origin[0] + (i as f64 + 0.5) * raster.h,
+                        raster.origin[1] + (j as f64 + 0.5) * raster.h,
+                    ];
+                    let d = segs
+                        .iter()
+                        .map(|&(a, b)| dist(segment_foot(a, b, c), c))
+                        .fold(f64::INFINITY, f64::min);
+                    if (d - r).abs() < 1e-9 {
+                        continue;
+                    }
+                    let marked = raster.cells[j * raster.nx + i] == 2;
+                    assert_eq!(marked, d < r, "cell {c:?} d {d} r {r}");
+                    swept += marked as usize;
+                }
+            }
+            assert!(swept > 1000, "{swept}");
+        }
     }
 
     #[test]

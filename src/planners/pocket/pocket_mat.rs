@@ -123,13 +123,41 @@ fn lerp3(a: [f64; 3], b: [f64; 3], t: f64) -> [f64; 3] {
     ]
 }
 
+/// Which medial-axis samples the tools swept so far, kept from one corner
+/// tool to the next: tools are only ever added, so a swept sample stays
+/// swept and an unswept one need only be tested against the new tools.
+#[derive(Default)]
+struct SweptFlags {
+    flags: Vec<Vec<bool>>,
+    /// Tools of the `Swept` already tested against every unswept sample.
+    tools_done: usize,
+}
+
+impl SweptFlags {
+    fn update(&mut self, dense: &[Vec<[f64; 3]>], swept: &Swept) {
+        if self.flags.is_empty() {
+            self.flags = dense.iter().map(|b| vec![false; b.len()]).collect();
+        }
+        let new = self.tools_done..swept.len();
+        for (b, flags) in dense.iter().zip(&mut self.flags) {
+            for (q, f) in b.iter().zip(flags.iter_mut()) {
+                if !*f {
+                    *f = swept.covers_by(new.clone(), [q[0], q[1]], 1e-9);
+                }
+            }
+        }
+        self.tools_done = swept.len();
+    }
+}
+
 /// Twice the largest radius of the medial-axis points that no tool has swept
-/// (the transitions refined by bisection): Dmax_i of the paper. 0 when all swept.
-fn residual_dmax(dense: &[Vec<[f64; 3]>], swept: &Swept) -> f64 {
+/// (the transitions refined by bisection): Dmax_i of the paper. 0 when all
+/// swept. `flags` carries the samples' swept flags from the previous call.
+fn residual_dmax(dense: &[Vec<[f64; 3]>], swept: &Swept, flags: &mut SweptFlags) -> f64 {
     let covered = |q: [f64; 3]| swept.covers([q[0], q[1]], 1e-9);
+    flags.update(dense, swept);
     let mut best: f64 = 0.0;
-    for b in dense {
-        let flags: Vec<bool> = b.iter().map(|&q| covered(q)).collect();
+    for (b, flags) in dense.iter().zip(&flags.flags) {
         for (k, &q) in b.iter().enumerate() {
             if flags[k] {
                 continue;
@@ -382,9 +410,10 @@ pub fn plan_pocket(
     // Corner cleaning: tools in decreasing order while the medial axis still
     // leaves circles unmachined that the root tool would not clear.
     let mut previous = d_rough;
+    let mut flags = SweptFlags::default();
     loop {
         progress.check()?;
-        let residual = residual_dmax(&dense, &done.swept);
+        let residual = residual_dmax(&dense, &done.swept, &mut flags);
         if residual <= 0.0 {
             break;
         }
@@ -517,4 +546,42 @@ pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     result.warnings = plan.warnings;
     progress.set(1.0);
     Ok(result)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn residual_with_carried_flags_matches_exact_answers() {
+        // One branch from (0, 0) with r = 5 to (20, 0) with r = 1, samples
+        // 0.1 mm apart: r = 5 - x / 5. Tools are discs (one-point paths),
+        // each sweeping an interval of the branch, added one at a time; the
+        // residual is twice r at the unswept end nearest x = 0.
+        let dense = vec![(0..=200)
+            .map(|i| {
+                let x = i as f64 * 0.1;
+                [x, 0.0, 5.0 - x / 5.0]
+            })
+            .collect::<Vec<[f64; 3]>>()];
+        let mut swept = Swept::default();
+        let mut flags = SweptFlags::default();
+        // Sweeps x <= 3: residual 2 (5 - 3/5) = 8.8.
+        swept.add(&[vec![[-3.0, 0.0]]], 6.0);
+        // Sweeps 8 <= x <= 16: the residual stays 8.8.
+        let tools = [([12.0, 0.0], 4.0, 8.8), ([5.5, 0.0], 3.5, 3.6)];
+        let got = residual_dmax(&dense, &swept, &mut flags);
+        assert!((got - 8.8).abs() < 1e-8, "{got}");
+        for (centre, r, want) in tools {
+            swept.add(&[vec![centre]], r);
+            let got = residual_dmax(&dense, &swept, &mut flags);
+            // The same with flags worked out afresh.
+            let fresh = residual_dmax(&dense, &swept, &mut SweptFlags::default());
+            assert_eq!(got.to_bits(), fresh.to_bits());
+            assert!((got - want).abs() < 1e-8, "{got} want {want}");
+        }
+        // Sweeps the rest: nothing left.
+        swept.add(&[vec![[18.0, 0.0]]], 2.5);
+        assert_eq!(residual_dmax(&dense, &swept, &mut flags), 0.0);
+    }
 }
