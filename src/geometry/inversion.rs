@@ -170,7 +170,7 @@ pub fn invert_in_frame(
         d = extended_derivs(surface, uv.x, uv.y);
     }
     let miss = frame.residual(&d, xy).norm();
-    if !(miss <= CONVERGED_MM) {
+    if miss.is_nan() || miss > CONVERGED_MM {
         let (uv2, d2) = invert_by_continuation(&frame, xy, seed);
         let miss2 = frame.residual(&d2, xy).norm();
         if miss2 < miss || !miss.is_finite() {

@@ -343,7 +343,7 @@ const DISC_SPOKES: usize = 12;
 /// Newton on the gap's gradient (Hessian by differences of the slopes),
 /// kept inside the disc.
 fn disc_clearance(pose: &Pose, h: &dyn LocalHeight) -> f64 {
-    if !(pose.r0 > 0.0) {
+    if pose.r0.is_nan() || pose.r0 <= 0.0 {
         return f64::INFINITY;
     }
     let (tip, d1, d2) = pose.disc();
@@ -397,7 +397,7 @@ fn disc_clearance(pose: &Pose, h: &dyn LocalHeight) -> f64 {
             (na, nb) = (na * r0 / rho, nb * r0 / rho);
         }
         let v = gap(na, nb).0;
-        if !(v < best.0) {
+        if v.is_nan() || v >= best.0 {
             break;
         }
         best.0 = v;

@@ -96,14 +96,14 @@ impl SeedGrid {
 /// real surface (mm, 0 for exact heights).
 enum PartModel<'a> {
     Fitted(FittedHeight, f64),
-    Exact(ExactHeight<'a>),
+    Exact(Box<ExactHeight<'a>>),
 }
 
 impl PartModel<'_> {
     fn height(&self) -> (&dyn LocalHeight, f64) {
         match self {
             PartModel::Fitted(fit, e) => (fit, *e),
-            PartModel::Exact(exact) => (exact, 0.0),
+            PartModel::Exact(exact) => (exact.as_ref(), 0.0),
         }
     }
 }
@@ -561,12 +561,12 @@ impl<'a> Planner<'a> {
         };
         match fitted {
             Some((fit, e)) => PartModel::Fitted(fit, e),
-            None => PartModel::Exact(ExactHeight {
+            None => PartModel::Exact(Box::new(ExactHeight {
                 surface: self.surface,
                 frame,
                 uv: g.uv,
                 seeds,
-            }),
+            })),
         }
     }
 
