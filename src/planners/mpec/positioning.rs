@@ -20,7 +20,7 @@
 use super::error_curve::{self as ec, LeadSearch, LocalHeight, Status};
 use crate::error::{Error, Result};
 use crate::formats::{FeedDirection, Job, Pass, PathPoint, PlanResult};
-use crate::geometry::inversion::{extended_derivs, extended_point, invert_in_frame, FramePoint};
+use crate::geometry::inversion::{extended_derivs, extended_point, invert_in_frame};
 use crate::geometry::numeric::Bracket;
 use crate::geometry::{LocalGeometry, NurbsSurface};
 use crate::planners::Progress;
@@ -276,8 +276,10 @@ pub fn fit_height_inverted(
     (fit_samples(&samples, scale), seeds)
 }
 
-/// Heights over the [`fit_box`]'s 7 x 7 grid (x and y in units of R0 + r),
-/// found by [`march`].
+/// Heights over the [`fit_box`]'s 7 x 7 grid (x and y in units of R0 + r)
+/// and their surface parameters, each found by the frame inversion from its
+/// neighbour's parameters: rows outwards from the drive point's own y, each
+/// row's middle seeded by the last row's.
 pub fn march_footprint(
     surface: &NurbsSurface,
     g: &LocalGeometry,
@@ -286,50 +288,33 @@ pub fn march_footprint(
 ) -> ([(f64, f64, f64); FIT_GRID * FIT_GRID], SeedGrid) {
     let ((x0, x1), (y0, y1)) = fit_box(tool);
     let scale = tool.tube_radius() + tool.corner_radius;
-    let points = march(surface, g.uv, frame, fit_box(tool), FIT_GRID);
     let mut samples = [(0.0, 0.0, 0.0); FIT_GRID * FIT_GRID];
     let mut seeds = SeedGrid {
         bx: (x0, x1),
         by: (y0, y1),
         uv: [g.uv; FIT_GRID * FIT_GRID],
     };
-    for (k, (x, y, q)) in points.into_iter().enumerate() {
-        samples[k] = (x / scale, y / scale, q.height);
-        seeds.uv[k] = q.uv;
-    }
-    (samples, seeds)
-}
-
-/// The surface over an n x n grid (n odd) of the box `((x0, x1), (y0, y1))`
-/// in the frame, row-major from x0, each point found by the frame inversion
-/// from its neighbour's parameters: rows outwards from the drive point's own
-/// y, each row's middle seeded by the last row's.
-fn march(
-    surface: &NurbsSurface,
-    seed: Vector2<f64>,
-    frame: &Frame,
-    ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64)),
-    n: usize,
-) -> Vec<(f64, f64, FramePoint)> {
-    let blank = invert_in_frame(surface, &frame.p, &frame.e1, &frame.e2, [0.0, 0.0], seed);
-    let mut out = vec![(0.0, 0.0, blank); n * n];
-    let mut row_seed = seed;
-    let mid = (n - 1) / 2;
-    for a in (0..n).rev() {
-        let x = x0 + (x1 - x0) * a as f64 / (n - 1) as f64;
+    let mut row_seed = g.uv;
+    let mid = (FIT_GRID - 1) / 2;
+    for a in (0..FIT_GRID).rev() {
+        let x = x0 + (x1 - x0) * a as f64 / (FIT_GRID - 1) as f64;
         let centre = invert_in_frame(surface, &frame.p, &frame.e1, &frame.e2, [x, 0.0], row_seed);
         row_seed = centre.uv;
-        for half in [(mid..n).collect::<Vec<_>>(), (0..=mid).rev().collect()] {
+        for half in [
+            (mid..FIT_GRID).collect::<Vec<_>>(),
+            (0..=mid).rev().collect(),
+        ] {
             let mut seed = centre.uv;
             for b in half {
-                let y = y0 + (y1 - y0) * b as f64 / (n - 1) as f64;
+                let y = y0 + (y1 - y0) * b as f64 / (FIT_GRID - 1) as f64;
                 let q = invert_in_frame(surface, &frame.p, &frame.e1, &frame.e2, [x, y], seed);
                 seed = q.uv;
-                out[a * n + b] = (x, y, q);
+                samples[a * FIT_GRID + b] = (x / scale, y / scale, q.height);
+                seeds.uv[a * FIT_GRID + b] = q.uv;
             }
         }
     }
-    out
+    (samples, seeds)
 }
 
 /// One positioned drive point.
