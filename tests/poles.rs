@@ -479,7 +479,6 @@ fn mpec_plans_the_triangle_patch_within_the_band() {
     let job = Job::new(job_file(Strategy::Mpec), Shape::Surface(s)).unwrap();
     let r = pipeline::run(&job, &NoProgress, RunOptions::default()).unwrap();
     let st = &r.stats;
-    let delta = job.tolerance.unwrap();
     let (scallop, gouge) = (st.max_scallop_mm.unwrap(), st.max_gouge_mm.unwrap());
     eprintln!(
         "triangle mpec: {} passes, {:.0} mm, residual {scallop:.4}, gouge {gouge:.4}",
@@ -493,14 +492,7 @@ fn mpec_plans_the_triangle_patch_within_the_band() {
         .iter()
         .chain(&p.axis)
         .all(|x| x.is_finite())));
-    assert!(scallop <= delta, "residual {scallop}");
-    assert!(
-        gouge <= delta + pipeline::CONFORMANCE_SLACK_MM,
-        "gouge {gouge}"
-    );
-    assert_eq!(st.extra["uncovered_area_mm2"], 0.0);
-    assert_eq!(r.within_scallop, Some(true));
-    assert_eq!(pipeline::Conformance::of(&job, &r), Default::default());
+    assert_within_band(&job, &r);
 }
 
 /// MPEC on the revolved profile (torus R8 r2, band 0.05): every pass starts
@@ -520,7 +512,6 @@ fn mpec_plans_the_revolved_profile_within_the_band() {
     let job = Job::new(f, Shape::Surface(s)).unwrap();
     let r = pipeline::run(&job, &NoProgress, RunOptions::default()).unwrap();
     let st = &r.stats;
-    let delta = job.tolerance.unwrap();
     let (scallop, gouge) = (st.max_scallop_mm.unwrap(), st.max_gouge_mm.unwrap());
     eprintln!(
         "revolved mpec: {} passes, {:.0} mm, residual {scallop:.4}, gouge {gouge:.4}",
@@ -539,6 +530,15 @@ fn mpec_plans_the_revolved_profile_within_the_band() {
             p.cl
         );
     }
+    assert_within_band(&job, &r);
+}
+
+/// An MPEC plan within its band by the simulator: nothing left above +delta,
+/// no gouge beyond -delta, nothing uncovered, and the result says so.
+fn assert_within_band(job: &Job, r: &PlanResult) {
+    let st = &r.stats;
+    let delta = job.tolerance.unwrap();
+    let (scallop, gouge) = (st.max_scallop_mm.unwrap(), st.max_gouge_mm.unwrap());
     assert!(scallop <= delta, "residual {scallop}");
     assert!(
         gouge <= delta + pipeline::CONFORMANCE_SLACK_MM,
@@ -546,5 +546,5 @@ fn mpec_plans_the_revolved_profile_within_the_band() {
     );
     assert_eq!(st.extra["uncovered_area_mm2"], 0.0);
     assert_eq!(r.within_scallop, Some(true));
-    assert_eq!(pipeline::Conformance::of(&job, &r), Default::default());
+    assert_eq!(pipeline::Conformance::of(job, r), Default::default());
 }

@@ -696,9 +696,9 @@ impl<'a> Planner<'a> {
     /// R0 + r.
     pub fn feed_samples(&self) -> Vec<(f64, bool)> {
         let ((s0, s1), _) = self.ranges();
-        let (n, ds, _) = self.feed_grid();
+        let (n, ds, step_len) = self.feed_grid();
         let mut out: Vec<(f64, bool)> = (0..=n).map(|i| (s0 + ds * i as f64, true)).collect();
-        let (_, longest) = self.runout_counts();
+        let (_, longest) = self.runout_counts(step_len);
         out.extend((1..=longest).map(|i| (s1 + ds * i as f64, false)));
         out
     }
@@ -724,10 +724,9 @@ impl<'a> Planner<'a> {
         (n, (s1 - s0) / n as f64, len / n as f64)
     }
 
-    /// Run-out drive points past the far edge: (at least, at most), for
-    /// R0 + r and 2 R0 + r.
-    fn runout_counts(&self) -> (usize, usize) {
-        let (_, _, step_len) = self.feed_grid();
+    /// Run-out drive points past the far edge at `step_len` mm apart
+    /// ([`Self::feed_grid`]): (at least, at most), for R0 + r and 2 R0 + r.
+    fn runout_counts(&self, step_len: f64) -> (usize, usize) {
         let count = |mm: f64| {
             if step_len > 0.0 {
                 (mm / step_len).ceil() as usize
@@ -761,8 +760,8 @@ impl<'a> Planner<'a> {
         let last_inside = samples.iter().rposition(|&(_, inside)| inside);
         let runout = samples.len() - last_inside.map_or(samples.len(), |i| i + 1);
         if let Some(i) = last_inside.filter(|_| runout > 0) {
-            let (least, _) = self.runout_counts();
             let (_, _, step_len) = self.feed_grid();
+            let (least, _) = self.runout_counts(step_len);
             let reach = self.trailing_reach(&out[i]);
             let needed = if step_len > 0.0 && reach.is_finite() {
                 (reach / step_len).ceil() as usize
@@ -1083,7 +1082,7 @@ pub fn plan_with(
         .stats
         .extra
         .insert("not_applicable_points".into(), not_applicable as f64);
-    let (least, _) = planner.runout_counts();
+    let (least, _) = planner.runout_counts(planner.feed_grid().2);
     let ((_, s1), _) = planner.ranges();
     let feed_of = |p: &DrivePoint| match planner.feed {
         FeedDirection::U => p.uv[0],
@@ -1095,18 +1094,17 @@ pub fn plan_with(
         .max()
         .unwrap_or(0);
     let (r0, r) = (planner.tool.tube_radius(), planner.tool.corner_radius);
-    if longest <= least {
-        result.warnings.push(format!(
-            "every pass runs {:.1} mm (R0 + r) past the far edge of the surface, on its second-order continuation, so the tool's trailing part finishes the last sections",
-            r0 + r
-        ));
-    } else {
-        result.warnings.push(format!(
-            "every pass runs {:.1} mm (R0 + r) past the far edge of the surface, on its second-order continuation, so the tool's trailing part finishes the last sections; up to {:.1} mm (2 R0 + r) where the heel finishes the strip further behind the contact",
-            r0 + r,
+    let mut runout = format!(
+        "every pass runs {:.1} mm (R0 + r) past the far edge of the surface, on its second-order continuation, so the tool's trailing part finishes the last sections",
+        r0 + r
+    );
+    if longest > least {
+        runout += &format!(
+            "; up to {:.1} mm (2 R0 + r) where the heel finishes the strip further behind the contact",
             2.0 * r0 + r
-        ));
+        );
     }
+    result.warnings.push(runout);
     if not_applicable > 0 {
         result.warnings.push(format!(
             "{not_applicable} drive points are convex (or flat) across the feed, or twisted so that the \"W\" is narrower on one side than the conventional strip: MPEC does not apply there; they use the conventional position (tool touching, smallest non-gouging lead) with the strip where the scallop stays below the tolerance"

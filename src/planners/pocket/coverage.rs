@@ -545,6 +545,21 @@ impl Raster {
 mod tests {
     use super::*;
 
+    /// The segments of polylines for the brute-force checks (a lone point
+    /// is a segment of length zero).
+    fn segments<'a>(lines: impl IntoIterator<Item = &'a [Point2]>) -> Vec<(Point2, Point2)> {
+        lines
+            .into_iter()
+            .flat_map(|l| {
+                if l.len() == 1 {
+                    vec![(l[0], l[0])]
+                } else {
+                    l.windows(2).map(|w| (w[0], w[1])).collect()
+                }
+            })
+            .collect()
+    }
+
     #[test]
     fn disc_swept_area_matches_pi_r_squared() {
         let p = Pocket::new(&[[0.0, 0.0], [40.0, 0.0], [40.0, 40.0], [0.0, 40.0]], &[]).unwrap();
@@ -579,16 +594,7 @@ mod tests {
         for r in [0.3, 1.7] {
             let mut raster = Raster::new(&p, 0.05);
             raster.sweep(&paths, r);
-            let segs: Vec<(Point2, Point2)> = paths
-                .iter()
-                .flat_map(|l| {
-                    if l.len() == 1 {
-                        vec![(l[0], l[0])]
-                    } else {
-                        l.windows(2).map(|w| (w[0], w[1])).collect()
-                    }
-                })
-                .collect();
+            let segs = segments(paths.iter().map(Vec::as_slice));
             let mut swept = 0;
             for j in 0..raster.ny {
                 for i in 0..raster.nx {
@@ -643,16 +649,7 @@ mod tests {
         let lone = [[55.0, 20.0]];
         let lines = [a.as_slice(), b.as_slice(), lone.as_slice()];
         let idx = SegmentIndex::from_polylines(lines);
-        let segs: Vec<(Point2, Point2)> = lines
-            .iter()
-            .flat_map(|l| {
-                if l.len() == 1 {
-                    vec![(l[0], l[0])]
-                } else {
-                    l.windows(2).map(|w| (w[0], w[1])).collect()
-                }
-            })
-            .collect();
+        let segs = segments(lines);
         let mut hits = 0;
         for k in 0..4000 {
             let t = k as f64;
