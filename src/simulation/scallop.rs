@@ -411,7 +411,7 @@ impl SweepLine<'_> {
                 continue;
             };
             let g_j = self.rim_gap(s_j);
-            if !((g_m <= 0.0) != (g_j <= 0.0)) || !g_m.is_finite() || !g_j.is_finite() {
+            if (g_m <= 0.0) == (g_j <= 0.0) || !g_m.is_finite() || !g_j.is_finite() {
                 continue;
             }
             let s_k = self.rim_crossing(s_m, g_m, s_j, g_j, tol);
