@@ -137,6 +137,21 @@ struct Segment {
     mid_top: Vector3<f64>,
     /// How far the swept axis strays from the mid axis, mm.
     margin: f64,
+    /// mid_top - mid_tip, its squared length and the reciprocal, and
+    /// (R + margin)^2: the reach test's per-motion constants.
+    mid_d: Vector3<f64>,
+    mid_dd: f64,
+    mid_inv_dd: f64,
+    reach2: f64,
+    /// The sample-independent products of [`SweepLine`]: tip1 - tip0,
+    /// axis1 - axis0, |axis(s)|^2's coefficients, (tip1 - tip0) . axis0,
+    /// (tip1 - tip0) . (axis1 - axis0), |tip1 - tip0|^2.
+    dt: Vector3<f64>,
+    da: Vector3<f64>,
+    q: [f64; 3],
+    dt_a0: f64,
+    dt_da: f64,
+    dt_dt: f64,
 }
 
 impl Segment {
@@ -173,9 +188,14 @@ struct SweepLine<'a> {
     xn: [f64; 2],
     /// |n|^2.
     nn: f64,
+    /// A flat end with n . axis > 0 along the motion (a finite
+    /// [`Self::plane_bound`]): the rim kink can be solved for.
+    kinks: bool,
 }
 
 impl<'a> SweepLine<'a> {
+    /// The line's products with the motion, only those the tip-plane bound
+    /// needs (`z`, `na`); [`Self::complete`] adds the rest before any drop.
     fn new(
         sim: &'a Simulator<'a>,
         seg: &'a Segment,
@@ -183,21 +203,32 @@ impl<'a> SweepLine<'a> {
         n: &'a Vector3<f64>,
     ) -> Self {
         let flat = sim.cutter.corner_radius == 0.0;
-        let (d0, dt) = (p - seg.tip0, seg.tip1 - seg.tip0);
-        let (a0, da) = (seg.axis0, seg.axis1 - seg.axis0);
+        let d0 = p - seg.tip0;
+        let (a0, da) = (&seg.axis0, &seg.da);
         Self {
             sim,
             seg,
             p,
             n,
             flat,
-            q: [a0.norm_squared(), 2.0 * a0.dot(&da), da.norm_squared()],
-            z: [d0.dot(&a0), d0.dot(&da) - dt.dot(&a0), -dt.dot(&da)],
-            na: [n.dot(&a0), n.dot(&da)],
-            xx: [d0.norm_squared(), -2.0 * d0.dot(&dt), dt.norm_squared()],
-            xn: [d0.dot(n), -dt.dot(n)],
-            nn: n.norm_squared(),
+            q: seg.q,
+            z: [d0.dot(a0), d0.dot(da) - seg.dt_a0, -seg.dt_da],
+            na: [n.dot(a0), n.dot(da)],
+            xx: [0.0; 3],
+            xn: [0.0; 2],
+            nn: 0.0,
+            kinks: false,
         }
+    }
+
+    /// Adds the products only the drop needs (`xx`, `xn`, `nn`).
+    fn complete(mut self) -> Self {
+        let (p, n, seg) = (self.p, self.n, self.seg);
+        let d0 = p - seg.tip0;
+        self.xx = [d0.norm_squared(), -2.0 * d0.dot(&seg.dt), seg.dt_dt];
+        self.xn = [d0.dot(n), -seg.dt.dot(n)];
+        self.nn = n.norm_squared();
+        self
     }
 
     /// A lower bound of the drop over the whole motion (s in [0, 1]), any
@@ -279,6 +310,134 @@ impl<'a> SweepLine<'a> {
             -self.sim.depth
         } else {
             f64::INFINITY
+        }
+    }
+}
+
+impl SweepLine<'_> {
+    /// For a flat end, |X(s)|^2 - R^2 with X(s) the point where the line
+    /// crosses the tip plane at pose s, taken from the tip (X is across the
+    /// axis, so |X| is its distance from the axis): where it is <= 0 the line
+    /// enters the tool through its bottom disc and the drop is the tip
+    /// plane's c(s) = -z(s) / na(s) exactly, elsewhere the drop is above c(s)
+    /// or infinite. Its roots are the rim crossings, the drop's kinks. Needs
+    /// na > 0 along the motion (a finite [`Self::plane_bound`]).
+    fn rim_gap(&self, s: f64) -> f64 {
+        let na = self.na[0] + s * self.na[1];
+        let c = -(self.z[0] + s * (self.z[1] + s * self.z[2])) / na;
+        let xx = self.xx[0] + s * (self.xx[1] + s * self.xx[2]);
+        let xn = self.xn[0] + s * self.xn[1];
+        let big_r = self.sim.cutter.radius;
+        xx + c * (2.0 * xn + c * self.nn) - big_r * big_r
+    }
+
+    /// The minimum of a flat end's drop along the whole motion when it lies
+    /// at a rim kink, without scanning drops: the rim gap on the scan grid
+    /// (`k` steps) brackets the rim crossings; with one or two, each is
+    /// solved as in [`Self::kink_min`] and the lower kink drop is kept if the
+    /// drop half a tolerance to each side is no lower (a local minimum of the
+    /// convex drop is its minimum). `None` otherwise: the caller scans.
+    fn kink_first(&self, k: usize, tol: f64) -> Option<f64> {
+        let ds = 1.0 / k as f64;
+        let mut prev = (0.0, self.rim_gap(0.0));
+        let mut brackets = [((0.0, 0.0), (0.0, 0.0)); 2];
+        let mut count = 0;
+        for i in 1..=k {
+            let s = if i == k { 1.0 } else { i as f64 * ds };
+            let g = self.rim_gap(s);
+            if !(g.is_finite() && prev.1.is_finite()) {
+                return None;
+            }
+            if (g <= 0.0) != (prev.1 <= 0.0) {
+                *brackets.get_mut(count)? = (prev, (s, g));
+                count += 1;
+            }
+            prev = (s, g);
+        }
+        let mut best: Option<(f64, f64)> = None;
+        for &((a, ga), (b, gb)) in &brackets[..count] {
+            let s_k = self.rim_crossing(a, ga, b, gb, tol);
+            let f_k = self.drop(s_k);
+            if f_k.is_finite() && best.is_none_or(|q| f_k < q.1) {
+                best = Some((s_k, f_k));
+            }
+        }
+        let (s_k, f_k) = best?;
+        // At an end of the motion there is nothing beyond it to check.
+        let h = 0.5 * tol;
+        let f_l = if s_k - h > 0.0 {
+            self.drop(s_k - h)
+        } else {
+            f64::INFINITY
+        };
+        let f_r = if s_k + h < 1.0 {
+            self.drop(s_k + h)
+        } else {
+            f64::INFINITY
+        };
+        (f_l >= f_k && f_r >= f_k).then_some(f_k)
+    }
+
+    /// The rim crossing between a and b (rim gaps ga, gb of opposite signs)
+    /// by regula falsi (Illinois) to 1e-3 of `tol`, on the disc side (gap <= 0),
+    /// where the drop is the tip plane's.
+    fn rim_crossing(&self, a: f64, ga: f64, b: f64, gb: f64, tol: f64) -> f64 {
+        let mut br = crate::geometry::numeric::Bracket::new(a, ga, b, gb);
+        for _ in 0..60 {
+            if br.width() <= 1e-3 * tol {
+                break;
+            }
+            let x = br.trial();
+            br.narrow(x, self.rim_gap(x));
+        }
+        br.neg
+    }
+
+    /// The minimum of a flat end's drop at a rim kink next to the lowest of
+    /// the `known` drops (sorted by s, finite), when the kink is certified:
+    /// the rim crossing between the lowest and a neighbour of the other side
+    /// of the rim, solved by regula falsi (Illinois) on [`Self::rim_gap`] to
+    /// 1e-3 of the tolerance, and the drop at it no higher than at half a
+    /// tolerance to each side (so the convex drop has its minimum within one
+    /// tolerance, the stopping rule of [`bracket_min`]). `None` otherwise:
+    /// the caller searches as before.
+    fn kink_min(&self, known: &[(f64, f64)], tol: f64) -> Option<f64> {
+        let m = (1..known.len()).fold(0, |m, i| if known[i].1 < known[m].1 { i } else { m });
+        let (s_m, f_m) = *known.get(m)?;
+        let g_m = self.rim_gap(s_m);
+        let mut best: Option<(f64, f64)> = None;
+        for j in [m.wrapping_sub(1), m + 1] {
+            let Some(&(s_j, _)) = known.get(j) else {
+                continue;
+            };
+            let g_j = self.rim_gap(s_j);
+            if (g_m <= 0.0) == (g_j <= 0.0) || !g_m.is_finite() || !g_j.is_finite() {
+                continue;
+            }
+            let s_k = self.rim_crossing(s_m, g_m, s_j, g_j, tol);
+            let f_k = self.drop(s_k);
+            if f_k.is_finite() && best.is_none_or(|b| f_k < b.1) {
+                best = Some((s_k, f_k));
+            }
+        }
+        let (s_k, f_k) = best?;
+        // A known end closer than half a tolerance stands for that side.
+        let (first, last) = (known[0], known[known.len() - 1]);
+        let h = 0.5 * tol;
+        let f_l = if s_k - h > first.0 {
+            self.drop(s_k - h)
+        } else {
+            first.1
+        };
+        let f_r = if s_k + h < last.0 {
+            self.drop(s_k + h)
+        } else {
+            last.1
+        };
+        if f_l >= f_k && f_r >= f_k {
+            Some(f_k.min(f_m))
+        } else {
+            None
         }
     }
 }
@@ -471,6 +630,61 @@ impl Scratch {
 /// A surface sample: point, unit tool-side normal, area weight (`None` where the normal is undefined).
 type Frame = Option<(Vector3<f64>, Vector3<f64>, f64)>;
 
+/// A sample's line p + t n over the searched range t in [-depth, cap], as
+/// the segment a + s d (s in [0, 1]) with |d|^2 and its reciprocal: the
+/// reach test's per-sample constants.
+struct ReachLine {
+    a: Vector3<f64>,
+    d: Vector3<f64>,
+    dd: f64,
+    inv_dd: f64,
+}
+
+impl ReachLine {
+    fn new(p: &Vector3<f64>, n: &Vector3<f64>, depth: f64, cap: f64) -> Self {
+        let a = p - n * depth;
+        let d = (p + n * cap) - a;
+        let dd = d.norm_squared();
+        Self {
+            a,
+            d,
+            dd,
+            inv_dd: 1.0 / dd,
+        }
+    }
+
+    /// Squared distance from this segment to the motion's mid axis (the
+    /// closest points of [`segment_distance`] with the per-segment and
+    /// per-sample constants hoisted: one division instead of a square root
+    /// and four).
+    fn distance2_to_mid_axis(&self, seg: &Segment) -> f64 {
+        let (e, d2) = (seg.mid_dd, &seg.mid_d);
+        if !(self.dd > 1e-30 && e > 1e-30) {
+            let d = segment_distance(&self.a, &(self.a + self.d), &seg.mid_tip, &seg.mid_top);
+            return d * d;
+        }
+        let r = self.a - seg.mid_tip;
+        let f = d2.dot(&r);
+        let c = self.d.dot(&r);
+        let b = self.d.dot(d2);
+        let denom = self.dd * e - b * b;
+        let mut s = if denom > 1e-30 {
+            ((b * f - c * e) / denom).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let mut t = (b * s + f) * seg.mid_inv_dd;
+        if t < 0.0 {
+            t = 0.0;
+            s = (-c * self.inv_dd).clamp(0.0, 1.0);
+        } else if t > 1.0 {
+            t = 1.0;
+            s = ((b - c) * self.inv_dd).clamp(0.0, 1.0);
+        }
+        (r + self.d * s - d2 * t).norm_squared()
+    }
+}
+
 /// The fast residual relies on the drop being convex in the motion parameter,
 /// which holds exactly for a translating tool; a turning axis bends it by a few
 /// 1e-4 mm at most on real plans. A motion is only left unrefined when the
@@ -527,6 +741,10 @@ impl<'a> Simulator<'a> {
                     let margin = 0.5 * (tip1 - tip0).norm().max((top1 - top0).norm())
                         + len * (1.0 - chord)
                         + 1e-9 * reach;
+                    let mid_top = mid_tip + mid * len;
+                    let (dt, da) = (tip1 - tip0, axis1 - axis0);
+                    let mid_d = mid_top - mid_tip;
+                    let mid_dd = mid_d.norm_squared();
                     segments.push(Segment {
                         tip0,
                         tip1,
@@ -534,8 +752,22 @@ impl<'a> Simulator<'a> {
                         axis1,
                         travel,
                         mid_tip,
-                        mid_top: mid_tip + mid * len,
+                        mid_top,
                         margin,
+                        mid_d,
+                        mid_dd,
+                        mid_inv_dd: 1.0 / mid_dd,
+                        reach2: (big_r + margin) * (big_r + margin),
+                        dt,
+                        da,
+                        q: [
+                            axis0.norm_squared(),
+                            2.0 * axis0.dot(&da),
+                            da.norm_squared(),
+                        ],
+                        dt_a0: dt.dot(&axis0),
+                        dt_da: dt.dot(&da),
+                        dt_dt: dt.norm_squared(),
                     });
                 };
             match poses.len() {
@@ -602,10 +834,18 @@ impl<'a> Simulator<'a> {
     /// along the line ([`SweepLine::plane_bound`], exact) is left unscanned.
     fn sweep_min(&self, seg: &Segment, p: &Vector3<f64>, n: &Vector3<f64>, cutoff: f64) -> f64 {
         let line = SweepLine::new(self, seg, p, n);
-        if line.plane_bound() >= cutoff {
+        let bound = line.plane_bound();
+        if bound >= cutoff {
             return f64::INFINITY;
         }
+        let mut line = line.complete();
+        line.kinks = line.flat && bound.is_finite() && seg.travel > 0.0;
         let k = ((seg.travel / self.scan_step).ceil() as usize).clamp(1, 4096);
+        if line.kinks {
+            if let Some(f) = line.kink_first(k, SWEEP_TOL_MM / seg.travel) {
+                return f;
+            }
+        }
         let ds = 1.0 / k as f64;
         let s_close = self.closest_position(seg, p, n);
         const NONE: (f64, f64) = (f64::NAN, f64::INFINITY);
@@ -713,10 +953,25 @@ impl<'a> Simulator<'a> {
             _ => {}
         }
         // The drop rises both ways from the best scanned position (or falls
-        // both ways, off convexity): the reference's golden section over both
-        // neighbours, which finds the same minimum as the reference where a
-        // turning axis gives the drop two.
-        self.refine_bracket(seg, p, n, best, left, right)
+        // both ways, off convexity): a flat end's certified rim kink next to
+        // it, else the reference's golden section over both neighbours, which
+        // finds the same minimum as the reference where a turning axis gives
+        // the drop two.
+        if line.kinks {
+            let mut known = [(0.0, 0.0); 5];
+            let mut count = 0;
+            for q in [left, probes[0], best, probes[1], right] {
+                if q.1.is_finite() && !q.0.is_nan() && (count == 0 || q.0 > known[count - 1].0) {
+                    known[count] = q;
+                    count += 1;
+                }
+            }
+            if let Some(f) = line.kink_min(&known[..count], tol) {
+                return f;
+            }
+        }
+        // On the expanded drop: the reference's positions, its drops to rounding.
+        Self::refine_bracket(seg, |s| line.drop(s), best, left, right)
     }
 
     /// [`Self::refine_bracket`] with the minimum searched by
@@ -749,6 +1004,11 @@ impl<'a> Simulator<'a> {
             if q.1.is_finite() && !q.0.is_nan() && (count == 0 || q.0 > known[count - 1].0) {
                 known[count] = q;
                 count += 1;
+            }
+        }
+        if line.kinks {
+            if let Some(f) = line.kink_min(&known[..count], tol) {
+                return f;
             }
         }
         bracket_min(|s| line.drop(s), &known[..count], tol, 200)
@@ -888,7 +1148,7 @@ impl<'a> Simulator<'a> {
             }
             prev = (s, h);
         }
-        self.refine_bracket(seg, p, n, best, left, right)
+        Self::refine_bracket(seg, |s| self.drop_at(seg, s, p, n), best, left, right)
     }
 
     /// Refines the minimum of the drop around the best scanned position
@@ -896,10 +1156,8 @@ impl<'a> Simulator<'a> {
     /// infinite: the line misses the tool there): the edge of the tool's reach
     /// by bisection, then golden-section search to [`SWEEP_TOL_MM`].
     fn refine_bracket(
-        &self,
         seg: &Segment,
-        p: &Vector3<f64>,
-        n: &Vector3<f64>,
+        drop: impl Fn(f64) -> f64,
         best: (f64, f64),
         left: (f64, f64),
         right: (f64, f64),
@@ -915,7 +1173,7 @@ impl<'a> Simulator<'a> {
             (lo, f_lo) = if left.1.is_finite() {
                 left
             } else {
-                edge(|s| self.drop_at(seg, s, p, n), s_best, best, left.0, tol)
+                edge(&drop, s_best, best, left.0, tol)
             };
         }
         let (mut hi, mut f_hi) = (s_best, best);
@@ -923,20 +1181,17 @@ impl<'a> Simulator<'a> {
             (hi, f_hi) = if right.1.is_finite() {
                 right
             } else {
-                edge(|s| self.drop_at(seg, s, p, n), s_best, best, right.0, tol)
+                edge(&drop, s_best, best, right.0, tol)
             };
         }
         best = best.min(f_lo).min(f_hi);
-        best.min(self.golden(seg, p, n, (lo, f_lo), (hi, f_hi), tol))
+        best.min(Self::golden(drop, (lo, f_lo), (hi, f_hi), tol))
     }
 
     /// Golden-section search for the minimum of the (unimodal) drop over
     /// [lo, hi] to `tol`; the lowest drop seen, ends included.
     fn golden(
-        &self,
-        seg: &Segment,
-        p: &Vector3<f64>,
-        n: &Vector3<f64>,
+        drop: impl Fn(f64) -> f64,
         (mut lo, f_lo): (f64, f64),
         (mut hi, f_hi): (f64, f64),
         tol: f64,
@@ -944,8 +1199,8 @@ impl<'a> Simulator<'a> {
         const G: f64 = 0.618_033_988_749_894_9;
         let mut x1 = hi - G * (hi - lo);
         let mut x2 = lo + G * (hi - lo);
-        let mut f1 = self.drop_at(seg, x1, p, n);
-        let mut f2 = self.drop_at(seg, x2, p, n);
+        let mut f1 = drop(x1);
+        let mut f2 = drop(x2);
         for _ in 0..80 {
             if hi - lo <= tol {
                 break;
@@ -955,13 +1210,13 @@ impl<'a> Simulator<'a> {
                 x2 = x1;
                 f2 = f1;
                 x1 = hi - G * (hi - lo);
-                f1 = self.drop_at(seg, x1, p, n);
+                f1 = drop(x1);
             } else {
                 lo = x1;
                 x1 = x2;
                 f1 = f2;
                 x2 = lo + G * (hi - lo);
-                f2 = self.drop_at(seg, x2, p, n);
+                f2 = drop(x2);
             }
         }
         f_lo.min(f_hi).min(f1).min(f2)
@@ -988,12 +1243,13 @@ impl<'a> Simulator<'a> {
         scratch: &mut Vec<u32>,
     ) -> Option<f64> {
         self.candidates_sorted(p, n, scratch);
+        let line = ReachLine::new(p, n, self.depth, self.cap);
         let mut best = f64::INFINITY;
         for &id in scratch.iter() {
             let Some(seg) = self.segments.get(id as usize) else {
                 continue;
             };
-            if !self.may_reach(seg, p, n, best) {
+            if !self.may_reach(seg, &line, p, n, best) {
                 continue;
             }
             best = best.min(self.sweep_min_reference(seg, p, n));
@@ -1074,9 +1330,11 @@ impl<'a> Simulator<'a> {
         }
         rho += 1e-9 * (self.depth + self.cap);
         let (segments, radius) = (&self.segments, self.cutter.radius);
+        let mean = ReachLine::new(&pc, &nc, self.depth, self.cap);
         sc.ids.retain(|&id| {
             segments.get(id as usize).is_some_and(|seg| {
-                segment_distance(&a, &b, &seg.mid_tip, &seg.mid_top) <= radius + seg.margin + rho
+                let reach = radius + seg.margin + rho;
+                mean.distance2_to_mid_axis(seg) <= reach * reach
             })
         });
     }
@@ -1127,6 +1385,7 @@ impl<'a> Simulator<'a> {
                 .is_some_and(|(a, b)| boxes_meet(a, b, &lo, &hi))
         };
         let first = sc.last_best.filter(|&b| meets(b));
+        let line = ReachLine::new(p, n, self.depth, self.cap);
         let mut best = f64::INFINITY;
         let mut lowest = None;
         let rest = sc.ids.iter().copied().filter(|&id| Some(id) != first);
@@ -1134,7 +1393,7 @@ impl<'a> Simulator<'a> {
             if Some(id) != first && !meets(id) {
                 continue;
             }
-            self.consider(id, p, n, &mut best, &mut lowest);
+            self.consider(id, &line, p, n, &mut best, &mut lowest);
         }
         if lowest.is_some() {
             sc.last_best = lowest;
@@ -1146,6 +1405,7 @@ impl<'a> Simulator<'a> {
     fn consider(
         &self,
         id: u32,
+        line: &ReachLine,
         p: &Vector3<f64>,
         n: &Vector3<f64>,
         best: &mut f64,
@@ -1154,7 +1414,7 @@ impl<'a> Simulator<'a> {
         let Some(seg) = self.segments.get(id as usize) else {
             return;
         };
-        if !self.may_reach(seg, p, n, *best) {
+        if !self.may_reach(seg, line, p, n, *best) {
             return;
         }
         let h = self.sweep_min(seg, p, n, *best);
@@ -1181,19 +1441,25 @@ impl<'a> Simulator<'a> {
         n: &Vector3<f64>,
         ids: &[u32],
     ) -> (Option<f64>, Option<u32>) {
+        let line = ReachLine::new(p, n, self.depth, self.cap);
         let mut best = f64::INFINITY;
         let mut lowest = None;
         for &id in ids {
-            self.consider(id, p, n, &mut best, &mut lowest);
+            self.consider(id, &line, p, n, &mut best, &mut lowest);
         }
         ((best <= self.cap).then_some(best), lowest)
     }
 
     /// Whether the tool swept along `seg` may reach the line p + t n below `best`.
-    fn may_reach(&self, seg: &Segment, p: &Vector3<f64>, n: &Vector3<f64>, best: f64) -> bool {
-        let a = p - n * self.depth;
-        let b = p + n * self.cap;
-        if segment_distance(&a, &b, &seg.mid_tip, &seg.mid_top) > self.cutter.radius + seg.margin {
+    fn may_reach(
+        &self,
+        seg: &Segment,
+        line: &ReachLine,
+        p: &Vector3<f64>,
+        n: &Vector3<f64>,
+        best: f64,
+    ) -> bool {
+        if line.distance2_to_mid_axis(seg) > seg.reach2 {
             return false;
         }
         // No point of the swept tool lies lower along n than this bound.
@@ -1686,7 +1952,7 @@ fn segment_distance(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::formats::{Pass, PathPoint};
+    use crate::formats::{Job, Pass, PathPoint};
 
     /// Pseudo-random numbers in [-1, 1) (xorshift), for reproducible cases.
     struct Rng(u64);
@@ -1745,7 +2011,7 @@ mod tests {
                     + Vector3::new(rng.next(), rng.next(), rng.next()) * 4.0
                     + seg.axis0 * 4.0 * (rng.next() + 1.0);
                 let n = (Vector3::z() + rng.unit() * 0.5).normalize();
-                let line = SweepLine::new(&sim, seg, &p, &n);
+                let line = SweepLine::new(&sim, seg, &p, &n).complete();
                 let bound = line.plane_bound();
                 if bound.is_finite() {
                     bounded += 1;
@@ -1774,5 +2040,202 @@ mod tests {
             hits > 5000 && misses > 5000 && clamped > 100 && bounded > 4000,
             "{hits} {misses} {clamped} {bounded}"
         );
+    }
+
+    /// Minimum of the convex `f` over [lo, hi] by golden section to 1e-13.
+    fn golden_min(f: impl Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> (f64, f64) {
+        const G: f64 = 0.618_033_988_749_894_9;
+        while hi - lo > 1e-13 {
+            let (x1, x2) = (hi - G * (hi - lo), lo + G * (hi - lo));
+            if f(x1) <= f(x2) {
+                hi = x2;
+            } else {
+                lo = x1;
+            }
+        }
+        let x = 0.5 * (lo + hi);
+        (x, f(x))
+    }
+
+    /// Random flat-end motions (half of them turning) as a simulator.
+    fn random_motions(rng: &mut Rng, count: usize, turn: f64) -> (Job, PlanResult) {
+        let job = crate::samples::job("plane").unwrap();
+        let mut result = PlanResult::new("test", "iso_parametric");
+        for _ in 0..count {
+            let tip = Vector3::new(rng.next(), rng.next(), rng.next()) * 3.0;
+            let axis0 = (Vector3::z() + rng.unit() * 0.4).normalize();
+            let turn = if rng.next() > 0.0 { turn } else { 0.0 };
+            let axis1 = (axis0 + rng.unit() * turn).normalize();
+            let tip1 = tip + rng.unit() * 2.0 * rng.next().abs();
+            let point = |t: Vector3<f64>, a: Vector3<f64>| PathPoint {
+                cl: [t.x, t.y, t.z],
+                axis: [a.x, a.y, a.z],
+                ..Default::default()
+            };
+            result.passes.push(Pass {
+                region: 0,
+                points: vec![point(tip, axis0), point(tip1, axis1)],
+                min_strip_width: None,
+            });
+        }
+        (job, result)
+    }
+
+    /// The reach test's squared distance between the sample's line and a
+    /// motion's mid axis against a brute-force minimum of the distance
+    /// between points of the two segments (nested golden sections: the
+    /// squared distance is convex in both parameters), on random lines,
+    /// lines nearly parallel to the axis and lines crossing it.
+    #[test]
+    fn reach_distance_matches_brute_force() {
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let (job, result) = random_motions(&mut rng, 30, 0.35);
+        let tool = Tool::FlatEnd {
+            radius: 2.5,
+            length: None,
+        };
+        let sim = Simulator::new(job.surface().unwrap(), &tool, &result).unwrap();
+        let (mut parallel, mut crossing) = (0, 0);
+        for seg in &sim.segments {
+            let axis = (seg.mid_top - seg.mid_tip).normalize();
+            for case in 0..60 {
+                let p = seg.mid_tip
+                    + Vector3::new(rng.next(), rng.next(), rng.next()) * 6.0
+                    + axis * 8.0 * rng.next();
+                let n = match case % 3 {
+                    0 => rng.unit(),
+                    // Nearly parallel to the axis (either way).
+                    1 => {
+                        parallel += 1;
+                        (axis * rng.next().signum() + rng.unit() * 1e-7).normalize()
+                    }
+                    // Through a point of the axis.
+                    _ => {
+                        crossing += 1;
+                        let on =
+                            seg.mid_tip + (seg.mid_top - seg.mid_tip) * (rng.next() + 1.0) * 0.5;
+                        (on - p).try_normalize(1e-9).unwrap_or(Vector3::z())
+                    }
+                };
+                let line = ReachLine::new(&p, &n, sim.depth, sim.cap);
+                let got = line.distance2_to_mid_axis(seg);
+                let (a, b) = (p - n * sim.depth, p + n * sim.cap);
+                let at = |s: f64, t: f64| {
+                    ((a + (b - a) * s) - (seg.mid_tip + (seg.mid_top - seg.mid_tip) * t))
+                        .norm_squared()
+                };
+                let inner = |s: f64| golden_min(|t| at(s, t), 0.0, 1.0).1;
+                let want = golden_min(inner, 0.0, 1.0).1;
+                // Closest points of nearly parallel segments are
+                // ill-conditioned: about 1e-8 of the squared distance.
+                assert!(
+                    (got - want).abs() <= 1e-7 * (1.0 + want),
+                    "squared distance {got} against brute force {want}"
+                );
+                let old = segment_distance(&a, &b, &seg.mid_tip, &seg.mid_top);
+                assert!((got.sqrt() - old).abs() <= 1e-7, "{got} against {old}");
+            }
+        }
+        assert!(parallel > 500 && crossing > 500, "{parallel} {crossing}");
+    }
+
+    /// The flat end's rim kink ([`SweepLine::kink_min`]) and the fast sweep
+    /// minimum against a brute-force minimum of the cutter's own drop at the
+    /// interpolated pose (`lowest_hit`, 4001 positions along the motion, then
+    /// golden section between the best one's neighbours), on translating
+    /// motions (the drop is convex): a certified kink is the minimum to 1e-7
+    /// mm and never below it; the fast minimum is never below it and within
+    /// 1e-3 mm of it (its bound is the drop's slope times 1e-5 mm of motion,
+    /// steep for lines close to the bottom disc's plane).
+    #[test]
+    fn flat_end_kink_and_sweep_minimum_match_brute_force() {
+        let mut rng = Rng(0x6a09_e667_f3bc_c909);
+        let (job, result) = random_motions(&mut rng, 40, 0.0);
+        let tool = Tool::FlatEnd {
+            radius: 2.5,
+            length: None,
+        };
+        let sim = Simulator::new(job.surface().unwrap(), &tool, &result).unwrap();
+        let (mut kinks, mut compared) = (0, 0);
+        for seg in &sim.segments {
+            for _ in 0..150 {
+                // Lines near the rim's sweep: through points about R from the
+                // tip's path, mostly along the axis.
+                let along = seg.tip0 + (seg.tip1 - seg.tip0) * (0.5 * (rng.next() + 1.0));
+                let p =
+                    along + rng.unit() * 2.5 * (1.0 + 0.2 * rng.next()) + seg.axis0 * rng.next();
+                let n = (seg.axis0 + rng.unit() * 0.3).normalize();
+                let k = 4000;
+                let drops: Vec<f64> = (0..=k)
+                    .map(|i| sim.drop_at(seg, i as f64 / k as f64, &p, &n))
+                    .collect();
+                let i = (0..=k).fold(0, |m, i| if drops[i] < drops[m] { i } else { m });
+                if !drops[i].is_finite() {
+                    continue;
+                }
+                let (lo, hi) = (
+                    i.saturating_sub(1) as f64 / k as f64,
+                    (i + 1).min(k) as f64 / k as f64,
+                );
+                // On each side of the best position: golden section between it
+                // and the neighbour, or the reach edge (bisected to 1e-15)
+                // where the neighbour misses: the drop is convex where it hits.
+                let drop = |s: f64| sim.drop_at(seg, s, &p, &n);
+                let mut want = drops[i];
+                let s_i = i as f64 / k as f64;
+                for end in [lo, hi] {
+                    if end == s_i {
+                        continue;
+                    }
+                    if drop(end).is_finite() {
+                        want = want.min(golden_min(drop, end.min(s_i), end.max(s_i)).1);
+                    } else {
+                        let (mut a, mut b) = (s_i, end);
+                        while (b - a).abs() > 1e-15 {
+                            let mid = 0.5 * (a + b);
+                            if drop(mid).is_finite() {
+                                a = mid;
+                            } else {
+                                b = mid;
+                            }
+                        }
+                        want = want
+                            .min(drop(a))
+                            .min(golden_min(drop, a.min(s_i), a.max(s_i)).1);
+                    }
+                }
+                let fast = sim.sweep_min(seg, &p, &n, f64::INFINITY);
+                let tol = SWEEP_TOL_MM / seg.travel.max(1e-300);
+                assert!(
+                    fast >= want - 1e-9,
+                    "fast {fast} below the minimum {want} (best position {i} of {k}, drops {:?})",
+                    &drops[i.saturating_sub(2)..(i + 3).min(k + 1)]
+                );
+                assert!(fast <= want + 1e-3, "fast {fast} against {want}");
+                compared += 1;
+                let line = SweepLine::new(&sim, seg, &p, &n);
+                if !line.plane_bound().is_finite() {
+                    continue;
+                }
+                let line = line.complete();
+                // Known drops around the brute force's best: its neighbours.
+                let known: Vec<(f64, f64)> = [lo, s_i, hi]
+                    .iter()
+                    .map(|&s| (s, line.drop(s)))
+                    .filter(|q| q.1.is_finite())
+                    .fold(Vec::new(), |mut v, q| {
+                        if v.last().is_none_or(|l: &(f64, f64)| q.0 > l.0) {
+                            v.push(q);
+                        }
+                        v
+                    });
+                if let Some(f) = line.kink_min(&known, tol) {
+                    kinks += 1;
+                    assert!(f >= want - 1e-9, "kink {f} below the minimum {want}");
+                    assert!(f <= want + 1e-7, "kink {f} above the minimum {want}");
+                }
+            }
+        }
+        assert!(compared > 3000 && kinks > 200, "{compared} {kinks}");
     }
 }
