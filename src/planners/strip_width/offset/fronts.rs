@@ -88,6 +88,15 @@ pub(super) fn segment_parameter(a: Point3<f64>, b: Point3<f64>, p: Point3<f64>) 
     }
 }
 
+/// The contacts of a pass with their half-widths on both sides, which the
+/// coverage, the run-ons, the next offset and the path points all ask for.
+pub(super) fn pass_contacts(s: &PassSettings, contacts: Vec<Contact>) -> Vec<Contact> {
+    contacts
+        .into_iter()
+        .map(|c| c.with_half_widths(s))
+        .collect()
+}
+
 /// Contacts along a uv polyline, travelling along it; `reference` orients
 /// the travel (None: the polyline's own order).
 pub(super) fn front_from_uv(
@@ -394,7 +403,7 @@ fn run_front(
     let mut reference: Vec<Vector3<f64>> = vec![-first.1; head];
     reference.extend(travels.iter().map(|t| -t));
     reference.extend(std::iter::repeat_n(-last.1, tail));
-    let contacts = front_from_uv(surface, &uv, Some(&reference))?;
+    let contacts = pass_contacts(s, front_from_uv(surface, &uv, Some(&reference))?);
     if contacts.len() < 2 {
         return Ok(None);
     }
