@@ -482,7 +482,9 @@ impl NurbsSurface {
         let su = find_span(pu, self.count_u, &self.knots_u, u);
         let sv = find_span(pv, self.count_v, &self.knots_v, v);
         let a = match &self.patches {
-            Some(t) if !reference && (pu, pv) == (3, 3) => t.homogeneous(su - pu, sv - pv, u, v, order),
+            Some(t) if !reference && (pu, pv) == (3, 3) => {
+                t.homogeneous(su - pu, sv - pv, u, v, order)
+            }
             _ => self.homogeneous_derivs(su, sv, u, v, pu, pv, order, reference),
         };
         self.cartesian(a, order)
@@ -714,7 +716,14 @@ impl BicubicPatches {
 
     /// The homogeneous derivatives up to `order` at (u, v) on patch (ku, kv).
     #[inline(always)]
-    fn homogeneous(&self, ku: usize, kv: usize, u: f64, v: f64, order: usize) -> [[[f64; 4]; 3]; 3] {
+    fn homogeneous(
+        &self,
+        ku: usize,
+        kv: usize,
+        u: f64,
+        v: f64,
+        order: usize,
+    ) -> [[[f64; 4]; 3]; 3] {
         let (iu, iv) = (self.inv_len_u[ku], self.inv_len_v[kv]);
         let x = ((u - self.start_u[ku]) * iu).clamp(0.0, 1.0);
         let y = ((v - self.start_v[kv]) * iv).clamp(0.0, 1.0);
@@ -734,8 +743,10 @@ impl BicubicPatches {
             }
         }
         // Along x: value and x-derivatives of each.
-        let horner0 = |p: &[[f64; 4]; 4], t: usize| ((p[3][t] * x + p[2][t]) * x + p[1][t]) * x + p[0][t];
-        let horner1 = |p: &[[f64; 4]; 4], t: usize| (3.0 * p[3][t] * x + 2.0 * p[2][t]) * x + p[1][t];
+        let horner0 =
+            |p: &[[f64; 4]; 4], t: usize| ((p[3][t] * x + p[2][t]) * x + p[1][t]) * x + p[0][t];
+        let horner1 =
+            |p: &[[f64; 4]; 4], t: usize| (3.0 * p[3][t] * x + 2.0 * p[2][t]) * x + p[1][t];
         let horner2 = |p: &[[f64; 4]; 4], t: usize| 6.0 * p[3][t] * x + 2.0 * p[2][t];
         let mut out = [[[0.0f64; 4]; 3]; 3];
         for t in 0..4 {
@@ -1013,12 +1024,17 @@ mod tests {
     /// random interior knots (some repeated up to the degree, spans from
     /// 1e-4 to 1 of each other) on a random domain.
     fn random_knots(rng: &mut Rng, degree: usize, count: usize) -> Vec<f64> {
-        let (a, scale) = (rng.next() * 200.0 - 100.0, 10f64.powf(rng.next() * 4.0 - 2.0));
+        let (a, scale) = (
+            rng.next() * 200.0 - 100.0,
+            10f64.powf(rng.next() * 4.0 - 2.0),
+        );
         let mut interior = Vec::new();
         let mut t = a;
         while interior.len() < count - degree - 1 {
             t += scale * 10f64.powf(-4.0 * rng.next() * rng.next());
-            let run = 1 + rng.below(degree).min(count - degree - 1 - interior.len() - 1);
+            let run = 1 + rng
+                .below(degree)
+                .min(count - degree - 1 - interior.len() - 1);
             let run = if rng.next() < 0.7 { 1 } else { run };
             for _ in 0..run {
                 interior.push(t);
@@ -1132,15 +1148,8 @@ mod tests {
                 .map(|_| (0..cv).map(|_| 0.3 + 2.0 * rng.next()).collect())
                 .collect();
             let rational = case % 2 == 0;
-            let s = NurbsSurface::new(
-                pu,
-                pv,
-                ku,
-                kv,
-                &cps,
-                rational.then_some(w.as_slice()),
-            )
-            .unwrap();
+            let s =
+                NurbsSurface::new(pu, pv, ku, kv, &cps, rational.then_some(w.as_slice())).unwrap();
             let ((u0, u1), (v0, v1)) = s.domain();
             for _ in 0..50 {
                 let (u, v) = (u0 + (u1 - u0) * rng.next(), v0 + (v1 - v0) * rng.next());

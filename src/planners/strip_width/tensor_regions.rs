@@ -170,7 +170,8 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
     stop_if_stopped(&built)?;
     // The build order (ties keep the first): the estimates' choice, then
     // the baselines.
-    let chosen: Vec<(Candidate, Result<Vec<Pass>>)> = top.into_iter().zip(built).chain(exact).collect();
+    let chosen: Vec<(Candidate, Result<Vec<Pass>>)> =
+        top.into_iter().zip(built).chain(exact).collect();
     progress.set(0.95);
     progress.check()?;
     let bound = setup.bound()?;

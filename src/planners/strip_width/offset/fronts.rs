@@ -502,7 +502,10 @@ fn nearest_result(
 ) -> Option<(f64, Vector2<f64>)> {
     let last = front_xyz.len().saturating_sub(1);
     let (dist, f) = front_segment(front_xyz, k, p);
-    let (ua, ub) = (front_uv[k], front_uv.get(k + 1).copied().unwrap_or(front_uv[k]));
+    let (ua, ub) = (
+        front_uv[k],
+        front_uv.get(k + 1).copied().unwrap_or(front_uv[k]),
+    );
     let at_end = (k == 0 && f <= 0.0) || (k + 1 >= last && f >= 1.0) || last == 0;
     (!at_end).then_some((dist, ua + (ub - ua) * f))
 }
@@ -734,9 +737,7 @@ mod tests {
                     )
                 })
                 .collect();
-            let uv: Vec<Vector2<f64>> = (0..n)
-                .map(|k| Vector2::new(k as f64, next()))
-                .collect();
+            let uv: Vec<Vector2<f64>> = (0..n).map(|k| Vector2::new(k as f64, next())).collect();
             let index = FrontIndex::new(&xyz, &uv);
             for q in 0..400 {
                 let p = if q % 4 == 0 {

@@ -529,7 +529,10 @@ mod tests {
                 }
             }
         }
-        assert!(inside > 500 && outside > 500, "{inside} inside, {outside} outside");
+        assert!(
+            inside > 500 && outside > 500,
+            "{inside} inside, {outside} outside"
+        );
     }
 
     /// Independent region areas: the exact rays at 60, 180 and 300 deg
