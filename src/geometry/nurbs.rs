@@ -44,6 +44,10 @@ pub struct NurbsSurface {
     /// or the apex of a triangular patch): S_v = 0 along u = u0 or u1,
     /// S_u = 0 along v = v0 or v1 (docs/methods.md, "Degenerate boundaries").
     collapsed: [bool; 4],
+    /// The basis functions of each knot span as polynomials (see
+    /// [`SpanBasis`]); `None` for a knot vector too long to tabulate.
+    basis_u: Option<std::sync::Arc<SpanBasis>>,
+    basis_v: Option<std::sync::Arc<SpanBasis>>,
 }
 
 /// Share of the parameter span next to a collapsed boundary inside which the
@@ -242,7 +246,11 @@ impl NurbsSurface {
             rational,
             trim: None,
             collapsed: [false; 4],
+            basis_u: None,
+            basis_v: None,
         };
+        surface.basis_u = SpanBasis::new(degree_u, count_u, &surface.knots_u).map(Into::into);
+        surface.basis_v = SpanBasis::new(degree_v, count_v, &surface.knots_v).map(Into::into);
         surface.collapsed = surface.find_collapsed();
         Ok(surface)
     }
@@ -430,9 +438,9 @@ impl NurbsSurface {
 
     fn derivs_exact(&self, u: f64, v: f64, order: usize) -> SurfaceDerivs {
         match (self.degree_u, self.degree_v, order) {
-            (3, 3, 2) => self.derivs_with(u, v, 3, 3, 2),
-            (3, 3, 1) => self.derivs_with(u, v, 3, 3, 1),
-            (3, 3, 0) => self.derivs_with(u, v, 3, 3, 0),
+            (3, 3, 2) => self.derivs_with(u, v, 3, 3, 2, false),
+            (3, 3, 1) => self.derivs_with(u, v, 3, 3, 1, false),
+            (3, 3, 0) => self.derivs_with(u, v, 3, 3, 0, false),
             (pu, pv, order) => self.derivs_any(u, v, pu, pv, order),
         }
     }
@@ -440,22 +448,45 @@ impl NurbsSurface {
     /// [`Self::derivs_with`] for any degrees, as one out-of-line copy.
     #[inline(never)]
     fn derivs_any(&self, u: f64, v: f64, pu: usize, pv: usize, order: usize) -> SurfaceDerivs {
-        self.derivs_with(u, v, pu, pv, order)
+        self.derivs_with(u, v, pu, pv, order, false)
+    }
+
+    /// Position and derivatives up to second order from the basis of The
+    /// NURBS Book's A2.3 (with its divisions) instead of the tabulated span
+    /// polynomials: the reference the tables are tested against.
+    pub fn derivs_reference(&self, u: f64, v: f64) -> SurfaceDerivs {
+        self.derivs_with(u, v, self.degree_u, self.degree_v, 2, true)
     }
 
     /// Position and derivatives up to `order` (<= 2) for degrees `pu`, `pv`
-    /// (this surface's): A2.3 in each direction, then A4.4 when rational.
+    /// (this surface's): the basis in each direction from the span
+    /// polynomials ([`SpanBasis`]; A2.3 when `reference` or untabulated),
+    /// then A4.4 when rational.
     // Index loops mirror The NURBS Book's algorithms; iterators would obscure them.
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn derivs_with(&self, u: f64, v: f64, pu: usize, pv: usize, order: usize) -> SurfaceDerivs {
+    fn derivs_with(
+        &self,
+        u: f64,
+        v: f64,
+        pu: usize,
+        pv: usize,
+        order: usize,
+        reference: bool,
+    ) -> SurfaceDerivs {
         let (u, v) = self.clamp_uv(u, v);
         let su = find_span(pu, self.count_u, &self.knots_u, u);
         let sv = find_span(pv, self.count_v, &self.knots_v, v);
         let du = order.min(pu);
         let dv = order.min(pv);
-        let nu = basis_ders(su, u, pu, du, &self.knots_u);
-        let nv = basis_ders(sv, v, pv, dv, &self.knots_v);
+        let nu = match &self.basis_u {
+            Some(b) if !reference => b.ders(su, u, pu, du),
+            _ => basis_ders(su, u, pu, du, &self.knots_u),
+        };
+        let nv = match &self.basis_v {
+            Some(b) if !reference => b.ders(sv, v, pv, dv),
+            _ => basis_ders(sv, v, pv, dv, &self.knots_v),
+        };
         // a[k][l]: homogeneous derivative d^(k+l)/du^k dv^l, k + l <= order.
         let mut a = [[[0.0f64; 4]; 3]; 3];
         for l in 0..=pv {
@@ -582,6 +613,134 @@ impl NurbsSurface {
     }
 }
 
+/// Knot spans beyond which a direction's basis is not tabulated (its table
+/// would pass about 8 MB for a cubic): A2.3 evaluates it instead.
+const SPAN_BASIS_MAX_SPANS: usize = 1 << 14;
+
+/// The non-zero basis functions of one direction on each knot span, and their
+/// first and second derivatives, as polynomials in the span's local
+/// parameter x = (t - t_s) / (t_(s+1) - t_s) in [0, 1] (docs/methods.md,
+/// "Surface evaluation"). On a span every basis function is one polynomial
+/// of the degree whose coefficients depend only on the knots, so they are
+/// computed once per surface (Cox-de Boor on polynomials) and an evaluation
+/// is Horner's rule with no division; A2.3 divides by knot differences at
+/// every call. The derivatives' coefficients hold the chain rule's powers of
+/// 1 / (t_(s+1) - t_s).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpanBasis {
+    degree: usize,
+    /// t_s per span s = degree..count (index s - degree).
+    start: Vec<f64>,
+    /// 1 / (t_(s+1) - t_s), 0 for an empty span (never evaluated).
+    inv_len: Vec<f64>,
+    /// Per span, `[k][j][m]` (each index 0..=degree): the coefficient of x^m
+    /// in the k-th derivative (k <= 2) of N_(s-degree+j).
+    coef: Vec<f64>,
+}
+
+impl SpanBasis {
+    /// The tables of a valid knot vector (as [`NurbsSurface::new`] checks);
+    /// `None` beyond [`SPAN_BASIS_MAX_SPANS`] spans.
+    pub fn new(degree: usize, count: usize, knots: &[f64]) -> Option<Self> {
+        let spans = count - degree;
+        if spans > SPAN_BASIS_MAX_SPANS || degree > MAX_DEGREE {
+            return None;
+        }
+        let p1 = degree + 1;
+        let stride = 3 * p1 * p1;
+        let mut start = Vec::with_capacity(spans);
+        let mut inv_len = Vec::with_capacity(spans);
+        let mut coef = vec![0.0; spans * stride];
+        for s in degree..count {
+            let (ts, len) = (knots[s], knots[s + 1] - knots[s]);
+            start.push(ts);
+            inv_len.push(if len > 0.0 { 1.0 / len } else { 0.0 });
+            if len <= 0.0 {
+                continue;
+            }
+            // n[r]: N_(s-d+r, d) as coefficients of x^0..x^d, degree d = 0..=p.
+            let mut n = [[0.0f64; MAXP1]; MAXP1];
+            n[0][0] = 1.0;
+            for d in 1..=degree {
+                let mut next = [[0.0f64; MAXP1]; MAXP1];
+                for (r, out) in next.iter_mut().enumerate().take(d + 1) {
+                    let i = s + r - d;
+                    // (t - t_i) / (t_(i+d) - t_i) N_(i, d-1), N_(i, d-1) = n[r - 1].
+                    if r >= 1 {
+                        let den = knots[i + d] - knots[i];
+                        if den > 0.0 {
+                            let (a, b) = ((ts - knots[i]) / den, len / den);
+                            for m in 0..d {
+                                let c = n[r - 1][m];
+                                out[m] += a * c;
+                                out[m + 1] += b * c;
+                            }
+                        }
+                    }
+                    // (t_(i+d+1) - t) / (t_(i+d+1) - t_(i+1)) N_(i+1, d-1), = n[r].
+                    if r < d {
+                        let den = knots[i + d + 1] - knots[i + 1];
+                        if den > 0.0 {
+                            let (a, b) = ((knots[i + d + 1] - ts) / den, -len / den);
+                            for m in 0..d {
+                                let c = n[r][m];
+                                out[m] += a * c;
+                                out[m + 1] += b * c;
+                            }
+                        }
+                    }
+                }
+                n = next;
+            }
+            let base = (s - degree) * stride;
+            let inv = 1.0 / len;
+            for (j, nj) in n.iter().enumerate().take(p1) {
+                for m in 0..p1 {
+                    coef[base + j * p1 + m] = nj[m];
+                    if m < degree {
+                        coef[base + p1 * p1 + j * p1 + m] = nj[m + 1] * (m + 1) as f64 * inv;
+                    }
+                    if m + 1 < degree {
+                        coef[base + 2 * p1 * p1 + j * p1 + m] =
+                            nj[m + 2] * ((m + 1) * (m + 2)) as f64 * (inv * inv);
+                    }
+                }
+            }
+        }
+        Some(Self {
+            degree,
+            start,
+            inv_len,
+            coef,
+        })
+    }
+
+    /// [`basis_ders`] from the tables: derivatives up to `nd` (<= 2) of the
+    /// basis functions of span `span` at `t` (in that span; `p` is the
+    /// degree, a constant where the caller's is).
+    #[inline(always)]
+    fn ders(&self, span: usize, t: f64, p: usize, nd: usize) -> [[f64; MAXP1]; 3] {
+        debug_assert_eq!(p, self.degree);
+        let k = span - p;
+        let x = ((t - self.start[k]) * self.inv_len[k]).clamp(0.0, 1.0);
+        let p1 = p + 1;
+        let table = &self.coef[k * 3 * p1 * p1..(k + 1) * 3 * p1 * p1];
+        let mut ders = [[0.0f64; MAXP1]; 3];
+        for (order, row) in ders.iter_mut().enumerate().take(nd.min(p) + 1) {
+            let top = p - order;
+            for (j, out) in row.iter_mut().enumerate().take(p1) {
+                let c = &table[(order * p1 + j) * p1..(order * p1 + j + 1) * p1];
+                let mut acc = c[top];
+                for m in (0..top).rev() {
+                    acc = acc * x + c[m];
+                }
+                *out = acc;
+            }
+        }
+        ders
+    }
+}
+
 /// Non-zero B-spline basis functions of degree `degree` at `t` (clamped into
 /// the domain): returns the span `s` and `N_{s-degree+j}(t)` for `j = 0..=degree`.
 /// `knots` must be a valid knot vector for some control-point count (as checked
@@ -689,4 +848,189 @@ fn basis_ders(span: usize, t: f64, p: usize, nd: usize, knots: &[f64]) -> [[f64;
         f *= (p - k) as f64;
     }
     ders
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// xorshift64*: a fixed, seeded sequence in [0, 1).
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
+        }
+        fn below(&mut self, n: usize) -> usize {
+            ((self.next() * n as f64) as usize).min(n - 1)
+        }
+    }
+
+    /// A clamped knot vector of `degree` for `count` control points with
+    /// random interior knots (some repeated up to the degree, spans from
+    /// 1e-4 to 1 of each other) on a random domain.
+    fn random_knots(rng: &mut Rng, degree: usize, count: usize) -> Vec<f64> {
+        let (a, scale) = (
+            rng.next() * 200.0 - 100.0,
+            10f64.powf(rng.next() * 4.0 - 2.0),
+        );
+        let mut interior = Vec::new();
+        let mut t = a;
+        while interior.len() < count - degree - 1 {
+            t += scale * 10f64.powf(-4.0 * rng.next() * rng.next());
+            let run = 1 + rng
+                .below(degree)
+                .min(count - degree - 1 - interior.len() - 1);
+            let run = if rng.next() < 0.7 { 1 } else { run };
+            for _ in 0..run {
+                interior.push(t);
+            }
+        }
+        let end = t + scale * (0.1 + rng.next());
+        let mut knots = vec![a; degree + 1];
+        knots.extend(interior);
+        knots.extend(std::iter::repeat_n(end, degree + 1));
+        knots
+    }
+
+    #[test]
+    fn span_polynomials_of_the_uniform_cubic_are_the_known_ones() {
+        // Uniform cubic on an interior span: (1-x)^3/6, (3x^3-6x^2+4)/6,
+        // (-3x^3+3x^2+3x+1)/6, x^3/6; knot spacing 2 halves the first
+        // derivative and quarters the second.
+        let knots: Vec<f64> = (0..12).map(|k| 2.0 * k as f64).collect();
+        let b = SpanBasis::new(3, 8, &knots).unwrap();
+        for x in [0.0, 0.25, 0.5, 0.9, 1.0] {
+            let t = 8.0 + 2.0 * x;
+            let d = b.ders(4, t, 3, 2);
+            let n = [
+                (1.0 - x).powi(3) / 6.0,
+                (3.0 * x * x * x - 6.0 * x * x + 4.0) / 6.0,
+                (-3.0 * x * x * x + 3.0 * x * x + 3.0 * x + 1.0) / 6.0,
+                x * x * x / 6.0,
+            ];
+            let n1 = [
+                -(1.0 - x).powi(2) / 2.0,
+                (9.0 * x * x - 12.0 * x) / 6.0,
+                (-9.0 * x * x + 6.0 * x + 3.0) / 6.0,
+                x * x / 2.0,
+            ];
+            let n2 = [1.0 - x, 3.0 * x - 2.0, -3.0 * x + 1.0, x];
+            for j in 0..4 {
+                assert!((d[0][j] - n[j]).abs() < 1e-15, "x {x} N{j}");
+                assert!((d[1][j] - n1[j] / 2.0).abs() < 1e-15, "x {x} N'{j}");
+                assert!((d[2][j] - n2[j] / 4.0).abs() < 1e-15, "x {x} N''{j}");
+            }
+        }
+    }
+
+    #[test]
+    fn span_polynomials_agree_with_a2_3_on_random_knot_vectors() {
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let mut worst = 0.0f64;
+        for case in 0..400 {
+            let degree = 1 + case % 5;
+            let count = degree + 1 + rng.below(10);
+            let knots = random_knots(&mut rng, degree, count);
+            let b = SpanBasis::new(degree, count, &knots).unwrap();
+            let (lo, hi) = (knots[degree], knots[count]);
+            for k in 0..40 {
+                // Knots themselves, the domain's ends and random points.
+                let t = match k {
+                    0 => lo,
+                    1 => hi,
+                    2..=9 => knots[degree + rng.below(count - degree + 1)],
+                    _ => lo + (hi - lo) * rng.next(),
+                };
+                let span = find_span(degree, count, &knots, t);
+                let nd = degree.min(2);
+                let exact = basis_ders(span, t, degree, nd, &knots);
+                let got = b.ders(span, t, degree, nd);
+                for order in 0..=nd {
+                    let scale: f64 = exact[order].iter().map(|x| x.abs()).sum();
+                    for j in 0..=degree {
+                        let err = (got[order][j] - exact[order][j]).abs() / scale;
+                        worst = worst.max(err);
+                        assert!(
+                            err <= 1e-12,
+                            "degree {degree} knots {knots:?} t {t} order {order} j {j}: {} vs {}",
+                            got[order][j],
+                            exact[order][j]
+                        );
+                    }
+                }
+            }
+        }
+        assert!(worst > 0.0, "the two evaluations never differed: no test");
+    }
+
+    #[test]
+    fn surface_derivatives_agree_with_a2_3_on_random_surfaces() {
+        let mut rng = Rng(0x1234_5678_9abc_def1);
+        for case in 0..60 {
+            // The last 20 bicubic (the constant-degree path), half of them rational.
+            let (pu, pv) = if case >= 40 {
+                (3, 3)
+            } else {
+                (1 + case % 4, 1 + (case / 4) % 4)
+            };
+            let (cu, cv) = (pu + 1 + rng.below(6), pv + 1 + rng.below(6));
+            let ku = random_knots(&mut rng, pu, cu);
+            let kv = random_knots(&mut rng, pv, cv);
+            let cps: Vec<Vec<[f64; 3]>> = (0..cu)
+                .map(|i| {
+                    (0..cv)
+                        .map(|j| {
+                            [
+                                10.0 * i as f64 + rng.next(),
+                                10.0 * j as f64 + rng.next(),
+                                20.0 * rng.next(),
+                            ]
+                        })
+                        .collect()
+                })
+                .collect();
+            let w: Vec<Vec<f64>> = (0..cu)
+                .map(|_| (0..cv).map(|_| 0.3 + 2.0 * rng.next()).collect())
+                .collect();
+            let rational = case % 2 == 0;
+            let s =
+                NurbsSurface::new(pu, pv, ku, kv, &cps, rational.then_some(w.as_slice())).unwrap();
+            let ((u0, u1), (v0, v1)) = s.domain();
+            for _ in 0..50 {
+                let (u, v) = (u0 + (u1 - u0) * rng.next(), v0 + (v1 - v0) * rng.next());
+                let got = s.derivs_exact(u, v, 2);
+                let exact = s.derivs_reference(u, v);
+                let pairs = [
+                    (got.p.coords, exact.p.coords),
+                    (got.su, exact.su),
+                    (got.sv, exact.sv),
+                    (got.suu, exact.suu),
+                    (got.suv, exact.suv),
+                    (got.svv, exact.svv),
+                ];
+                // Relative to the size of the quantity's order: the
+                // net's extent over the parameter lengths' powers.
+                let size = 100.0;
+                let (lu, lv) = (u1 - u0, v1 - v0);
+                let scales = [
+                    size,
+                    size / lu,
+                    size / lv,
+                    size / (lu * lu),
+                    size / (lu * lv),
+                    size / (lv * lv),
+                ];
+                for (k, ((a, b), sc)) in pairs.iter().zip(scales).enumerate() {
+                    let err = (a - b).norm() / sc.max(b.norm());
+                    assert!(
+                        err <= 1e-12,
+                        "case {case} ({pu}, {pv}, rational {rational}) at ({u}, {v}) derivative {k}: {a:?} vs {b:?}"
+                    );
+                }
+            }
+        }
+    }
 }

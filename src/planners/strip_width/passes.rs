@@ -100,6 +100,20 @@ pub struct Contact {
     /// Unit travel direction (3-D tangent).
     pub travel: Vector3<f64>,
     pub k: Curvatures,
+    /// The half-widths on sides +1 and -1 (towards and away from n x t)
+    /// for the cutter and scallop they were computed for
+    /// ([`Contact::with_half_widths`]): a pass contact is asked for them by
+    /// the coverage, the run-ons, the offsetting and its path point.
+    widths: Option<HalfWidths>,
+}
+
+/// [`LeadCutter::half_width`] on both sides of a contact, for one cutter
+/// and scallop.
+#[derive(Clone, Copy, Debug)]
+struct HalfWidths {
+    cutter: LeadCutter,
+    scallop: f64,
+    sides: [std::result::Result<f64, WidthError>; 2],
 }
 
 impl Contact {
@@ -116,7 +130,30 @@ impl Contact {
             k: curvatures_along(&g, t),
             g,
             travel: t,
+            widths: None,
         })
+    }
+
+    /// The contact with its half-widths for `s` on both sides computed
+    /// once: the same values [`Self::half_width_towards`] and
+    /// [`Self::path_point`] compute otherwise.
+    pub fn with_half_widths(mut self, s: &PassSettings) -> Self {
+        self.widths = Some(HalfWidths {
+            cutter: s.cutter,
+            scallop: s.scallop,
+            sides: [1.0, -1.0].map(|side| s.cutter.half_width(s.scallop, self.k, side)),
+        });
+        self
+    }
+
+    /// Half-width on side `side` (+1 towards n x t, -1 away) for `s`.
+    fn half_width(&self, s: &PassSettings, side: f64) -> std::result::Result<f64, WidthError> {
+        match &self.widths {
+            Some(w) if w.cutter == s.cutter && w.scallop == s.scallop => {
+                w.sides[if side > 0.0 { 0 } else { 1 }]
+            }
+            _ => s.cutter.half_width(s.scallop, self.k, side),
+        }
     }
 
     pub fn uv(&self) -> Vector2<f64> {
@@ -137,8 +174,7 @@ impl Contact {
         } else {
             -1.0
         };
-        s.cutter
-            .half_width(s.scallop, self.k, side)
+        self.half_width(s, side)
             .map_err(|WidthError::Gouge { depth }| {
                 gouge_error(&s.cutter, self.uv().into(), self.k.cross, depth)
             })
@@ -155,12 +191,13 @@ impl Contact {
                 depth,
             ));
         }
-        let w =
-            s.cutter
-                .strip_width(s.scallop, self.k)
-                .map_err(|WidthError::Gouge { depth }| {
-                    gouge_error(&s.cutter, self.uv().into(), self.k.cross, depth)
-                })?;
+        // LeadCutter::strip_width: side +1, then side -1.
+        let w = self
+            .half_width(s, 1.0)
+            .and_then(|a| Ok(a + self.half_width(s, -1.0)?))
+            .map_err(|WidthError::Gouge { depth }| {
+                gouge_error(&s.cutter, self.uv().into(), self.k.cross, depth)
+            })?;
         let cc = self.point();
         let (cl, axis) = s.cutter.pose(cc, self.g.n, self.travel);
         Ok(PathPoint {

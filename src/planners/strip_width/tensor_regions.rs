@@ -86,42 +86,72 @@ const ESTIMATE_COARSENING: f64 = 4.0;
 /// whole surface offset from one field line, from either edge, and with
 /// passes along either parameter (the plans the baselines would make, built
 /// from the shared modules). Every candidate is first built with a coarser
-/// point step ([`PassSettings::coarsened`]) as an estimate of its length;
-/// the [`EXACT_BUILDS`] shortest by estimate are then built at the job's
-/// settings, and with them the two plans the baselines make
-/// (`edge_offset` and `iso_curves` along the job's feed direction). Each
-/// result names its candidate, the exact lengths and every estimate in
-/// `plan_choice`.
+/// point step ([`PassSettings::coarsened`]) as an estimate of its length,
+/// except the two plans the baselines make (`edge_offset` and `iso_curves`
+/// along the job's feed direction), which are always built exactly at the
+/// job's settings; the [`EXACT_BUILDS`] shortest of the others by estimate
+/// are then built exactly too. Each result names its candidate, the exact
+/// lengths and every estimate in `plan_choice`.
 pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>> {
     let setup = Setup::new(job, progress)?;
     let surface = setup.surface;
     let checks = CheckOnly(progress);
     let reach = crate::planners::trim_clip::reach(job.tool()?);
-    // Estimates: every candidate at the coarse settings, its length on the
-    // face (clipped to the trim like the exact plans).
     let coarse = setup.settings.coarsened(ESTIMATE_COARSENING);
     let kinds = &setup.kinds;
-    let estimated = crate::parallel::map_chunks(kinds, 1, |kind| -> Result<f64> {
+    // The plans the baselines make are always built exactly, so the kept
+    // plan is never longer than either however the estimates err (they
+    // scatter by up to about 15 % with the point step): they are built at
+    // once, not estimated, next to the estimates of the other candidates
+    // (every candidate at the coarse settings, its length on the face,
+    // clipped to the trim like the exact plans). Exact builds first: they
+    // are the longest jobs, and the estimates fill the other core.
+    let feed = job.feed_direction.unwrap_or(FeedDirection::U);
+    let baselines: Vec<Candidate> = [
+        Candidate::EdgeOffset(feed, false),
+        Candidate::IsoCurves(feed),
+    ]
+    .into_iter()
+    .filter(|b| kinds.contains(b))
+    .collect();
+    let first: Vec<(Candidate, bool)> = baselines
+        .iter()
+        .map(|&b| (b, true))
+        .chain(
+            kinds
+                .iter()
+                .filter(|k| !baselines.contains(k))
+                .map(|&k| (k, false)),
+        )
+        .collect();
+    let done = crate::parallel::map_chunks(&first, 1, |work| -> Result<Built> {
         checks.check()?;
-        let passes = setup.build(kind[0], &coarse, &checks)?;
+        let (kind, exact) = work[0];
+        if exact {
+            return Ok(Built::Exact(setup.build(kind, &setup.settings, &checks)?));
+        }
+        let passes = setup.build(kind, &coarse, &checks)?;
         let passes = match surface.trim() {
             Some(_) => crate::planners::trim_clip::clip_passes(surface, &passes, reach),
             None => passes,
         };
-        Ok(passes.iter().map(pass_length).sum())
+        Ok(Built::Estimate(passes.iter().map(pass_length).sum()))
     });
-    stop_if_stopped(&estimated)?;
+    stop_if_stopped(&done)?;
     progress.set(0.6);
     progress.check()?;
     // Shortest estimate first; candidates that could not be built coarse
     // are still tried exactly after those (their error is the one to
     // report); empty ones are dropped.
-    let mut order: Vec<(usize, Option<f64>)> = Vec::new();
-    for (k, e) in estimated.iter().enumerate() {
-        match e {
-            Ok(l) if *l > 0.0 => order.push((k, Some(*l))),
-            Ok(_) => {}
-            Err(_) => order.push((k, None)),
+    let mut order: Vec<(Candidate, Option<f64>)> = Vec::new();
+    let mut exact: Vec<(Candidate, Result<Vec<Pass>>)> = Vec::new();
+    for (&(kind, _), d) in first.iter().zip(done) {
+        match d {
+            Ok(Built::Exact(p)) => exact.push((kind, Ok(p))),
+            Ok(Built::Estimate(l)) if l > 0.0 => order.push((kind, Some(l))),
+            Ok(Built::Estimate(_)) => {}
+            Err(e) if baselines.contains(&kind) => exact.push((kind, Err(e))),
+            Err(_) => order.push((kind, None)),
         }
     }
     order.sort_by(|a, b| match (a.1, b.1) {
@@ -130,38 +160,25 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
     });
     let estimates: Vec<String> = order
         .iter()
-        .filter_map(|&(k, e)| e.map(|l| format!("{} {l:.0} mm", kinds[k].label())))
+        .filter_map(|&(k, e)| e.map(|l| format!("{} {l:.0} mm", k.label())))
         .collect();
-    let mut chosen: Vec<Candidate> = order
-        .iter()
-        .take(EXACT_BUILDS)
-        .map(|&(k, _)| kinds[k])
-        .collect();
-    // The plans the baselines make are always built exactly, so the kept
-    // plan is never longer than either however the estimates err (they
-    // scatter by up to about 15 % with the point step).
-    let feed = job.feed_direction.unwrap_or(FeedDirection::U);
-    for baseline in [
-        Candidate::EdgeOffset(feed, false),
-        Candidate::IsoCurves(feed),
-    ] {
-        let listed = order.iter().any(|&(k, _)| kinds[k] == baseline);
-        if listed && !chosen.contains(&baseline) {
-            chosen.push(baseline);
-        }
-    }
-    let built = crate::parallel::map_chunks(&chosen, 1, |kind| -> Result<Vec<Pass>> {
+    let top: Vec<Candidate> = order.iter().take(EXACT_BUILDS).map(|&(k, _)| k).collect();
+    let built = crate::parallel::map_chunks(&top, 1, |kind| -> Result<Vec<Pass>> {
         checks.check()?;
         setup.build(kind[0], &setup.settings, &checks)
     });
     stop_if_stopped(&built)?;
+    // The build order (ties keep the first): the estimates' choice, then
+    // the baselines.
+    let chosen: Vec<(Candidate, Result<Vec<Pass>>)> =
+        top.into_iter().zip(built).chain(exact).collect();
     progress.set(0.95);
     progress.check()?;
     let bound = setup.bound()?;
     let mut warnings = setup.warnings.clone();
     let mut plans: Vec<(Candidate, PlanResult, f64)> = Vec::new();
     let mut first_error = None;
-    for (kind, passes) in chosen.iter().zip(built) {
+    for (kind, passes) in chosen {
         let passes = match passes {
             Ok(p) if !p.is_empty() => p,
             Ok(_) => continue,
@@ -171,9 +188,9 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
                 continue;
             }
         };
-        let result = setup.result(*kind, passes, bound);
+        let result = setup.result(kind, passes, bound);
         let length = result.cl_path_length();
-        plans.push((*kind, result, length));
+        plans.push((kind, result, length));
     }
     if plans.is_empty() {
         return Err(first_error.unwrap_or_else(|| {
@@ -201,6 +218,13 @@ pub fn candidate(job: &Job, label: &str, progress: &dyn Progress) -> Result<Opti
     result.plan_choice = Some(format!("{label}: built on request"));
     result.warnings = setup.warnings.clone();
     Ok(Some(result))
+}
+
+/// What a candidate's first build gives: the length of its estimate, or
+/// (the baselines' plans) its exact passes.
+enum Built {
+    Estimate(f64),
+    Exact(Vec<Pass>),
 }
 
 /// A stop ends the job, not just the candidate it hit.
@@ -451,7 +475,7 @@ fn ranked(
         .collect();
     let n = plans.len();
     let why = format!(
-        "{n} built of {considered} candidate plans ({}): the {EXACT_BUILDS} shortest by an estimate at {ESTIMATE_COARSENING} x the point step ({}) and the baselines' plans",
+        "{n} built of {considered} candidate plans ({}): the baselines' plans and the {EXACT_BUILDS} shortest of the others by an estimate at {ESTIMATE_COARSENING} x the point step ({})",
         summary.join(", "),
         estimates.join(", ")
     );

@@ -7,6 +7,7 @@ use super::*;
 use crate::formats::Pass;
 use crate::geometry::NurbsSurface;
 use crate::planners::strip_width::passes::{walk_on_surface as walk, Contact, PassSettings};
+use crate::planners::strip_width::regions::partition::{inside_of_row, row_crossings};
 use crate::planners::strip_width::regions::Region;
 use nalgebra::{Point3, Vector2, Vector3};
 use std::collections::HashMap;
@@ -116,7 +117,15 @@ impl Coverage {
             if id == exclude {
                 return false;
             }
-            (a + (b - a) * segment_parameter(a, b, p) - p).norm() < self.share * w
+            // Beyond the segment's box grown by a little more than the
+            // reach, the distance is surely beyond it: the same answer as
+            // the exact test below, without its division and root.
+            let reach = self.share * w;
+            let far = 1.001 * reach;
+            if (0..3).any(|k| p[k] < a[k].min(b[k]) - far || p[k] > a[k].max(b[k]) + far) {
+                return false;
+            }
+            (a + (b - a) * segment_parameter(a, b, p) - p).norm() < reach
         })
     }
 }
@@ -214,14 +223,24 @@ pub(super) fn uncut_samples(
     }
     let nu = ((len_u / spacing).ceil() as usize).clamp(1, 4000);
     let nv = ((len_v / spacing).ceil() as usize).clamp(1, 4000);
+    // The region's boundary crossings of each row of samples, once: the
+    // inside test of a sample is then a count over a few of them.
+    let rows: Vec<(f64, Vec<f64>)> = (0..=nv)
+        .map(|j| {
+            let y = lo.y + (hi.y - lo.y) * j as f64 / nv as f64;
+            let mut crossings = Vec::new();
+            row_crossings(&region.boundary_uv, y, &mut crossings);
+            (y, crossings)
+        })
+        .collect();
     let mut out = Vec::new();
     for i in 0..=nu {
-        for j in 0..=nv {
-            let uv = Vector2::new(
-                lo.x + (hi.x - lo.x) * i as f64 / nu as f64,
-                lo.y + (hi.y - lo.y) * j as f64 / nv as f64,
-            );
-            if region.contains(uv) && !reached.covered(surface.point(uv.x, uv.y), usize::MAX) {
+        let x = lo.x + (hi.x - lo.x) * i as f64 / nu as f64;
+        for (y, crossings) in &rows {
+            let uv = Vector2::new(x, *y);
+            if inside_of_row(crossings, x)
+                && !reached.covered(surface.point(uv.x, uv.y), usize::MAX)
+            {
                 out.push(uv);
             }
         }

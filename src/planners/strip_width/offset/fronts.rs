@@ -88,6 +88,15 @@ pub(super) fn segment_parameter(a: Point3<f64>, b: Point3<f64>, p: Point3<f64>) 
     }
 }
 
+/// The contacts of a pass with their half-widths on both sides, which the
+/// coverage, the run-ons, the next offset and the path points all ask for.
+pub(super) fn pass_contacts(s: &PassSettings, contacts: Vec<Contact>) -> Vec<Contact> {
+    contacts
+        .into_iter()
+        .map(|c| c.with_half_widths(s))
+        .collect()
+}
+
 /// Contacts along a uv polyline, travelling along it; `reference` orients
 /// the travel (None: the polyline's own order).
 pub(super) fn front_from_uv(
@@ -394,7 +403,7 @@ fn run_front(
     let mut reference: Vec<Vector3<f64>> = vec![-first.1; head];
     reference.extend(travels.iter().map(|t| -t));
     reference.extend(std::iter::repeat_n(-last.1, tail));
-    let contacts = front_from_uv(surface, &uv, Some(&reference))?;
+    let contacts = pass_contacts(s, front_from_uv(surface, &uv, Some(&reference))?);
     if contacts.len() < 2 {
         return Ok(None);
     }
@@ -459,23 +468,128 @@ pub(super) fn nearest_on_front(
     front_uv: &[Vector2<f64>],
     p: &nalgebra::Point3<f64>,
 ) -> Option<(f64, Vector2<f64>)> {
-    let mut best: Option<(f64, Vector2<f64>, bool)> = None;
-    let last = front_xyz.len().saturating_sub(1);
+    let mut best: Option<(f64, usize)> = None;
     for k in 0..front_xyz.len() {
-        let (a, ua) = (front_xyz[k], front_uv[k]);
-        let (b, ub) = if k + 1 < front_xyz.len() {
-            (front_xyz[k + 1], front_uv[k + 1])
-        } else {
-            (a, ua)
-        };
-        let f = segment_parameter(a, b, *p);
-        let dist = (a + (b - a) * f - p).norm();
-        let at_end = (k == 0 && f <= 0.0) || (k + 1 >= last && f >= 1.0) || last == 0;
-        if best.is_none_or(|(bd, _, _)| dist < bd) {
-            best = Some((dist, ua + (ub - ua) * f, at_end));
+        let dist = front_segment(front_xyz, k, p).0;
+        if best.is_none_or(|(bd, _)| dist < bd) {
+            best = Some((dist, k));
         }
     }
-    best.and_then(|(d, uv, at_end)| (!at_end).then_some((d, uv)))
+    nearest_result(front_xyz, front_uv, p, best?.1)
+}
+
+/// Segment `k` of a front (from point k to k + 1; the last is the point
+/// itself): the distance of `p` from it and the parameter of its nearest
+/// point.
+fn front_segment(
+    front_xyz: &[nalgebra::Point3<f64>],
+    k: usize,
+    p: &nalgebra::Point3<f64>,
+) -> (f64, f64) {
+    let a = front_xyz[k];
+    let b = front_xyz.get(k + 1).copied().unwrap_or(a);
+    let f = segment_parameter(a, b, *p);
+    ((a + (b - a) * f - p).norm(), f)
+}
+
+/// [`nearest_on_front`]'s answer when segment `k` is the nearest (the
+/// first of the nearest): `None` past either end of the front.
+fn nearest_result(
+    front_xyz: &[nalgebra::Point3<f64>],
+    front_uv: &[Vector2<f64>],
+    p: &nalgebra::Point3<f64>,
+    k: usize,
+) -> Option<(f64, Vector2<f64>)> {
+    let last = front_xyz.len().saturating_sub(1);
+    let (dist, f) = front_segment(front_xyz, k, p);
+    let (ua, ub) = (
+        front_uv[k],
+        front_uv.get(k + 1).copied().unwrap_or(front_uv[k]),
+    );
+    let at_end = (k == 0 && f <= 0.0) || (k + 1 >= last && f >= 1.0) || last == 0;
+    (!at_end).then_some((dist, ua + (ub - ua) * f))
+}
+
+/// Segments of a front per block in a box, so that a nearest-point query
+/// scans only the blocks whose box lies near enough.
+pub(super) struct FrontIndex<'a> {
+    xyz: &'a [nalgebra::Point3<f64>],
+    uv: &'a [Vector2<f64>],
+    boxes: Vec<(nalgebra::Point3<f64>, nalgebra::Point3<f64>)>,
+    /// Every front point finite (else queries scan every segment).
+    finite: bool,
+}
+
+fn finite(q: &nalgebra::Point3<f64>) -> bool {
+    q.x.is_finite() && q.y.is_finite() && q.z.is_finite()
+}
+
+/// Front segments per block of a [`FrontIndex`].
+const FRONT_BLOCK: usize = 8;
+
+impl<'a> FrontIndex<'a> {
+    pub(super) fn new(xyz: &'a [nalgebra::Point3<f64>], uv: &'a [Vector2<f64>]) -> Self {
+        let n = xyz.len();
+        let boxes = (0..n.div_ceil(FRONT_BLOCK))
+            .map(|b| {
+                let (k0, k1) = (b * FRONT_BLOCK, ((b + 1) * FRONT_BLOCK).min(n - 1));
+                let mut lo = xyz[k0];
+                let mut hi = xyz[k0];
+                for q in &xyz[k0..=k1] {
+                    lo = lo.inf(q);
+                    hi = hi.sup(q);
+                }
+                (lo, hi)
+            })
+            .collect();
+        Self {
+            xyz,
+            uv,
+            boxes,
+            finite: xyz.iter().all(finite),
+        }
+    }
+
+    /// [`nearest_on_front`]: the same segment (the first of the nearest)
+    /// and the same answer. A block whose box lies farther than the nearest
+    /// segment found so far (with margins far beyond rounding: 1e-9 of it
+    /// and 1e-9 mm) cannot hold
+    /// a segment as near, so it is not scanned; the block nearest by its box
+    /// is scanned first.
+    pub(super) fn nearest(&self, p: &nalgebra::Point3<f64>) -> Option<(f64, Vector2<f64>)> {
+        let n = self.xyz.len();
+        if n == 0 || !self.finite || !finite(p) {
+            return nearest_on_front(self.xyz, self.uv, p);
+        }
+        let box_dist = |(lo, hi): &(nalgebra::Point3<f64>, nalgebra::Point3<f64>)| {
+            let e = (lo - p).sup(&(p - hi)).sup(&nalgebra::Vector3::zeros());
+            e.norm()
+        };
+        let mut best: Option<(f64, usize)> = None;
+        let scan = |b: usize, best: &mut Option<(f64, usize)>| {
+            for k in b * FRONT_BLOCK..((b + 1) * FRONT_BLOCK).min(n) {
+                let dist = front_segment(self.xyz, k, p).0;
+                // The first of the nearest, in front order.
+                if best.is_none_or(|(bd, bk)| dist < bd || (dist == bd && k < bk)) {
+                    *best = Some((dist, k));
+                }
+            }
+        };
+        let first = (0..self.boxes.len())
+            .map(|b| (box_dist(&self.boxes[b]), b))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map_or(0, |(_, b)| b);
+        scan(first, &mut best);
+        for b in (0..self.boxes.len()).filter(|&b| b != first) {
+            if let Some((bd, _)) = best {
+                if box_dist(&self.boxes[b]) > bd * (1.0 + 1e-9) + 1e-9 {
+                    continue;
+                }
+            }
+            scan(b, &mut best);
+        }
+        nearest_result(self.xyz, self.uv, p, best?.1)
+    }
 }
 
 /// Where the new pass (points `uv`, each offset `dists[k]` from its source)
@@ -500,9 +614,10 @@ pub(super) fn pull_in(
     let _ = region;
     let front_xyz: Vec<_> = front.iter().map(|f| f.c.point()).collect();
     let front_uv: Vec<_> = front.iter().map(|f| f.c.uv()).collect();
+    let index = FrontIndex::new(&front_xyz, &front_uv);
     let pull = |q: Vector2<f64>, r: f64| -> Option<Vector2<f64>> {
         let p = surface.point(q.x, q.y);
-        let (d, s_uv) = nearest_on_front(&front_xyz, &front_uv, &p)?;
+        let (d, s_uv) = index.nearest(&p)?;
         // A gap wider than a third of the spacing is not a chord between
         // neighbouring offsets (the front ends or folds there): left alone.
         if d <= r * SLACK || d <= 0.0 || d > r * MAX_PULL {
@@ -590,5 +705,61 @@ pub(super) fn subdivide(
         subdivide(pull, a, p, r, depth - 1, out);
         out.push(p);
         subdivide(pull, p, b, r, depth - 1, out);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Point3;
+
+    #[test]
+    fn front_index_finds_the_segment_the_full_scan_finds() {
+        // Fronts that fold back over themselves (ties between segments at
+        // the same distance) and query points on, near and far from them.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut answered = 0;
+        for n in [1, 2, 7, 8, 9, 17, 64, 301] {
+            let xyz: Vec<Point3<f64>> = (0..n)
+                .map(|k| {
+                    let t = k as f64 / 10.0;
+                    // A zig-zag: points k and n - 1 - k mirror each other.
+                    Point3::new(
+                        20.0 * t.sin(),
+                        (k % 16) as f64 * 0.5 + next() * 0.01,
+                        t.cos(),
+                    )
+                })
+                .collect();
+            let uv: Vec<Vector2<f64>> = (0..n).map(|k| Vector2::new(k as f64, next())).collect();
+            let index = FrontIndex::new(&xyz, &uv);
+            for q in 0..400 {
+                let p = if q % 4 == 0 {
+                    // On a front point: distance 0, ties with its neighbours.
+                    xyz[q % n]
+                } else {
+                    Point3::new(
+                        25.0 * (2.0 * next() - 1.0),
+                        10.0 * next() - 1.0,
+                        2.0 * next() - 1.0,
+                    )
+                };
+                let want = nearest_on_front(&xyz, &uv, &p);
+                let got = index.nearest(&p);
+                assert_eq!(
+                    got.map(|(d, w)| (d.to_bits(), w.x.to_bits(), w.y.to_bits())),
+                    want.map(|(d, w)| (d.to_bits(), w.x.to_bits(), w.y.to_bits())),
+                    "front of {n}, query {q} at {p:?}"
+                );
+                answered += usize::from(want.is_some());
+            }
+        }
+        assert!(answered > 1000, "{answered}");
     }
 }

@@ -185,7 +185,7 @@ fn cover_sides(
 ) -> Result<Vec<Pass>> {
     let mut initial = initial.to_vec();
     extend_ends(surface, s, region, &mut initial);
-    let first = front_from_uv(surface, &initial, None)?;
+    let first = pass_contacts(s, front_from_uv(surface, &initial, None)?);
     if first.len() < 2 {
         return Ok(Vec::new());
     }
@@ -286,7 +286,7 @@ fn cover_sides(
         let Some(line) = gap_line(surface, s, region, &reached, uv) else {
             continue;
         };
-        let contacts = front_from_uv(surface, &line, None)?;
+        let contacts = pass_contacts(s, front_from_uv(surface, &line, None)?);
         if contacts.len() < 2 {
             continue;
         }

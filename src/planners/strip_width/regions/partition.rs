@@ -142,6 +142,29 @@ impl Region {
     }
 }
 
+/// The x at which the edges of `poly` cross the horizontal line at `y`, as
+/// [`polygon_contains`] computes them (the same expression, so the same
+/// bits): a point (x', y) is inside where an odd number of them lie beyond
+/// x' ([`inside_of_row`]). For testing many points of one row.
+pub fn row_crossings(poly: &[Vector2<f64>], y: f64, out: &mut Vec<f64>) {
+    out.clear();
+    let n = poly.len();
+    let mut j = n.wrapping_sub(1);
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[j]);
+        if (a.y > y) != (b.y > y) {
+            out.push(a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x));
+        }
+        j = i;
+    }
+}
+
+/// [`polygon_contains`] for a point at `x` on the row whose
+/// [`row_crossings`] are `crossings`.
+pub fn inside_of_row(crossings: &[f64], x: f64) -> bool {
+    crossings.iter().filter(|&&c| x < c).count() % 2 == 1
+}
+
 pub fn polygon_contains(poly: &[Vector2<f64>], p: Vector2<f64>) -> bool {
     let n = poly.len();
     let mut inside = false;
@@ -476,6 +499,41 @@ mod tests {
     use super::*;
     use crate::planners::strip_width::regions::degenerate_points;
     use crate::planners::test_surfaces;
+
+    #[test]
+    fn row_crossings_answer_as_the_point_test() {
+        // A star with 11 spikes (concave, rows through its vertices), and
+        // a grid of points including those on its vertices' rows.
+        let poly: Vec<Vector2<f64>> = (0..22)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / 22.0;
+                let r = if k % 2 == 0 { 1.0 } else { 0.45 };
+                Vector2::new(r * a.cos(), r * a.sin())
+            })
+            .collect();
+        let mut rows: Vec<f64> = (0..=60).map(|j| -1.1 + 2.2 * j as f64 / 60.0).collect();
+        rows.extend(poly.iter().map(|p| p.y));
+        let mut crossings = Vec::new();
+        let (mut inside, mut outside) = (0, 0);
+        for &y in &rows {
+            row_crossings(&poly, y, &mut crossings);
+            let mut xs: Vec<f64> = (0..=80).map(|i| -1.1 + 2.2 * i as f64 / 80.0).collect();
+            xs.extend(poly.iter().map(|p| p.x));
+            for x in xs {
+                let want = polygon_contains(&poly, Vector2::new(x, y));
+                assert_eq!(inside_of_row(&crossings, x), want, "({x}, {y})");
+                if want {
+                    inside += 1;
+                } else {
+                    outside += 1;
+                }
+            }
+        }
+        assert!(
+            inside > 500 && outside > 500,
+            "{inside} inside, {outside} outside"
+        );
+    }
 
     /// Independent region areas: the exact rays at 60, 180 and 300 deg
     /// bound the three sectors of the square; the surface area of each is
