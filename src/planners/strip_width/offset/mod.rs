@@ -280,7 +280,7 @@ fn cover_sides(
     }
     for uv in uncut_samples(surface, s, region, &reached) {
         progress.check()?;
-        if reached.covered(surface.point(uv.x, uv.y), usize::MAX) {
+        if reached.covered_sided(surface, s, surface.point(uv.x, uv.y)) {
             continue;
         }
         let Some(line) = gap_line(surface, s, region, &reached, uv) else {
