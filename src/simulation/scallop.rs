@@ -1977,33 +1977,14 @@ mod tests {
     /// range, or miss it; and the tip-plane bound below every drop.
     #[test]
     fn expanded_flat_end_drop_matches_the_cutter_at_the_pose() {
-        let job = crate::samples::job("plane").unwrap();
-        let surface = job.surface().unwrap();
         let tool = Tool::FlatEnd {
             radius: 2.5,
             length: None,
         };
         let mut rng = Rng(0x2545_f491_4f6c_dd1d);
-        let mut result = PlanResult::new("test", "iso_parametric");
-        for _ in 0..40 {
-            let tip = Vector3::new(rng.next(), rng.next(), rng.next()) * 3.0;
-            let axis0 = (Vector3::z() + rng.unit() * 0.4).normalize();
-            // Half the motions translate, half turn by up to about 20 deg.
-            let turn = if rng.next() > 0.0 { 0.35 } else { 0.0 };
-            let axis1 = (axis0 + rng.unit() * turn).normalize();
-            let tip1 = tip + rng.unit() * 2.0 * rng.next().abs();
-            let point = |t: Vector3<f64>, a: Vector3<f64>| PathPoint {
-                cl: [t.x, t.y, t.z],
-                axis: [a.x, a.y, a.z],
-                ..Default::default()
-            };
-            result.passes.push(Pass {
-                region: 0,
-                points: vec![point(tip, axis0), point(tip1, axis1)],
-                min_strip_width: None,
-            });
-        }
-        let sim = Simulator::new(surface, &tool, &result).unwrap();
+        // Half the motions translate, half turn by up to about 20 deg.
+        let (job, result) = random_motions(&mut rng, 40, 0.35);
+        let sim = Simulator::new(job.surface().unwrap(), &tool, &result).unwrap();
         let (mut hits, mut misses, mut clamped, mut bounded) = (0, 0, 0, 0);
         for seg in &sim.segments {
             for _ in 0..200 {
