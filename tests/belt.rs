@@ -637,3 +637,44 @@ fn simulate_command_writes_the_map_and_prints_the_stats() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("tool.kind"));
 }
+
+/// Directions spread evenly over a plane leave the normal undefined within
+/// it (the two largest eigenvalues are equal): the normal must not depend on
+/// the order of the directions or on which of the equal eigenvectors the
+/// solver returns, so it is the x axis projected into the plane; a slight
+/// preference for one direction still decides.
+#[test]
+fn evenly_spread_directions_take_the_x_axis() {
+    use nalgebra::Vector3;
+    use toolpath_planner::planners::belt::iso_planar::section_normal_from_directions;
+    let star = |count: usize, offset: f64, tilt: f64| -> Vec<Vector3<f64>> {
+        (0..count)
+            .map(|k| {
+                let a = offset + std::f64::consts::PI * k as f64 / count as f64;
+                Vector3::new(a.cos(), a.sin(), tilt).normalize()
+            })
+            .collect()
+    };
+    for (count, offset) in [(4, 0.0), (6, 0.3), (12, 1.1), (7, 2.0)] {
+        let mut dirs = star(count, offset, 0.0);
+        for turn in 0..count {
+            dirs.rotate_left(1);
+            let n = section_normal_from_directions(&dirs).unwrap();
+            assert!(
+                n.eigen_ratio > 1.0 - 1e-9,
+                "{count} {offset}: {}",
+                n.eigen_ratio
+            );
+            assert!(
+                (n.normal - Vector3::x()).norm() < 1e-12,
+                "{count} directions from {offset} rad, turn {turn}: {:?}",
+                n.normal
+            );
+        }
+    }
+    // One direction counted twice: y is preferred, and taken.
+    let mut dirs = star(4, 0.0, 0.0);
+    dirs.push(Vector3::y());
+    let n = section_normal_from_directions(&dirs).unwrap();
+    assert!((n.normal - Vector3::y()).norm() < 1e-9, "{:?}", n.normal);
+}

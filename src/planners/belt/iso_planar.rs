@@ -27,6 +27,10 @@ use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector2, Vector3};
 
 /// Grid of surface samples for the automatic section normal, per direction.
 const NORMAL_SAMPLES: usize = 48;
+/// Eigenvalue ratio above 1 - this: the top two eigenvalues of the
+/// orientation tensor are equal up to rounding (the normal is undefined
+/// within their plane).
+const EVEN_SPREAD: f64 = 1e-6;
 /// Passes per side beyond this mean the step collapsed.
 const MAX_PASSES: usize = 20_000;
 
@@ -113,6 +117,21 @@ pub fn section_normal_from_directions(dirs: &[Vector3<f64>]) -> Option<SectionNo
     let (l1, l2) = (eig.eigenvalues[order[0]], eig.eigenvalues[order[1]]);
     let trace = m.trace();
     let mut normal: Vector3<f64> = eig.eigenvectors.column(order[0]).into_owned();
+    if l1 > 0.0 && l2 >= (1.0 - EVEN_SPREAD) * l1 {
+        // The directions spread evenly over a plane: any normal in it is an
+        // eigenvector, and which one the solver returns is rounding. Take the
+        // first coordinate axis (x, then y, then z) projected into the plane,
+        // so the same surface always gets the same sections.
+        let across: Vector3<f64> = eig.eigenvectors.column(order[2]).into_owned();
+        if let Some(a) = across.try_normalize(1e-300) {
+            if let Some(axis) = [Vector3::x(), Vector3::y(), Vector3::z()]
+                .iter()
+                .find_map(|e| (e - a * e.dot(&a)).try_normalize(1e-6))
+            {
+                normal = axis;
+            }
+        }
+    }
     normal = normal.try_normalize(1e-300)?;
     // Deterministic sign: the largest component positive.
     let imax = (0..3)
