@@ -238,11 +238,12 @@ pub(super) fn strip_of(pass: &Pass) -> Vec<StripPoint> {
         .unwrap_or(0.0);
     let mut w = first;
     for p in &pass.points {
-        let own = p.strip_width.zip(p.feed);
         if let Some(sw) = p.strip_width {
             w = sw;
         }
-        let contact = own.map(|(_, f)| (Vector2::from(p.uv), Vector3::from(f)));
+        // A contact of its own: a width of its own and a feed.
+        let contact = p.strip_width.and(p.feed);
+        let contact = contact.map(|f| (Vector2::from(p.uv), Vector3::from(f)));
         out.push((Point3::from(p.cc), 0.5 * w, contact));
     }
     out

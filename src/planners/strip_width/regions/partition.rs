@@ -142,21 +142,22 @@ impl Region {
     }
 }
 
-/// The x at which the edges of `poly` cross the horizontal line at `y`, as
-/// [`polygon_contains`] computes them (the same expression, so the same
-/// bits): a point (x', y) is inside where an odd number of them lie beyond
-/// x' ([`inside_of_row`]). For testing many points of one row.
+/// The x at which the edges of `poly` cross the horizontal line at `y`: a
+/// point (x', y) is inside where an odd number of them lie beyond x'.
+fn crossings(poly: &[Vector2<f64>], y: f64) -> impl Iterator<Item = f64> + '_ {
+    let last = poly.len().wrapping_sub(1);
+    (0..poly.len()).filter_map(move |i| {
+        let (a, b) = (poly[i], poly[if i == 0 { last } else { i - 1 }]);
+        ((a.y > y) != (b.y > y)).then(|| a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x))
+    })
+}
+
+/// The [`crossings`] of the row at `y`, into `out`, for testing many points
+/// of one row with [`inside_of_row`] (the same answers as
+/// [`polygon_contains`]).
 pub fn row_crossings(poly: &[Vector2<f64>], y: f64, out: &mut Vec<f64>) {
     out.clear();
-    let n = poly.len();
-    let mut j = n.wrapping_sub(1);
-    for i in 0..n {
-        let (a, b) = (poly[i], poly[j]);
-        if (a.y > y) != (b.y > y) {
-            out.push(a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x));
-        }
-        j = i;
-    }
+    out.extend(crossings(poly, y));
 }
 
 /// [`polygon_contains`] for a point at `x` on the row whose
@@ -165,21 +166,9 @@ pub fn inside_of_row(crossings: &[f64], x: f64) -> bool {
     crossings.iter().filter(|&&c| x < c).count() % 2 == 1
 }
 
+/// Even-odd point-in-polygon test.
 pub fn polygon_contains(poly: &[Vector2<f64>], p: Vector2<f64>) -> bool {
-    let n = poly.len();
-    let mut inside = false;
-    let mut j = n.wrapping_sub(1);
-    for i in 0..n {
-        let (a, b) = (poly[i], poly[j]);
-        if (a.y > p.y) != (b.y > p.y) {
-            let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
-            if p.x < x {
-                inside = !inside;
-            }
-        }
-        j = i;
-    }
-    inside
+    crossings(poly, p.y).filter(|&x| p.x < x).count() % 2 == 1
 }
 
 /// The partition of a surface.
