@@ -214,16 +214,35 @@ class ServiceClient:
             time.sleep(0.05)
         raise AssertionError("service %s not discovered within %s s" % (self.service, timeout))
 
-    def call(self, request, timeout=10.0):
+    def call(self, request, timeout=10.0, resend_after=None):
+        """The reply to `request`, waiting up to `timeout` s.
+
+        Discovery is not symmetric: our reader may see the server's reply
+        writer before that writer has matched our reader, and a volatile
+        reply sent in that window reaches nobody. `resend_after` (seconds)
+        sends the request again when no reply came by then; only for
+        idempotent requests (parameter list/get/describe/set), never for a
+        goal, which the server must see once.
+        """
         self.reader.take(N=100)  # nothing stale is taken for this reply
         self.writer.write(request)
-        deadline = time.monotonic() + timeout
+        start = time.monotonic()
+        deadline = start + timeout
+        next_send = start + resend_after if resend_after else None
         while time.monotonic() < deadline:
             got = self.reader.take(N=1)
             if got:
                 return got[0]
+            if next_send is not None and time.monotonic() >= next_send:
+                self.writer.write(request)
+                next_send += resend_after
             time.sleep(0.02)
         raise AssertionError("no reply from %s within %s s" % (self.service, timeout))
+
+
+# Parameter services answer the same request the same way twice: resend
+# after 2 s of silence, give up after 20 s.
+IDEMPOTENT = {"timeout": 20.0, "resend_after": 2.0}
 
 
 class ParameterClient:
@@ -241,18 +260,19 @@ class ParameterClient:
             c.wait_for_service(timeout)
 
     def list(self):
-        return list(self.list_client.call(ListParameters_Request(prefixes=[], depth=0)).result.names)
+        return list(self.list_client.call(ListParameters_Request(prefixes=[], depth=0), **IDEMPOTENT).result.names)
 
     def get(self, *names):
-        r = self.get_client.call(GetParameters_Request(names=list(names)))
+        r = self.get_client.call(GetParameters_Request(names=list(names)), **IDEMPOTENT)
         return [python(v) for v in r.values]
 
     def describe(self, *names):
         """`ros2 param describe`: one ParameterDescriptor per name."""
-        return list(self.describe_client.call(DescribeParameters_Request(names=list(names))).descriptors)
+        return list(self.describe_client.call(DescribeParameters_Request(names=list(names)), **IDEMPOTENT).descriptors)
 
     def set(self, name, v):
         """(successful, reason) of setting one parameter."""
-        r = self.set_client.call(SetParameters_Request(parameters=[Parameter(name=name, value=value(v))]))
+        r = self.set_client.call(SetParameters_Request(parameters=[Parameter(name=name, value=value(v))]),
+                                 **IDEMPOTENT)
         assert len(r.results) == 1, r
         return r.results[0].successful, r.results[0].reason
