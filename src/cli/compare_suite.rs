@@ -6,6 +6,7 @@
 use crate::error::Result;
 use crate::formats::{Job, PlanResult};
 use crate::pipeline::{self, RunOptions};
+use crate::planners::strip_width::lower_bound;
 use crate::planners::NoProgress;
 use crate::samples;
 use std::time::Instant;
@@ -108,12 +109,15 @@ fn checks(name: &str, row: &Row, h: f64, over_h: &mut Vec<String>) -> Checks {
 
 pub fn run(only: Option<&str>) -> Result<()> {
     println!(
-        "| surface | umbilics | lower bound mm | iso_parametric mm | iso_scallop mm | tensor_regions mm | tensor / shorter | shorter / bound | tensor / bound | max scallop mm (ip, is, tr) | max gouge mm | uncovered mm2 | regions | plan | repair mm | s |"
+        "| surface | umbilics | lower bound mm | iso_parametric mm | iso_scallop mm | tensor_regions mm | tensor / shorter | shorter / bound | shorter / bound at 0.9 h | tensor / bound | max scallop mm (ip, is, tr) | max gouge mm | uncovered mm2 | regions | plan | repair mm | s |"
     );
-    println!("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | --- | ---: | ---: |");
+    println!("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | --- | ---: | ---: |");
     let mut to_shorter = Vec::new();
     let mut to_bound = Vec::new();
     let mut room = (0usize, 0usize);
+    // Of the surfaces with room: those where the target lies above the
+    // spacing bound (reachable at all by passes spaced for 0.9 h), and met.
+    let mut reachable = (0usize, 0usize);
     let mut worst_scallop: f64 = 0.0;
     let mut worst_gouge: f64 = 0.0;
     let mut over_h = Vec::new();
@@ -141,12 +145,20 @@ pub fn run(only: Option<&str>) -> Result<()> {
         let r_short = ratio(len(2), shorter);
         let r_bound = ratio(len(2), bound);
         let s_bound = ratio(shorter, bound);
+        let spacing_bound = lower_bound::job_spacing_lower_bound(&job).ok();
+        let s_spacing = ratio(shorter, spacing_bound);
         if let Some(x) = r_short {
             to_shorter.push(x);
             if s_bound.is_some_and(|s| s >= ROOM) {
                 room.0 += 1;
                 if x <= ROOM_TARGET {
                     room.1 += 1;
+                }
+                if s_spacing.is_some_and(|s| s * ROOM_TARGET >= 1.0) {
+                    reachable.0 += 1;
+                    if x <= ROOM_TARGET {
+                        reachable.1 += 1;
+                    }
                 }
             }
         }
@@ -163,7 +175,7 @@ pub fn run(only: Option<&str>) -> Result<()> {
         worst_scallop = worst_scallop.max(row_scallop);
         worst_gouge = worst_gouge.max(gouge);
         println!(
-            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {gouge:.4} | {uncovered:.2} | {} | {} | {} | {:.1} |",
+            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {gouge:.4} | {uncovered:.2} | {} | {} | {} | {:.1} |",
             tr.and_then(|r| r.degenerate_points.as_ref())
                 .map_or("-".into(), |d| d.len().to_string()),
             fmt(bound, 0),
@@ -172,6 +184,7 @@ pub fn run(only: Option<&str>) -> Result<()> {
             fmt(len(2), 0),
             fmt(r_short, 3),
             fmt(s_bound, 3),
+            fmt(s_spacing, 3),
             fmt(r_bound, 3),
             scallops.join(", "),
             tr.and_then(|r| r.regions.as_ref())
@@ -200,6 +213,10 @@ pub fn run(only: Option<&str>) -> Result<()> {
     println!(
         "surfaces with shorter baseline >= {ROOM} x bound: {}, of them tensor <= {ROOM_TARGET} x shorter: {}",
         room.0, room.1
+    );
+    println!(
+        "of those, reachable by passes spaced for 0.9 h ({ROOM_TARGET} x shorter >= bound at 0.9 h): {}, met: {}",
+        reachable.0, reachable.1
     );
     println!("max scallop over all plans {worst_scallop:.4} mm, max gouge {worst_gouge:.4} mm");
     if !over_h.is_empty() {

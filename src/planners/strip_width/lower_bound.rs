@@ -30,6 +30,21 @@ pub fn job_path_length_lower_bound(
     )
 }
 
+/// [`path_length_lower_bound`] at the scallop the flat-end strategies space
+/// their passes for ([`super::passes::SCALLOP_MARGIN`] h): the floor of the
+/// spacing rule itself. A plan spaced for 0.9 h cannot come much below it
+/// (only by the narrow side's mean half-width in the coverage test), so a
+/// target relative to another plan is reachable only above it
+/// (docs/methods.md, "Path-length lower bound").
+pub fn job_spacing_lower_bound(job: &Job) -> Result<f64> {
+    path_length_lower_bound(
+        job.surface()?,
+        &super::width::cutter_of_job(job)?,
+        job.scallop()? * super::passes::SCALLOP_MARGIN,
+        crate::planners::LOWER_BOUND_CELLS,
+    )
+}
+
 /// Lower bound of the path length for scallop h: the integral over the
 /// surface of dA / w_max(p). No set of passes can be shorter, since each unit
 /// of length clears at most w_max of area. `cells` per parameter direction.
