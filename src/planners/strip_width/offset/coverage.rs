@@ -27,6 +27,10 @@ pub(super) struct Coverage {
     /// contacts of their own (not run-ins, run-outs or carried widths): what
     /// [`Coverage::covered_sided`] measures the half-width on a side from.
     pub(super) contacts: Vec<Option<[StripContact; 2]>>,
+    /// Per segment, the box [`Coverage::covered`] rejects points outside
+    /// of, and the pass it belongs to: stored once at insertion, since a
+    /// lookup scans every segment listed in a cell and most fail this test.
+    pub(super) quick: Vec<QuickBox>,
     pub(super) grid: HashMap<[i64; 3], Vec<usize>, BuildHasherDefault<CellHasher>>,
 }
 
@@ -37,6 +41,7 @@ impl Coverage {
             share,
             segments: Vec::new(),
             contacts: Vec::new(),
+            quick: Vec::new(),
             grid: HashMap::default(),
         }
     }
@@ -75,6 +80,7 @@ impl Coverage {
             let index = self.segments.len();
             self.segments.push((a, b, w, id));
             self.contacts.push(ca.zip(cb).map(|(ca, cb)| [ca, cb]));
+            self.quick.push(QuickBox::new(a, b, self.share * w, id));
             let (lo, hi) = (a.inf(&b), a.sup(&b));
             // Every point the sided test may count lies within the pad.
             let pad = Vector3::repeat(w * SIDED_REACH * self.share.max(1.0));
@@ -124,19 +130,12 @@ impl Coverage {
             return false;
         };
         list.iter().any(|&i| {
-            let (a, b, w, id) = self.segments[i];
-            if id == exclude {
+            let q = &self.quick[i];
+            if q.id == exclude || !q.holds(p) {
                 return false;
             }
-            // Beyond the segment's box grown by a little more than the
-            // reach, the distance is surely beyond it: the same answer as
-            // the exact test below, without its division and root.
-            let reach = self.share * w;
-            let far = 1.001 * reach;
-            if (0..3).any(|k| p[k] < a[k].min(b[k]) - far || p[k] > a[k].max(b[k]) + far) {
-                return false;
-            }
-            (a + (b - a) * segment_parameter(a, b, p) - p).norm() < reach
+            let (a, b, _, _) = self.segments[i];
+            (a + (b - a) * segment_parameter(a, b, p) - p).norm() < q.reach
         })
     }
 
@@ -180,6 +179,33 @@ impl Coverage {
                 _ => false,
             }
         })
+    }
+}
+
+/// A strip segment's box grown by a little more than its reach (the share
+/// of its half-width within which a point counts as cut): beyond it the
+/// distance is surely beyond the reach, so [`Coverage::covered`] gives the
+/// same answer as its exact test without the division and root.
+pub(super) struct QuickBox {
+    lo: [f64; 3],
+    hi: [f64; 3],
+    reach: f64,
+    id: usize,
+}
+
+impl QuickBox {
+    fn new(a: Point3<f64>, b: Point3<f64>, reach: f64, id: usize) -> Self {
+        let far = 1.001 * reach;
+        Self {
+            lo: [0, 1, 2].map(|k| a[k].min(b[k]) - far),
+            hi: [0, 1, 2].map(|k| a[k].max(b[k]) + far),
+            reach,
+            id,
+        }
+    }
+
+    fn holds(&self, p: Point3<f64>) -> bool {
+        !(0..3).any(|k| p[k] < self.lo[k] || p[k] > self.hi[k])
     }
 }
 
