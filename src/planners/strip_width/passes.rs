@@ -275,46 +275,88 @@ pub fn walk_on_surface(
     dir: Vector3<f64>,
     dist: f64,
 ) -> Option<(Vector2<f64>, Vector3<f64>, bool)> {
-    let ((u0, u1), (v0, v1)) = surface.domain();
-    let n = ((dist / 0.75).ceil() as usize).clamp(1, 64);
-    let h = dist / n as f64;
-    let mut p = uv;
-    let mut d = dir;
-    // The tangent plane only (first derivatives): the same bits as the full
-    // local geometry for what the step uses, at about half the cost.
-    let step_at = |p: Vector2<f64>, d: Vector3<f64>| -> Option<(Vector2<f64>, Vector3<f64>)> {
-        let g = TangentFrame::at(surface, p.x, p.y)?;
-        let t = (d - g.n * d.dot(&g.n)).try_normalize(1e-12)?;
-        Some((g.tangent_to_uv(t), t))
-    };
-    for _ in 0..n {
-        let (k1, t1) = step_at(p, d)?;
-        let mid = p + k1 * (0.5 * h);
-        let (mu, mv) = surface.clamp_uv(mid.x, mid.y);
-        let (k2, t2) = step_at(Vector2::new(mu, mv), t1)?;
-        let next = p + k2 * h;
-        d = t2;
-        if next.x < u0 || next.x > u1 || next.y < v0 || next.y > v1 {
-            // Clip the step at the boundary.
-            let delta = next - p;
-            let mut f = 1.0f64;
-            if delta.x > 0.0 {
-                f = f.min((u1 - p.x) / delta.x);
-            } else if delta.x < 0.0 {
-                f = f.min((u0 - p.x) / delta.x);
-            }
-            if delta.y > 0.0 {
-                f = f.min((v1 - p.y) / delta.y);
-            } else if delta.y < 0.0 {
-                f = f.min((v0 - p.y) / delta.y);
-            }
-            let end = p + delta * f.clamp(0.0, 1.0);
-            let (eu, ev) = surface.clamp_uv(end.x, end.y);
-            return Some((Vector2::new(eu, ev), d, true));
-        }
-        p = next;
+    WalkStart::new(surface, uv, dir)?.walk(surface, dist)
+}
+
+/// The start of walks on the surface from one point along one direction
+/// ([`walk_on_surface`]): the first sub-step's tangent frame is the same
+/// whatever the distance, so walks of several distances from one point
+/// (the iso-scallop offsetting settling the width) compute it once.
+#[derive(Clone, Copy, Debug)]
+pub struct WalkStart {
+    uv: Vector2<f64>,
+    /// The first sub-step's uv direction and unit tangent at `uv`.
+    first: (Vector2<f64>, Vector3<f64>),
+}
+
+/// A walk's sub-step direction at `p` for heading `d`: the heading projected
+/// on the tangent plane (first derivatives only: the same bits as the full
+/// local geometry for what the step uses, at about half the cost), in uv
+/// and as a unit 3-D tangent.
+fn walk_step_at(
+    surface: &NurbsSurface,
+    p: Vector2<f64>,
+    d: Vector3<f64>,
+) -> Option<(Vector2<f64>, Vector3<f64>)> {
+    let g = TangentFrame::at(surface, p.x, p.y)?;
+    let t = (d - g.n * d.dot(&g.n)).try_normalize(1e-12)?;
+    Some((g.tangent_to_uv(t), t))
+}
+
+impl WalkStart {
+    /// `None` where the surface has no tangent plane at `uv` or `dir` is
+    /// along its normal (every walk from there fails).
+    pub fn new(surface: &NurbsSurface, uv: Vector2<f64>, dir: Vector3<f64>) -> Option<Self> {
+        Some(Self {
+            uv,
+            first: walk_step_at(surface, uv, dir)?,
+        })
     }
-    Some((p, d, false))
+
+    /// [`walk_on_surface`] from this start for `dist` mm.
+    pub fn walk(
+        &self,
+        surface: &NurbsSurface,
+        dist: f64,
+    ) -> Option<(Vector2<f64>, Vector3<f64>, bool)> {
+        let ((u0, u1), (v0, v1)) = surface.domain();
+        let n = ((dist / 0.75).ceil() as usize).clamp(1, 64);
+        let h = dist / n as f64;
+        let mut p = self.uv;
+        let mut d = Vector3::zeros();
+        for step in 0..n {
+            let (k1, t1) = if step == 0 {
+                self.first
+            } else {
+                walk_step_at(surface, p, d)?
+            };
+            let mid = p + k1 * (0.5 * h);
+            let (mu, mv) = surface.clamp_uv(mid.x, mid.y);
+            let (k2, t2) = walk_step_at(surface, Vector2::new(mu, mv), t1)?;
+            let next = p + k2 * h;
+            d = t2;
+            if next.x < u0 || next.x > u1 || next.y < v0 || next.y > v1 {
+                // Clip the step at the boundary.
+                let delta = next - p;
+                let mut f = 1.0f64;
+                if delta.x > 0.0 {
+                    f = f.min((u1 - p.x) / delta.x);
+                } else if delta.x < 0.0 {
+                    f = f.min((u0 - p.x) / delta.x);
+                }
+                if delta.y > 0.0 {
+                    f = f.min((v1 - p.y) / delta.y);
+                } else if delta.y < 0.0 {
+                    f = f.min((v0 - p.y) / delta.y);
+                }
+                let end = p + delta * f.clamp(0.0, 1.0);
+                let (eu, ev) = surface.clamp_uv(end.x, end.y);
+                return Some((Vector2::new(eu, ev), d, true));
+            }
+            p = next;
+        }
+        Some((p, d, false))
+    }
 }
 
 #[cfg(test)]

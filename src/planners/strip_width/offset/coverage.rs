@@ -10,6 +10,7 @@ use crate::planners::strip_width::passes::{walk_on_surface as walk, Contact, Pas
 use crate::planners::strip_width::regions::partition::{inside_of_row, row_crossings};
 use crate::planners::strip_width::regions::Region;
 use nalgebra::{Point3, Vector2, Vector3};
+use std::cell::Cell;
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
@@ -27,6 +28,14 @@ pub(super) struct Coverage {
     /// contacts of their own (not run-ins, run-outs or carried widths): what
     /// [`Coverage::covered_sided`] measures the half-width on a side from.
     pub(super) contacts: Vec<Option<[StripContact; 2]>>,
+    /// Per segment, the box [`Coverage::covered`] rejects points outside
+    /// of, and the pass it belongs to: stored once at insertion, since a
+    /// lookup scans every segment listed in a cell and most fail this test.
+    pub(super) quick: Vec<QuickBox>,
+    /// The segment that last covered a point in [`Coverage::covered`],
+    /// tried first for the next point (samples come in rows, so the same
+    /// strip usually covers the next one too).
+    last_hit: Cell<Option<usize>>,
     pub(super) grid: HashMap<[i64; 3], Vec<usize>, BuildHasherDefault<CellHasher>>,
 }
 
@@ -37,15 +46,17 @@ impl Coverage {
             share,
             segments: Vec::new(),
             contacts: Vec::new(),
+            quick: Vec::new(),
+            last_hit: Cell::new(None),
             grid: HashMap::default(),
         }
     }
 
     pub(super) fn key(&self, p: Point3<f64>) -> [i64; 3] {
         [
-            (p.x / self.cell).floor() as i64,
-            (p.y / self.cell).floor() as i64,
-            (p.z / self.cell).floor() as i64,
+            floor_i64(p.x / self.cell),
+            floor_i64(p.y / self.cell),
+            floor_i64(p.z / self.cell),
         ]
     }
 
@@ -75,10 +86,8 @@ impl Coverage {
             let index = self.segments.len();
             self.segments.push((a, b, w, id));
             self.contacts.push(ca.zip(cb).map(|(ca, cb)| [ca, cb]));
-            let (lo, hi) = (a.inf(&b), a.sup(&b));
-            // Every point the sided test may count lies within the pad.
-            let pad = Vector3::repeat(w * SIDED_REACH * self.share.max(1.0));
-            let (k0, k1) = (self.key(lo - pad), self.key(hi + pad));
+            self.quick.push(QuickBox::new(a, b, self.share * w, id));
+            let (k0, k1) = self.cells_of(index);
             for i in k0[0]..=k1[0] {
                 for j in k0[1]..=k1[1] {
                     for l in k0[2]..=k1[2] {
@@ -87,6 +96,27 @@ impl Coverage {
                 }
             }
         }
+    }
+
+    /// The range of grid cells segment `index` is listed in.
+    #[inline]
+    fn cells_of(&self, index: usize) -> ([i64; 3], [i64; 3]) {
+        let (a, b, w, _) = self.segments[index];
+        let (lo, hi) = (a.inf(&b), a.sup(&b));
+        // Every point the sided test may count lies within the pad.
+        let pad = Vector3::repeat(w * SIDED_REACH * self.share.max(1.0));
+        (self.key(lo - pad), self.key(hi + pad))
+    }
+
+    /// Whether segment `i` covers `p` for [`Coverage::covered`].
+    #[inline]
+    fn covers(&self, i: usize, p: Point3<f64>, exclude: usize) -> bool {
+        let q = &self.quick[i];
+        if q.id == exclude || !q.holds(p) {
+            return false;
+        }
+        let (a, b, _, _) = self.segments[i];
+        (a + (b - a) * segment_parameter(a, b, p) - p).norm() < q.reach
     }
 
     /// Unit direction of the strip segment nearest to `p` within reach.
@@ -120,24 +150,25 @@ impl Coverage {
 
     /// Whether `p` lies well inside the strip of a pass other than `exclude`.
     pub(super) fn covered(&self, p: Point3<f64>, exclude: usize) -> bool {
-        let Some(list) = self.grid.get(&self.key(p)) else {
+        let key = self.key(p);
+        // The last covering segment first: if it is listed in p's cell and
+        // covers p, the scan of the list would say so too.
+        if let Some(i) = self.last_hit.get() {
+            let (k0, k1) = self.cells_of(i);
+            if (0..3).all(|d| (k0[d]..=k1[d]).contains(&key[d])) && self.covers(i, p, exclude) {
+                return true;
+            }
+        }
+        let Some(list) = self.grid.get(&key) else {
             return false;
         };
-        list.iter().any(|&i| {
-            let (a, b, w, id) = self.segments[i];
-            if id == exclude {
-                return false;
+        match list.iter().find(|&&i| self.covers(i, p, exclude)) {
+            Some(&i) => {
+                self.last_hit.set(Some(i));
+                true
             }
-            // Beyond the segment's box grown by a little more than the
-            // reach, the distance is surely beyond it: the same answer as
-            // the exact test below, without its division and root.
-            let reach = self.share * w;
-            let far = 1.001 * reach;
-            if (0..3).any(|k| p[k] < a[k].min(b[k]) - far || p[k] > a[k].max(b[k]) + far) {
-                return false;
-            }
-            (a + (b - a) * segment_parameter(a, b, p) - p).norm() < reach
-        })
+            None => false,
+        }
     }
 
     /// [`Self::covered`] by any pass, and where that fails, with the
@@ -180,6 +211,46 @@ impl Coverage {
                 _ => false,
             }
         })
+    }
+}
+
+/// `x.floor() as i64` (saturating, 0 for NaN) without the call to libm's
+/// floor, which the baseline x86-64 target does not inline: the truncation
+/// is exact, and one less where it rounded a negative fraction up.
+#[inline]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
+}
+
+/// A strip segment's box grown by a little more than its reach (the share
+/// of its half-width within which a point counts as cut): beyond it the
+/// distance is surely beyond the reach, so [`Coverage::covered`] gives the
+/// same answer as its exact test without the division and root.
+pub(super) struct QuickBox {
+    lo: [f64; 3],
+    hi: [f64; 3],
+    reach: f64,
+    id: usize,
+}
+
+impl QuickBox {
+    fn new(a: Point3<f64>, b: Point3<f64>, reach: f64, id: usize) -> Self {
+        let far = 1.001 * reach;
+        Self {
+            lo: [0, 1, 2].map(|k| a[k].min(b[k]) - far),
+            hi: [0, 1, 2].map(|k| a[k].max(b[k]) + far),
+            reach,
+            id,
+        }
+    }
+
+    fn holds(&self, p: Point3<f64>) -> bool {
+        !(0..3).any(|k| p[k] < self.lo[k] || p[k] > self.hi[k])
     }
 }
 
@@ -362,6 +433,45 @@ pub(super) fn gap_line(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floor_i64_is_floor_as_i64() {
+        let mut cases = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            -1.0 - f64::EPSILON,
+            -1e-300,
+            2.5e15 + 0.5,
+            -2.5e15 - 0.5,
+            9.007_199_254_740_993e15,
+            -9.007_199_254_740_993e15,
+            9.3e18,
+            -9.3e18,
+            f64::MAX,
+            f64::MIN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        // Pseudo-random values over many scales, with both signs.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..10_000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let mantissa = (state >> 11) as f64 / (1u64 << 53) as f64;
+            let scale = 10f64.powi((state % 40) as i32 - 20);
+            let sign = if state & 1 == 0 { 1.0 } else { -1.0 };
+            cases.push(sign * mantissa * scale);
+        }
+        for x in cases {
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x:e}");
+        }
+    }
     use crate::geometry::interpolation::interpolate_height_field;
     use crate::tools::lead_cutter::LeadCutter;
 

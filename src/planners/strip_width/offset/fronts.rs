@@ -6,7 +6,9 @@
 use super::*;
 use crate::error::Result;
 use crate::geometry::NurbsSurface;
-use crate::planners::strip_width::passes::{walk_on_surface as walk, Contact, PassSettings};
+use crate::planners::strip_width::passes::{
+    walk_on_surface as walk, Contact, PassSettings, WalkStart,
+};
 use crate::planners::strip_width::regions::Region;
 use nalgebra::{Point3, Vector2, Vector3};
 use std::collections::HashMap;
@@ -42,26 +44,33 @@ pub(super) fn offset_point(
     fp: &FrontPoint,
 ) -> Result<Offset> {
     let w_here = fp.c.half_width_towards(s, fp.away)?;
+    // Every walk below starts at the front point along `away`.
+    let start = WalkStart::new(surface, fp.c.uv(), fp.away);
+    let walk = |dist: f64| {
+        start
+            .and_then(|w| w.walk(surface, dist))
+            .ok_or_else(|| singular(fp.c.uv()))
+    };
     let mut dist = 2.0 * w_here;
-    let mut end = walk(surface, fp.c.uv(), fp.away, dist).ok_or_else(|| singular(fp.c.uv()))?;
+    let mut end = walk(dist)?;
     for _ in 0..3 {
         let q = Contact::new(surface, end.0, -fp.c.travel).ok_or_else(|| singular(end.0))?;
         let w_there = q.half_width_towards(s, -end.1)?;
         let new_dist = w_here + w_there;
         let settled = (new_dist - dist).abs() < 1e-4;
         dist = new_dist;
-        end = walk(surface, fp.c.uv(), fp.away, dist).ok_or_else(|| singular(fp.c.uv()))?;
+        end = walk(dist)?;
         if settled || end.2 {
             break;
         }
     }
-    // Is there region material beyond this pass's strip edge?
-    let edge =
-        walk(surface, fp.c.uv(), fp.away, w_here * 0.98).ok_or_else(|| singular(fp.c.uv()))?;
+    // Is there region material beyond this pass's strip edge, or at the
+    // next pass? The end is tested first: where it is uncut (the usual
+    // case) the walk to the strip edge is not needed.
     let uncut = |(uv, _, clipped): (Vector2<f64>, Vector3<f64>, bool)| {
         !clipped && region.contains(uv) && !coverage.covered(surface.point(uv.x, uv.y), front_id)
     };
-    let needed = uncut(edge) || uncut(end);
+    let needed = uncut(end) || uncut(walk(w_here * 0.98)?);
     // A point stopped by the boundary is a pass point only where the pass
     // runs along that boundary (the last pass of a side); where the pass
     // meets the boundary at an angle, it ends there instead.
