@@ -106,18 +106,45 @@ pub(super) fn pass_contacts(s: &PassSettings, contacts: Vec<Contact>) -> Vec<Con
         .collect()
 }
 
+/// Share of the cutter radius over which a front point's travel is taken
+/// (see [`front_from_uv`]).
+const TRAVEL_SPAN_SHARE: f64 = 0.4;
+
 /// Contacts along a uv polyline, travelling along it; `reference` orients
-/// the travel (None: the polyline's own order).
+/// the travel (None: the polyline's own order). A point's travel is the
+/// chord over [`TRAVEL_SPAN_SHARE`] R of polyline around it (at least its two
+/// neighbours): the chord between neighbours a point step apart turns with
+/// the offset points' last-digit scatter, the next front is carried across
+/// that travel, and over many passes the scatter grows into folded fronts
+/// (docs/methods.md, "Iso-scallop offsetting").
 pub(super) fn front_from_uv(
     surface: &NurbsSurface,
+    s: &PassSettings,
     uv: &[Vector2<f64>],
     reference: Option<&[Vector3<f64>]>,
 ) -> Result<Vec<Contact>> {
+    let half_span = 0.5 * TRAVEL_SPAN_SHARE * s.cutter.radius;
     let xyz: Vec<_> = uv.iter().map(|p| surface.point(p.x, p.y)).collect();
     let n = uv.len();
-    let mut out = Vec::with_capacity(n);
+    let mut arc = Vec::with_capacity(n);
+    let mut acc = 0.0;
     for i in 0..n {
-        let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+        if i > 0 {
+            acc += (xyz[i] - xyz[i - 1]).norm();
+        }
+        arc.push(acc);
+    }
+    let mut out = Vec::with_capacity(n);
+    let (mut a, mut b) = (0usize, 0usize);
+    for i in 0..n {
+        while a < i && arc[i] - arc[a + 1] >= half_span {
+            a += 1;
+        }
+        b = b.max(i);
+        while b + 1 < n && arc[b] - arc[i] < half_span {
+            b += 1;
+        }
+        let (a, b) = (a.min(i.saturating_sub(1)), b.max((i + 1).min(n - 1)));
         let mut t = xyz[b] - xyz[a];
         if let Some(r) = reference {
             if t.dot(&r[i]) < 0.0 {
@@ -412,7 +439,7 @@ fn run_front(
     let mut reference: Vec<Vector3<f64>> = vec![-first.1; head];
     reference.extend(travels.iter().map(|t| -t));
     reference.extend(std::iter::repeat_n(-last.1, tail));
-    let contacts = pass_contacts(s, front_from_uv(surface, &uv, Some(&reference))?);
+    let contacts = pass_contacts(s, front_from_uv(surface, s, &uv, Some(&reference))?);
     if contacts.len() < 2 {
         return Ok(None);
     }

@@ -127,7 +127,7 @@ pub fn cover_from_edge(
     if surface.collapsed_boundaries().iter().any(|&c| c) {
         return cover(surface, s, region, edge, progress);
     }
-    let contacts = front_from_uv(surface, edge, None)?;
+    let contacts = front_from_uv(surface, s, edge, None)?;
     if contacts.len() < 2 {
         return cover(surface, s, region, edge, progress);
     }
@@ -185,7 +185,7 @@ fn cover_sides(
 ) -> Result<Vec<Pass>> {
     let mut initial = initial.to_vec();
     extend_ends(surface, s, region, &mut initial);
-    let first = pass_contacts(s, front_from_uv(surface, &initial, None)?);
+    let first = pass_contacts(s, front_from_uv(surface, s, &initial, None)?);
     if first.len() < 2 {
         return Ok(Vec::new());
     }
@@ -286,7 +286,7 @@ fn cover_sides(
         let Some(line) = gap_line(surface, s, region, &reached, uv) else {
             continue;
         };
-        let contacts = pass_contacts(s, front_from_uv(surface, &line, None)?);
+        let contacts = pass_contacts(s, front_from_uv(surface, s, &line, None)?);
         if contacts.len() < 2 {
             continue;
         }
