@@ -16,6 +16,7 @@
 use toolpath_planner::formats::shape::Shape;
 use toolpath_planner::formats::{Job, PlanResult, Strategy};
 use toolpath_planner::geometry::NurbsSurface;
+use toolpath_planner::pipeline::{self, RunOptions};
 use toolpath_planner::planners::{self, NoProgress};
 use toolpath_planner::samples;
 use toolpath_planner::simulation::scallop::{simulate, ScallopReport, ScallopSettings, Simulator};
@@ -274,29 +275,51 @@ fn tensor_regions_holds_h_between_kinked_passes() {
 
 /// Where the surface is anisotropic the strip-width field pays: on the bowl
 /// tensor_regions must meet the paper's length ratios against both
-/// baselines (at most 0.85 x iso_parametric and 0.95 x iso_scallop), cut
-/// everything without gouging, and keep its scallop within 1.1 h.
+/// baselines (at most 0.85 x iso_parametric and 0.95 x iso_scallop), each
+/// plan as the pipeline delivers it (verified by the simulator, repair
+/// passes included), cut everything without gouging and hold h. The plain
+/// plan, before repair, may leave up to 1.2 h here: its fronts bend within
+/// 0.4 R where the widths vary fastest, which the front's travel smooths
+/// over (docs/methods.md, "Iso-scallop offsetting"; 0.0564 mm at h = 0.05).
 #[test]
 fn tensor_regions_beats_both_baselines_on_a_strongly_anisotropic_bowl() {
-    let (result, report) = plan_and_simulate(&anisotropic_bowl_job(Strategy::TensorRegions));
-    let len = path_length(&result);
-    let baseline = |strategy| {
-        let r = planners::plan(&anisotropic_bowl_job(strategy), &NoProgress).unwrap();
-        path_length(&r)
-    };
-    let (iso_parametric, iso_scallop) = (
-        baseline(Strategy::IsoParametric),
-        baseline(Strategy::IsoScallop),
+    let (plain, plain_report) = plan_and_simulate(&anisotropic_bowl_job(Strategy::TensorRegions));
+    assert_machined(
+        "anisotropic bowl tensor_regions, before repair",
+        &plain_report,
+        1.2 * H,
     );
+    let delivered = |strategy| {
+        pipeline::run(
+            &anisotropic_bowl_job(strategy),
+            &NoProgress,
+            RunOptions::default(),
+        )
+        .unwrap()
+    };
+    let result = delivered(Strategy::TensorRegions);
+    let len = result.stats.path_length_mm;
+    let (iso_parametric, iso_scallop) = (
+        delivered(Strategy::IsoParametric).stats.path_length_mm,
+        delivered(Strategy::IsoScallop).stats.path_length_mm,
+    );
+    let scallop = result.stats.max_scallop_mm.unwrap();
     eprintln!(
-        "anisotropic bowl tensor_regions: length {len:.0} ({:.3} x iso_parametric {iso_parametric:.0}, {:.3} x iso_scallop {iso_scallop:.0}), scallop {:.4}, gouge {:.4}, uncovered {:.2}",
+        "anisotropic bowl tensor_regions: length {len:.0} ({:.3} x iso_parametric {iso_parametric:.0}, {:.3} x iso_scallop {iso_scallop:.0}), repair {:.0} mm, scallop {scallop:.4} ({:.4} before repair, plan {:.0} mm), gouge {:.4}",
         len / iso_parametric,
         len / iso_scallop,
-        report.max_scallop_mm,
-        report.max_gouge_mm,
-        report.uncovered_area_mm2
+        result.stats.extra.get("repair_length_mm").copied().unwrap_or(0.0),
+        plain_report.max_scallop_mm,
+        path_length(&plain),
+        result.stats.max_gouge_mm.unwrap(),
     );
-    assert_machined("anisotropic bowl tensor_regions", &report, 1.1 * H);
+    assert_eq!(result.within_scallop, Some(true));
+    assert!(
+        scallop <= H,
+        "anisotropic bowl tensor_regions: scallop {scallop}"
+    );
+    assert!(result.stats.max_gouge_mm.unwrap() <= GOUGE_LIMIT);
+    assert_eq!(result.stats.extra["uncovered_area_mm2"], 0.0);
     assert!(len <= 0.85 * iso_parametric, "{len} vs {iso_parametric}");
     assert!(len <= 0.95 * iso_scallop, "{len} vs {iso_scallop}");
 }
