@@ -11,6 +11,8 @@ pub mod numeric;
 pub mod nurbs;
 pub mod plane_intersection;
 pub mod pocket;
+#[cfg(test)]
+pub(crate) mod test_rng;
 pub mod trim;
 
 pub use differential::LocalGeometry;

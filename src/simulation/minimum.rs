@@ -189,16 +189,7 @@ mod tests {
         (f_lo.min(f_hi).min(f1).min(f2), count)
     }
 
-    /// Pseudo-random numbers in [0, 1) (xorshift), for reproducible cases.
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
+    use crate::geometry::test_rng::XorShift;
 
     /// Kinked (a flat end's rim crossing: shallow disc branch, steep wall
     /// branch, straight or curved) and smooth functions with a known minimum
@@ -207,17 +198,17 @@ mod tests {
     /// error bound (slope x tol), and found in far fewer evaluations.
     #[test]
     fn kinked_and_smooth_minima_to_the_tolerance_in_fewer_evaluations() {
-        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let mut rng = XorShift(0x9e37_79b9_7f4a_7c15);
         let tol = 1e-5;
         let mut evals = [0usize; 3];
         let mut golden_evals = [0usize; 3];
         let mut cases = [0usize; 3];
         for case in 0..30_000 {
             let kind = case % 3;
-            let ds = 0.05 + 0.2 * rng.next();
-            let k = (rng.next() - 0.5) * 1.99 * ds;
-            let (sl, sr) = (-(0.01 + 0.5 * rng.next()), 0.5 + 20.0 * rng.next());
-            let (cl, cr) = (2.0 * rng.next(), 20.0 * rng.next());
+            let ds = 0.05 + 0.2 * rng.unit();
+            let k = (rng.unit() - 0.5) * 1.99 * ds;
+            let (sl, sr) = (-(0.01 + 0.5 * rng.unit()), 0.5 + 20.0 * rng.unit());
+            let (cl, cr) = (2.0 * rng.unit(), 20.0 * rng.unit());
             let f = |s: f64| {
                 let x = s - k;
                 match kind {

@@ -1953,15 +1953,14 @@ fn segment_distance(
 mod tests {
     use super::*;
     use crate::formats::{Job, Pass, PathPoint};
+    use crate::geometry::test_rng::XorShift;
 
     /// Pseudo-random numbers in [-1, 1) (xorshift), for reproducible cases.
-    struct Rng(u64);
+    struct Rng(XorShift);
     impl Rng {
+        /// The next number in [-1, 1).
         fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+            2.0 * self.0.unit() - 1.0
         }
         fn unit(&mut self) -> Vector3<f64> {
             Vector3::new(self.next(), self.next(), self.next())
@@ -1981,7 +1980,7 @@ mod tests {
             radius: 2.5,
             length: None,
         };
-        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+        let mut rng = Rng(XorShift(0x2545_f491_4f6c_dd1d));
         // Half the motions translate, half turn by up to about 20 deg.
         let (job, result) = random_motions(&mut rng, 40, 0.35);
         let sim = Simulator::new(job.surface().unwrap(), &tool, &result).unwrap();
@@ -2069,7 +2068,7 @@ mod tests {
     /// lines nearly parallel to the axis and lines crossing it.
     #[test]
     fn reach_distance_matches_brute_force() {
-        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let mut rng = Rng(XorShift(0x9e37_79b9_7f4a_7c15));
         let (job, result) = random_motions(&mut rng, 30, 0.35);
         let tool = Tool::FlatEnd {
             radius: 2.5,
@@ -2130,7 +2129,7 @@ mod tests {
     /// steep for lines close to the bottom disc's plane).
     #[test]
     fn flat_end_kink_and_sweep_minimum_match_brute_force() {
-        let mut rng = Rng(0x6a09_e667_f3bc_c909);
+        let mut rng = Rng(XorShift(0x6a09_e667_f3bc_c909));
         let (job, result) = random_motions(&mut rng, 40, 0.0);
         let tool = Tool::FlatEnd {
             radius: 2.5,

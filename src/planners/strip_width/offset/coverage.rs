@@ -433,6 +433,9 @@ pub(super) fn gap_line(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::interpolation::interpolate_height_field;
+    use crate::geometry::test_rng::XorShift;
+    use crate::tools::lead_cutter::LeadCutter;
 
     #[test]
     fn floor_i64_is_floor_as_i64() {
@@ -458,11 +461,9 @@ mod tests {
             f64::NAN,
         ];
         // Pseudo-random values over many scales, with both signs.
-        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut rng = XorShift(0x2545_f491_4f6c_dd1d);
         for _ in 0..10_000 {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
+            let state = rng.next_u64();
             let mantissa = (state >> 11) as f64 / (1u64 << 53) as f64;
             let scale = 10f64.powi((state % 40) as i32 - 20);
             let sign = if state & 1 == 0 { 1.0 } else { -1.0 };
@@ -472,8 +473,6 @@ mod tests {
             assert_eq!(floor_i64(x), x.floor() as i64, "{x:e}");
         }
     }
-    use crate::geometry::interpolation::interpolate_height_field;
-    use crate::tools::lead_cutter::LeadCutter;
 
     fn settings() -> PassSettings {
         PassSettings {

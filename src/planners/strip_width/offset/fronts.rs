@@ -747,19 +747,15 @@ pub(super) fn subdivide(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::test_rng::XorShift;
     use nalgebra::Point3;
 
     #[test]
     fn front_index_finds_the_segment_the_full_scan_finds() {
         // Fronts that fold back over themselves (ties between segments at
         // the same distance) and query points on, near and far from them.
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = XorShift(0x2545_f491_4f6c_dd1d);
+        let mut next = || rng.unit();
         let mut answered = 0;
         for n in [1, 2, 7, 8, 9, 17, 64, 301] {
             let xyz: Vec<Point3<f64>> = (0..n)
