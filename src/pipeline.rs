@@ -254,13 +254,13 @@ pub fn verify_and_repair_checked(
     progress: &dyn Progress,
 ) -> Result<(PlanResult, ScallopReport, f64)> {
     let mut sim_s = 0.0;
-    let mut simulate = |r: &PlanResult| -> Result<ScallopReport> {
+    let mut simulate = |r: &PlanResult, peak_starts: usize| -> Result<ScallopReport> {
         let t = Instant::now();
-        let report = verify_milling_checked(job, r, progress)?;
+        let report = verify_milling_with(job, r, progress, peak_starts)?;
         sim_s += t.elapsed().as_secs_f64();
         Ok(report)
     };
-    let mut report = simulate(&result)?;
+    let mut report = simulate(&result, scallop::PEAK_STARTS)?;
     let limit = job.scallop.or(job.tolerance);
     let raw_length = result.cl_path_length();
     let raw_passes = result.passes.len();
@@ -282,7 +282,9 @@ pub fn verify_and_repair_checked(
                 break;
             }
             result.passes.extend(passes);
-            report = simulate(&result)?;
+            // A plan with peaks above h may hide more among the ridges just
+            // below it: the repaired plan's check climbs from more of them.
+            report = simulate(&result, scallop::DEEP_PEAK_STARTS)?;
         }
     }
     if let (Some(delta), Strategy::Mpec) = (job.tolerance, job.strategy) {
@@ -338,7 +340,7 @@ pub fn verify_and_repair_checked(
             }
             progress.check()?;
             result = planners::mpec::positioning::plan_refined(job, progress, &refinement.added)?;
-            report = simulate(&result)?;
+            report = simulate(&result, scallop::PEAK_STARTS)?;
         }
     }
     record_repair(&mut result, raw_passes, raw_length);
@@ -429,9 +431,8 @@ pub struct MapIsland {
 
 /// Groups the map's samples above h, or not reached, into islands:
 /// samples closer than half the tool radius are one island (a pass over
-/// one covers the other). Where the simulator's refined maximum exceeds h
-/// but no grid sample does, the threshold drops by the refinement's gain,
-/// so the peak's samples are found.
+/// one covers the other). A refined peak above h between the samples
+/// joins the island within that reach, or is an island of its own.
 pub fn islands(
     report: &ScallopReport,
     h: f64,
@@ -446,10 +447,10 @@ pub fn islands(
         .collect()
 }
 
-/// The residual above which grid samples count as above `h`: `h`, or, where
-/// the simulator's refined maximum exceeds h but no grid sample does, h
-/// lowered by the refinement's gain (at least 0.9 h), so the peak's samples
-/// are found.
+/// The residual above which MPEC's grid samples count as above the band
+/// `h`: `h`, or, where the simulator's refined maximum exceeds h but no
+/// grid sample does, h lowered by the refinement's gain (at least `floor`
+/// h), so the peak's samples are found.
 fn residual_threshold(report: &ScallopReport, h: f64, floor: f64) -> f64 {
     let grid_max = report
         .map
@@ -467,13 +468,12 @@ fn residual_threshold(report: &ScallopReport, h: f64, floor: f64) -> f64 {
 
 fn map_islands(report: &ScallopReport, h: f64, radius: f64) -> Vec<MapIsland> {
     let map = &report.map;
-    let threshold = residual_threshold(report, h, 0.9);
     let (nu, nv) = (map.nu, map.nv);
     let flagged: Vec<bool> = map
         .residual
         .iter()
         .enumerate()
-        .map(|(k, r)| map.on_face(k) && r.is_none_or(|r| r > threshold))
+        .map(|(k, r)| map.on_face(k) && r.is_none_or(|r| r > h))
         .collect();
     let reach = ((0.5 * radius / report.resolution_mm.max(1e-9)).round() as i64).max(1);
     let mut seen = vec![false; flagged.len()];
@@ -505,6 +505,31 @@ fn map_islands(report: &ScallopReport, h: f64, radius: f64) -> Vec<MapIsland> {
             }
         }
         out.push(island);
+    }
+    // Peaks between the samples: only where the refined residual itself is
+    // above h (lowering the grid threshold instead flags every sample
+    // near that level, on a whole surface spaced for 0.9 h).
+    let reach_mm = 0.5 * radius;
+    for peak in report.peaks.iter().filter(|p| p.residual > h) {
+        let at = nalgebra::Point3::from(peak.xyz);
+        let near = out.iter_mut().find(|island| {
+            island
+                .xyz
+                .iter()
+                .any(|q| (nalgebra::Point3::from(*q) - at).norm() <= reach_mm)
+        });
+        match near {
+            Some(island) => {
+                island
+                    .uv
+                    .push(nalgebra::Vector2::new(peak.uv[0], peak.uv[1]));
+                island.xyz.push(peak.xyz);
+            }
+            None => out.push(MapIsland {
+                uv: vec![nalgebra::Vector2::new(peak.uv[0], peak.uv[1])],
+                xyz: vec![peak.xyz],
+            }),
+        }
     }
     out
 }
@@ -657,8 +682,21 @@ pub fn verify_milling_checked(
     result: &PlanResult,
     progress: &dyn Progress,
 ) -> Result<ScallopReport> {
+    verify_milling_with(job, result, progress, scallop::PEAK_STARTS)
+}
+
+/// [`verify_milling_checked`] with `peak_starts` grid extrema refined.
+fn verify_milling_with(
+    job: &Job,
+    result: &PlanResult,
+    progress: &dyn Progress,
+    peak_starts: usize,
+) -> Result<ScallopReport> {
     let surface = job.surface()?;
-    let settings = ScallopSettings::with_resolution(job.simulation_resolution);
+    let settings = ScallopSettings {
+        peak_starts,
+        ..ScallopSettings::with_resolution(job.simulation_resolution)
+    };
     scallop::simulate_checked(surface, job.tool()?, result, &settings, progress)
 }
 
@@ -820,6 +858,7 @@ mod tests {
             machined_area_mm2: 99.0,
             resolution_mm: 1.0,
             map,
+            peaks: Vec::new(),
         }
     }
 
@@ -852,16 +891,39 @@ mod tests {
     }
 
     #[test]
-    fn a_peak_above_h_between_samples_lowers_the_threshold() {
-        // Grid maximum 0.049 at (5, 5), refined maximum 0.052: the threshold
-        // drops by the 0.003 gain to 0.047, which only (5, 5) exceeds.
-        let r = report(&[((5, 5), Some(0.049)), ((5, 6), Some(0.046))], 0.052);
+    fn a_peak_above_h_between_samples_is_an_island_of_its_own() {
+        use crate::simulation::scallop::RefinedPeak;
+        let peak = |xyz: [f64; 3], residual| RefinedPeak {
+            uv: [(xyz[0] + 0.5) / 10.0, (xyz[1] + 0.5) / 10.0],
+            xyz,
+            residual,
+        };
+        // Grid samples just below h near the peak and far from it: only
+        // the refined peak's own place is repaired, not every sample near
+        // the grid maximum.
+        let mut r = report(
+            &[
+                ((5, 5), Some(0.049)),
+                ((5, 6), Some(0.048)),
+                ((1, 1), Some(0.0485)),
+            ],
+            0.052,
+        );
+        r.peaks = vec![peak([5.3, 5.4, 0.0], 0.052), peak([1.0, 1.0, 0.0], 0.0485)];
         let found = islands(&r, 0.05, 2.5);
         assert_eq!(found.len(), 1);
         assert_eq!(found[0].uv.len(), 1);
-        assert!((found[0].uv[0].x - 0.55).abs() < 1e-12);
+        assert!((found[0].uv[0].x - 0.58).abs() < 1e-12);
+        assert!((found[0].uv[0].y - 0.59).abs() < 1e-12);
+        // A peak within half the radius of a grid island joins it.
+        let mut r = report(&[((2, 2), Some(0.08))], 0.09);
+        r.peaks = vec![peak([2.6, 2.7, 0.0], 0.09)];
+        let found = islands(&r, 0.05, 2.5);
+        assert_eq!(found.len(), 1);
+        assert_eq!(found[0].uv.len(), 2);
         // Within h on the grid and refined: no island.
-        let r = report(&[((5, 5), Some(0.049))], 0.0495);
+        let mut r = report(&[((5, 5), Some(0.049))], 0.0495);
+        r.peaks = vec![peak([5.2, 5.0, 0.0], 0.0495)];
         assert!(islands(&r, 0.05, 2.5).is_empty());
     }
 }

@@ -90,6 +90,20 @@ fn ball_parallel_passes_on_a_plane_give_the_exact_scallop() {
     assert!(rep.max_gouge_mm < 1e-9);
     assert_eq!(rep.uncovered_area_mm2, 0.0);
     assert!((rep.machined_area_mm2 - 600.0).abs() < 1e-6);
+    // The refined peaks sit on the cusps, midway between two passes (odd y),
+    // with the exact scallop, and the highest is the reported maximum.
+    assert!(!rep.peaks.is_empty());
+    assert_eq!(rep.peaks[0].residual, rep.max_scallop_mm);
+    for peak in &rep.peaks {
+        let y = peak.xyz[1];
+        assert!(
+            ((y + 1.0).rem_euclid(s) - 0.0).abs() < 1e-3
+                || ((y + 1.0).rem_euclid(s) - s).abs() < 1e-3,
+            "peak off the cusp: {peak:?}"
+        );
+        assert!((peak.residual - exact).abs() < 1e-6, "{peak:?} vs {exact}");
+        assert!((peak.xyz[0] - 30.0 * peak.uv[0]).abs() < 1e-9, "{peak:?}");
+    }
     // Every sample: the ball's lower hemisphere of the nearest pass.
     for (xyz, res) in rep.map.xyz.iter().zip(&rep.map.residual) {
         let d = ys
@@ -131,7 +145,7 @@ fn sparse_diagonal_ball_passes_are_swept_between_points() {
         &surface,
         &tool,
         &result(passes),
-        &ScallopSettings { resolution_mm: 0.4 },
+        &ScallopSettings::with_resolution(Some(0.4)),
     )
     .unwrap();
     for (xyz, res) in rep.map.xyz.iter().zip(&rep.map.residual) {
@@ -190,9 +204,7 @@ fn flat_end_with_lead_angle_covers_the_exact_width() {
     let w = 2.0 * lo;
     assert!((w - 3.18704).abs() < 2e-4, "W = {w}");
     let rep = sim
-        .run(&ScallopSettings {
-            resolution_mm: 0.25,
-        })
+        .run(&ScallopSettings::with_resolution(Some(0.25)))
         .unwrap();
     // Covered strip: width 2R over the 10 mm length.
     assert!(
@@ -252,7 +264,7 @@ fn ball_in_a_concave_cylinder_matches_the_circle_geometry() {
         &surface,
         &tool,
         &result(passes),
-        &ScallopSettings { resolution_mm: 0.3 },
+        &ScallopSettings::with_resolution(Some(0.3)),
     )
     .unwrap();
     // Along the radial line at angle psi, the ball at angle phi is first met at distance q from the axis.
@@ -309,7 +321,7 @@ fn torus_flat_on_a_plane_leaves_nothing_under_the_bottom_and_the_corner_profile_
         &surface,
         &tool,
         &result(vec![pass]),
-        &ScallopSettings { resolution_mm: 0.1 },
+        &ScallopSettings::with_resolution(Some(0.1)),
     )
     .unwrap();
     let mut uncovered = 0.0;
@@ -417,9 +429,7 @@ fn a_missing_pass_leaves_the_uncovered_band() {
         &surface,
         &tool,
         &result(passes),
-        &ScallopSettings {
-            resolution_mm: 0.25,
-        },
+        &ScallopSettings::with_resolution(Some(0.25)),
     )
     .unwrap();
     assert!(
@@ -485,9 +495,7 @@ fn bad_input_names_the_field() {
         &ScallopSettings::default()
     )
     .is_err());
-    let fine = ScallopSettings {
-        resolution_mm: 1e-4,
-    };
+    let fine = ScallopSettings::with_resolution(Some(1e-4));
     assert!(matches!(
         simulate(&surface, &tool, &result(vec![]), &fine),
         Err(Error::Invalid { field, .. }) if field == "simulation_resolution"

@@ -39,11 +39,24 @@ pub struct ScallopSettings {
     /// R/8 for cutter radius R (0.3125 mm for R = 2.5), made coarser if the
     /// surface would need more than [`AUTO_MAX_SAMPLES`] samples.
     pub resolution_mm: f64,
+    /// How many of the grid's highest local maxima (and lowest minima) are
+    /// climbed to the extremum between the samples.
+    pub peak_starts: usize,
 }
+
+/// Grid extrema refined by a plain verification ([`ScallopSettings::peak_starts`]).
+pub const PEAK_STARTS: usize = 24;
+/// Grid extrema refined while repair passes are added: a plan with narrow
+/// peaks above h (pass defects on strongly anisotropic surfaces) can hide
+/// one among hundreds of ridge maxima only just below h.
+pub const DEEP_PEAK_STARTS: usize = 240;
 
 impl Default for ScallopSettings {
     fn default() -> Self {
-        Self { resolution_mm: 0.0 }
+        Self {
+            resolution_mm: 0.0,
+            peak_starts: PEAK_STARTS,
+        }
     }
 }
 
@@ -52,6 +65,7 @@ impl ScallopSettings {
     pub fn with_resolution(resolution_mm: Option<f64>) -> Self {
         Self {
             resolution_mm: resolution_mm.unwrap_or(0.0),
+            ..Self::default()
         }
     }
 }
@@ -98,6 +112,18 @@ pub struct ScallopReport {
     /// Grid spacing actually used, mm.
     pub resolution_mm: f64,
     pub map: ResidualMap,
+    /// The residual maxima refined between grid samples, highest first
+    /// (climbed from the highest grid maxima): a narrow peak above h that
+    /// no grid sample shows is located here.
+    pub peaks: Vec<RefinedPeak>,
+}
+
+/// A residual maximum refined between the grid samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RefinedPeak {
+    pub uv: [f64; 2],
+    pub xyz: [f64; 3],
+    pub residual: f64,
 }
 
 /// Simulates `result` (a milling result with `cl`/`axis` per point) on `surface`.
@@ -1558,9 +1584,10 @@ impl<'a> Simulator<'a> {
             off_face,
         };
         progress.check()?;
-        let max_res = self.refine(&map, 1.0, du, dv, method);
+        let starts = settings.peak_starts;
+        let (max_res, peaks) = self.refine(&map, 1.0, (du, dv), starts, method);
         progress.check()?;
-        let min_res = self.refine(&map, -1.0, du, dv, method);
+        let (min_res, _) = self.refine(&map, -1.0, (du, dv), starts, method);
         Ok(ScallopReport {
             max_scallop_mm: max_res.map_or(0.0, |r| r.max(0.0)),
             max_gouge_mm: min_res.map_or(0.0, |r| (-r).max(0.0)),
@@ -1568,6 +1595,7 @@ impl<'a> Simulator<'a> {
             machined_area_mm2: machined,
             resolution_mm: res,
             map,
+            peaks,
         })
     }
 
@@ -1685,17 +1713,17 @@ impl<'a> Simulator<'a> {
     }
 
     /// Refines the grid's extreme residual (`sign` 1: max, -1: min) by compass
-    /// search in (u, v) from its best local extrema, the starts in parallel;
-    /// `None` if nothing is covered.
+    /// search in (u, v) from its `starts` best local extrema, the starts in
+    /// parallel; `None` if nothing is covered. Also the climbed extrema,
+    /// most extreme first.
     fn refine(
         &self,
         map: &ResidualMap,
         sign: f64,
-        du: f64,
-        dv: f64,
+        (du, dv): (f64, f64),
+        starts: usize,
         method: Method,
-    ) -> Option<f64> {
-        const STARTS: usize = 24;
+    ) -> (Option<f64>, Vec<RefinedPeak>) {
         let (nu, nv) = (map.nu, map.nv);
         let value = |k: usize| {
             map.residual
@@ -1731,23 +1759,35 @@ impl<'a> Simulator<'a> {
             }
         }
         extrema.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-        let grid_best = extrema.first().map(|e| e.0)?;
+        let Some(grid_best) = extrema.first().map(|e| e.0) else {
+            return (None, Vec::new());
+        };
         if sign < 0.0 && grid_best <= 0.0 {
             // No gouge on the grid: nothing to refine.
-            return Some(-grid_best);
+            return (Some(-grid_best), Vec::new());
         }
-        extrema.truncate(STARTS);
-        let climbed = crate::parallel::map_chunks(&extrema, 1, |start| {
+        extrema.truncate(starts);
+        let climbed: Vec<RefinedPeak> = crate::parallel::map_chunks(&extrema, 1, |start| {
             let mut scratch = Scratch::new(self.segments.len());
             start
                 .iter()
                 .map(|&(r0, k)| self.climb(map, k, r0, sign, (du, dv), &mut scratch, method))
-                .fold(f64::NEG_INFINITY, f64::max)
-        });
-        Some(sign * climbed.into_iter().fold(grid_best, f64::max))
+                .collect::<Vec<_>>()
+        })
+        .into_iter()
+        .flatten()
+        .collect();
+        let best = climbed.iter().map(|p| p.residual).fold(grid_best, f64::max);
+        let mut peaks = climbed;
+        for p in &mut peaks {
+            p.residual *= sign;
+        }
+        peaks.sort_by(|a, b| (sign * b.residual).total_cmp(&(sign * a.residual)));
+        (Some(sign * best), peaks)
     }
 
-    /// Compass search in (u, v) for the largest `sign * residual` from grid sample `k`.
+    /// Compass search in (u, v) for the largest `sign * residual` from grid
+    /// sample `k` (the peak's residual is `sign *` the true one).
     #[allow(clippy::too_many_arguments)]
     fn climb(
         &self,
@@ -1758,10 +1798,15 @@ impl<'a> Simulator<'a> {
         (du, dv): (f64, f64),
         scratch: &mut Scratch,
         method: Method,
-    ) -> f64 {
-        let Some(&[mut u, mut v]) = map.uv.get(k) else {
-            return r0;
+    ) -> RefinedPeak {
+        let (Some(&[mut u, mut v]), Some(&xyz0)) = (map.uv.get(k), map.xyz.get(k)) else {
+            return RefinedPeak {
+                uv: [f64::NAN; 2],
+                xyz: [f64::NAN; 3],
+                residual: r0,
+            };
         };
+        let mut xyz = xyz0;
         let mut r = r0;
         let (mut su, mut sv) = (du, dv);
         for _ in 0..400 {
@@ -1787,16 +1832,17 @@ impl<'a> Simulator<'a> {
                     continue;
                 };
                 if let Some(x) = self.residual_by(&p, &n, scratch, method) {
-                    if sign * x > r && moved.is_none_or(|(m, _, _)| sign * x > m) {
-                        moved = Some((sign * x, uu, vv));
+                    if sign * x > r && moved.is_none_or(|(m, _, _, _)| sign * x > m) {
+                        moved = Some((sign * x, uu, vv, p));
                     }
                 }
             }
             match moved {
-                Some((x, uu, vv)) => {
+                Some((x, uu, vv, p)) => {
                     r = x;
                     u = uu;
                     v = vv;
+                    xyz = [p.x, p.y, p.z];
                 }
                 None => {
                     su *= 0.5;
@@ -1804,7 +1850,11 @@ impl<'a> Simulator<'a> {
                 }
             }
         }
-        r
+        RefinedPeak {
+            uv: [u, v],
+            xyz,
+            residual: r,
+        }
     }
 }
 
