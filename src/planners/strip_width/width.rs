@@ -19,7 +19,7 @@
 use crate::error::{Error, Result};
 use crate::formats::Job;
 use crate::geometry::numeric::newton_root;
-use crate::geometry::LocalGeometry;
+use crate::geometry::{FundamentalForms, LocalGeometry};
 use crate::tools::{LeadCutter, LeadCutterError};
 use nalgebra::{Vector2, Vector3};
 use std::sync::LazyLock;
@@ -287,6 +287,11 @@ static DISC_ANGLES: LazyLock<[(f64, f64); 32]> = LazyLock::new(|| {
 
 /// Normal curvatures at `g` in the frame of the unit tangent `t` (3-D).
 pub fn curvatures_along(g: &LocalGeometry, t: Vector3<f64>) -> Curvatures {
+    forms_curvatures_along(&g.forms(), t)
+}
+
+/// [`curvatures_along`] from the fundamental forms alone (the same bits).
+pub fn forms_curvatures_along(g: &FundamentalForms, t: Vector3<f64>) -> Curvatures {
     let c = g.n.cross(&t);
     let tu = g.tangent_to_uv(t);
     let cu = g.tangent_to_uv(c);
