@@ -209,7 +209,7 @@ pub struct TangentFrame {
 
 impl TangentFrame {
     pub fn at(surface: &NurbsSurface, u: f64, v: f64) -> Option<Self> {
-        let (u, v) = surface.clamp_uv(u, v);
+        // The evaluation clamps (u, v) into the domain itself.
         let d = surface.first_derivs(u, v);
         // The singularity tests of `LocalGeometry::from_derivs`.
         let cross = d.su.cross(&d.sv);
