@@ -37,6 +37,9 @@ pub struct NurbsSurface {
     count_v: usize,
     homogeneous: Vec<[f64; 4]>,
     rational: bool,
+    /// The parameter domain [u0, u1, v0, v1] (from the knots; kept because
+    /// every evaluation clamps into it).
+    bounds: [f64; 4],
     /// The trimmed face, where only part of the domain is the surface
     /// (`None`: the whole domain).
     trim: Option<std::sync::Arc<super::trim::Trim>>,
@@ -48,8 +51,6 @@ pub struct NurbsSurface {
     /// [`SpanBasis`]); `None` for a knot vector too long to tabulate.
     basis_u: Option<std::sync::Arc<SpanBasis>>,
     basis_v: Option<std::sync::Arc<SpanBasis>>,
-    /// A bicubic surface's patches as polynomials (see [`BicubicPatches`]).
-    patches: Option<std::sync::Arc<BicubicPatches>>,
 }
 
 /// Share of the parameter span next to a collapsed boundary inside which the
@@ -246,15 +247,20 @@ impl NurbsSurface {
             count_v,
             homogeneous,
             rational,
+            bounds: [0.0; 4],
             trim: None,
             collapsed: [false; 4],
             basis_u: None,
             basis_v: None,
-            patches: None,
         };
+        surface.bounds = [
+            surface.knots_u[degree_u],
+            surface.knots_u[count_u],
+            surface.knots_v[degree_v],
+            surface.knots_v[count_v],
+        ];
         surface.basis_u = SpanBasis::new(degree_u, count_u, &surface.knots_u).map(Into::into);
         surface.basis_v = SpanBasis::new(degree_v, count_v, &surface.knots_v).map(Into::into);
-        surface.patches = BicubicPatches::new(&surface).map(Into::into);
         surface.collapsed = surface.find_collapsed();
         Ok(surface)
     }
@@ -392,10 +398,8 @@ impl NurbsSurface {
 
     /// Parameter domain `((u0, u1), (v0, v1))`.
     pub fn domain(&self) -> ((f64, f64), (f64, f64)) {
-        (
-            (self.knots_u[self.degree_u], self.knots_u[self.count_u]),
-            (self.knots_v[self.degree_v], self.knots_v[self.count_v]),
-        )
+        let [u0, u1, v0, v1] = self.bounds;
+        ((u0, u1), (v0, v1))
     }
 
     /// Clamps `(u, v)` into the parameter domain.
@@ -481,31 +485,6 @@ impl NurbsSurface {
         let (u, v) = self.clamp_uv(u, v);
         let su = find_span(pu, self.count_u, &self.knots_u, u);
         let sv = find_span(pv, self.count_v, &self.knots_v, v);
-        let a = match &self.patches {
-            Some(t) if !reference && (pu, pv) == (3, 3) => {
-                t.homogeneous(su - pu, sv - pv, u, v, order)
-            }
-            _ => self.homogeneous_derivs(su, sv, u, v, pu, pv, order, reference),
-        };
-        self.cartesian(a, order)
-    }
-
-    /// The homogeneous derivatives `a[k][l]` (d^(k+l)/du^k dv^l, k + l <=
-    /// order) at (u, v) in spans (su, sv): the basis of each direction
-    /// combined over the span's control points.
-    #[allow(clippy::needless_range_loop, clippy::too_many_arguments)]
-    #[inline(always)]
-    fn homogeneous_derivs(
-        &self,
-        su: usize,
-        sv: usize,
-        u: f64,
-        v: f64,
-        pu: usize,
-        pv: usize,
-        order: usize,
-        reference: bool,
-    ) -> [[[f64; 4]; 3]; 3] {
         let du = order.min(pu);
         let dv = order.min(pv);
         let nu = match &self.basis_u {
@@ -541,14 +520,6 @@ impl NurbsSurface {
                 }
             }
         }
-        a
-    }
-
-    /// Position and derivatives from the homogeneous ones: A4.4 when
-    /// rational.
-    #[allow(clippy::needless_range_loop)]
-    #[inline(always)]
-    fn cartesian(&self, a: [[[f64; 4]; 3]; 3], order: usize) -> SurfaceDerivs {
         let mut s = [[[0.0f64; 3]; 3]; 3];
         if !self.rational {
             for k in 0..=order {
@@ -647,121 +618,6 @@ impl NurbsSurface {
             }
         }
         (lo, hi)
-    }
-}
-
-/// Patches beyond which a bicubic surface is not tabulated per patch (the
-/// table would pass 8 MB): its basis tables are combined with the control
-/// points at each evaluation instead.
-const MAX_PATCHES: usize = 1 << 14;
-
-/// A bicubic surface on each patch (pair of knot spans) as one polynomial
-/// in the local parameters x, y in [0, 1] (docs/methods.md, "Surface
-/// evaluation"): the 16 homogeneous coefficients of x^a y^b, from the span
-/// polynomials of both directions and the patch's 4 x 4 control points.
-/// An evaluation is then Horner's rule in y and in x.
-#[derive(Clone, Debug, PartialEq)]
-struct BicubicPatches {
-    spans_v: usize,
-    start_u: Vec<f64>,
-    inv_len_u: Vec<f64>,
-    start_v: Vec<f64>,
-    inv_len_v: Vec<f64>,
-    /// Per patch (ku * spans_v + kv), `[a * 4 + b]`: the coefficient of x^a y^b.
-    coef: Vec<[[f64; 4]; 16]>,
-}
-
-impl BicubicPatches {
-    fn new(s: &NurbsSurface) -> Option<Self> {
-        let (bu, bv) = (s.basis_u.as_deref()?, s.basis_v.as_deref()?);
-        if (s.degree_u, s.degree_v) != (3, 3) {
-            return None;
-        }
-        let (spans_u, spans_v) = (bu.start.len(), bv.start.len());
-        if spans_u.checked_mul(spans_v)? > MAX_PATCHES {
-            return None;
-        }
-        let mut coef = vec![[[0.0; 4]; 16]; spans_u * spans_v];
-        for ku in 0..spans_u {
-            for kv in 0..spans_v {
-                if bu.inv_len[ku] == 0.0 || bv.inv_len[kv] == 0.0 {
-                    continue;
-                }
-                let c = &mut coef[ku * spans_v + kv];
-                for i in 0..4 {
-                    for j in 0..4 {
-                        let h = s.homogeneous[(ku + i) * s.count_v + kv + j];
-                        for a in 0..4 {
-                            let cu = bu.coef[ku * 48 + i * 4 + a];
-                            for b in 0..4 {
-                                let w = cu * bv.coef[kv * 48 + j * 4 + b];
-                                for (t, hc) in c[a * 4 + b].iter_mut().zip(h) {
-                                    *t += w * hc;
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        Some(Self {
-            spans_v,
-            start_u: bu.start.clone(),
-            inv_len_u: bu.inv_len.clone(),
-            start_v: bv.start.clone(),
-            inv_len_v: bv.inv_len.clone(),
-            coef,
-        })
-    }
-
-    /// The homogeneous derivatives up to `order` at (u, v) on patch (ku, kv).
-    #[inline(always)]
-    fn homogeneous(
-        &self,
-        ku: usize,
-        kv: usize,
-        u: f64,
-        v: f64,
-        order: usize,
-    ) -> [[[f64; 4]; 3]; 3] {
-        let (iu, iv) = (self.inv_len_u[ku], self.inv_len_v[kv]);
-        let x = ((u - self.start_u[ku]) * iu).clamp(0.0, 1.0);
-        let y = ((v - self.start_v[kv]) * iv).clamp(0.0, 1.0);
-        let c = &self.coef[ku * self.spans_v + kv];
-        // Along y for each power of x: the value, first and second derivative.
-        let mut q = [[[0.0f64; 4]; 4]; 3];
-        for a in 0..4 {
-            let r = &c[a * 4..a * 4 + 4];
-            for t in 0..4 {
-                q[0][a][t] = ((r[3][t] * y + r[2][t]) * y + r[1][t]) * y + r[0][t];
-                if order >= 1 {
-                    q[1][a][t] = (3.0 * r[3][t] * y + 2.0 * r[2][t]) * y + r[1][t];
-                }
-                if order >= 2 {
-                    q[2][a][t] = 6.0 * r[3][t] * y + 2.0 * r[2][t];
-                }
-            }
-        }
-        // Along x: value and x-derivatives of each.
-        let horner0 =
-            |p: &[[f64; 4]; 4], t: usize| ((p[3][t] * x + p[2][t]) * x + p[1][t]) * x + p[0][t];
-        let horner1 =
-            |p: &[[f64; 4]; 4], t: usize| (3.0 * p[3][t] * x + 2.0 * p[2][t]) * x + p[1][t];
-        let horner2 = |p: &[[f64; 4]; 4], t: usize| 6.0 * p[3][t] * x + 2.0 * p[2][t];
-        let mut out = [[[0.0f64; 4]; 3]; 3];
-        for t in 0..4 {
-            out[0][0][t] = horner0(&q[0], t);
-            if order >= 1 {
-                out[1][0][t] = horner1(&q[0], t) * iu;
-                out[0][1][t] = horner0(&q[1], t) * iv;
-            }
-            if order >= 2 {
-                out[2][0][t] = horner2(&q[0], t) * (iu * iu);
-                out[1][1][t] = horner1(&q[1], t) * (iu * iv);
-                out[0][2][t] = horner0(&q[2], t) * (iv * iv);
-            }
-        }
-        out
     }
 }
 
@@ -1122,7 +978,7 @@ mod tests {
     fn surface_derivatives_agree_with_a2_3_on_random_surfaces() {
         let mut rng = Rng(0x1234_5678_9abc_def1);
         for case in 0..60 {
-            // The last 20 bicubic (tabulated per patch), half of them rational.
+            // The last 20 bicubic (the constant-degree path), half of them rational.
             let (pu, pv) = if case >= 40 {
                 (3, 3)
             } else {
