@@ -113,8 +113,8 @@ pub fn illinois_root(
 
 /// A root of `f` (value and derivative) in the bracket (a, fa), (b, fb)
 /// (values of opposite signs) by Newton's iteration kept inside the bracket:
-/// it starts at the chord's crossing and every evaluation narrows the
-/// bracket; a Newton step that would leave it (a derivative that is zero, of
+/// it starts at `start` (the chord's crossing where that is `None` or not
+/// strictly inside the bracket) and every evaluation narrows the bracket; a Newton step that would leave it (a derivative that is zero, of
 /// the wrong sign or not finite) is replaced by the bracket's Illinois trial.
 /// Returns the end of the first Newton step shorter than `step_tol` (near a
 /// simple root its error is then about f'' / (2 f') times the step squared),
@@ -124,11 +124,15 @@ pub fn newton_root(
     f: impl Fn(f64) -> (f64, f64),
     (a, fa): (f64, f64),
     (b, fb): (f64, f64),
+    start: Option<f64>,
     step_tol: f64,
     max_iter: usize,
 ) -> f64 {
     let mut br = Bracket::new(a, fa, b, fb);
-    let mut x = br.trial();
+    let mut x = match start {
+        Some(x) if x > a.min(b) && x < a.max(b) => x,
+        _ => br.trial(),
+    };
     for _ in 0..max_iter {
         let (fx, dfx) = f(x);
         if fx == 0.0 {
@@ -208,7 +212,13 @@ mod tests {
         // derivative of the wrong sign (the bracket's trial takes over).
         type Case<'a> = (&'a dyn Fn(f64) -> (f64, f64), f64, f64, f64, usize);
         let cases: [Case; 4] = [
-            (&|x: f64| (x * x * x - 2.0, 3.0 * x * x), 0.0, 3.0, 2f64.cbrt(), 12),
+            (
+                &|x: f64| (x * x * x - 2.0, 3.0 * x * x),
+                0.0,
+                3.0,
+                2f64.cbrt(),
+                12,
+            ),
             (&|x: f64| (x.exp() - 3.0, x.exp()), 0.0, 2.0, 3f64.ln(), 8),
             (
                 &|x: f64| (x.sin() - x.cos(), x.cos() + x.sin()),
@@ -225,8 +235,11 @@ mod tests {
                 calls.set(calls.get() + 1);
                 f(x)
             };
-            let x = newton_root(g, (a, f(a).0), (b, f(b).0), 1e-8, 64);
-            assert!((x - root).abs() <= 4.0 * f64::EPSILON * root.abs(), "{x} vs {root}");
+            let x = newton_root(g, (a, f(a).0), (b, f(b).0), None, 1e-8, 64);
+            assert!(
+                (x - root).abs() <= 4.0 * f64::EPSILON * root.abs(),
+                "{x} vs {root}"
+            );
             assert!(calls.get() <= most, "{} evaluations", calls.get());
         }
     }
