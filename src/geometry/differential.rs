@@ -30,7 +30,24 @@ pub struct LocalGeometry {
     pub dir_max_uv: Vector2<f64>,
 }
 
-impl LocalGeometry {
+/// The unit normal and both fundamental forms at one (u, v), without the
+/// principal curvatures: what a pass contact needs (the normal, curvatures
+/// along given directions, 3-D tangents mapped to (u, v)). Its fields are the
+/// bits [`LocalGeometry`] holds for them, and it is `None` exactly where
+/// `LocalGeometry::at` is.
+#[derive(Clone, Copy, Debug)]
+pub struct FundamentalForms {
+    pub uv: Vector2<f64>,
+    pub derivs: SurfaceDerivs,
+    /// Unit normal, normalize(S_u x S_v).
+    pub n: Vector3<f64>,
+    /// First fundamental form [[E, F], [F, G]].
+    pub first: Matrix2<f64>,
+    /// Second fundamental form [[L, M], [M, N]] with respect to `n`.
+    pub second: Matrix2<f64>,
+}
+
+impl FundamentalForms {
     /// Returns `None` where the parametrisation is singular (S_u x S_v = 0).
     pub fn at(surface: &NurbsSurface, u: f64, v: f64) -> Option<Self> {
         let (u, v) = surface.clamp_uv(u, v);
@@ -38,6 +55,13 @@ impl LocalGeometry {
     }
 
     pub fn from_derivs(uv: Vector2<f64>, d: SurfaceDerivs) -> Option<Self> {
+        Self::with_cholesky(uv, d).map(|(forms, _)| forms)
+    }
+
+    /// The forms and the Cholesky factor G = C C^T as (c11, c21, c22), all
+    /// > 0 on the diagonal (else `None`: a singular parametrisation).
+    #[inline(always)]
+    fn with_cholesky(uv: Vector2<f64>, d: SurfaceDerivs) -> Option<(Self, [f64; 3])> {
         let cross = d.su.cross(&d.sv);
         let len = cross.norm();
         let scale = d.su.norm() * d.sv.norm();
@@ -53,15 +77,50 @@ impl LocalGeometry {
         let nn = d.svv.dot(&n);
         let first = Matrix2::new(e, f, f, g);
         let second = Matrix2::new(l, m, m, nn);
+        let c11 = e.sqrt();
+        let c21 = f / c11;
+        // C's last diagonal entry sqrt(G - c21^2) must be > 0.
+        let rest = g - c21 * c21;
+        if rest.is_nan() || rest <= 0.0 {
+            return None;
+        }
+        let c22 = rest.sqrt();
+        let forms = Self {
+            uv,
+            derivs: d,
+            n,
+            first,
+            second,
+        };
+        Some((forms, [c11, c21, c22]))
+    }
+
+    pub fn point(&self) -> Point3<f64> {
+        self.derivs.p
+    }
+
+    /// [`LocalGeometry::tangent_to_uv`].
+    pub fn tangent_to_uv(&self, t: Vector3<f64>) -> Vector2<f64> {
+        let rhs = Vector2::new(t.dot(&self.derivs.su), t.dot(&self.derivs.sv));
+        self.first.try_inverse().map(|gi| gi * rhs).unwrap_or(rhs)
+    }
+}
+
+impl LocalGeometry {
+    /// Returns `None` where the parametrisation is singular (S_u x S_v = 0).
+    pub fn at(surface: &NurbsSurface, u: f64, v: f64) -> Option<Self> {
+        let (u, v) = surface.clamp_uv(u, v);
+        Self::from_derivs(Vector2::new(u, v), surface.derivs(u, v))
+    }
+
+    pub fn from_derivs(uv: Vector2<f64>, d: SurfaceDerivs) -> Option<Self> {
+        let (forms, [c11, c21, c22]) = FundamentalForms::with_cholesky(uv, d)?;
+        let FundamentalForms {
+            n, first, second, ..
+        } = forms;
         // Symmetric reduction with G = C C^T (Cholesky): S = C^-1 D C^-T has the
         // principal curvatures as eigenvalues; t = C^-T y maps eigenvectors back
         // (docs/methods.md, "Principal curvatures").
-        let c11 = e.sqrt();
-        let c21 = f / c11;
-        let c22 = (g - c21 * c21).max(0.0).sqrt();
-        if c22.is_nan() || c22 <= 0.0 {
-            return None;
-        }
         // C^-1 = [[1/c11, 0], [-c21/(c11 c22), 1/c22]]
         let ci = Matrix2::new(1.0 / c11, 0.0, -c21 / (c11 * c22), 1.0 / c22);
         let s = ci * second * ci.transpose();
@@ -84,6 +143,17 @@ impl LocalGeometry {
             dir_min_uv,
             dir_max_uv,
         })
+    }
+
+    /// The normal and fundamental forms alone.
+    pub fn forms(&self) -> FundamentalForms {
+        FundamentalForms {
+            uv: self.uv,
+            derivs: self.derivs,
+            n: self.n,
+            first: self.first,
+            second: self.second,
+        }
     }
 
     pub fn point(&self) -> Point3<f64> {
@@ -139,7 +209,7 @@ pub struct TangentFrame {
 
 impl TangentFrame {
     pub fn at(surface: &NurbsSurface, u: f64, v: f64) -> Option<Self> {
-        let (u, v) = surface.clamp_uv(u, v);
+        // The evaluation clamps (u, v) into the domain itself.
         let d = surface.first_derivs(u, v);
         // The singularity tests of `LocalGeometry::from_derivs`.
         let cross = d.su.cross(&d.sv);
@@ -153,8 +223,9 @@ impl TangentFrame {
         let g = d.sv.dot(&d.sv);
         let c11 = e.sqrt();
         let c21 = f / c11;
-        let c22 = (g - c21 * c21).max(0.0).sqrt();
-        if c22.is_nan() || c22 <= 0.0 {
+        // Cholesky's sqrt(G - c21^2) > 0, as in `LocalGeometry`.
+        let rest = g - c21 * c21;
+        if rest.is_nan() || rest <= 0.0 {
             return None;
         }
         Some(Self {

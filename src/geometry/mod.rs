@@ -15,7 +15,7 @@ pub mod pocket;
 pub(crate) mod test_rng;
 pub mod trim;
 
-pub use differential::LocalGeometry;
+pub use differential::{FundamentalForms, LocalGeometry};
 pub use nurbs::{NurbsSurface, SurfaceDerivs};
 pub use pocket::Pocket;
 pub use trim::{Trim, TrimCurve};

@@ -111,6 +111,49 @@ pub fn illinois_root(
     br.mid()
 }
 
+/// A root of `f` (value and derivative) in the bracket (a, fa), (b, fb)
+/// (values of opposite signs) by Newton's iteration kept inside the bracket:
+/// it starts at `start` (the chord's crossing where that is `None` or not
+/// strictly inside the bracket) and every evaluation narrows the bracket; a Newton step that would leave it (a derivative that is zero, of
+/// the wrong sign or not finite) is replaced by the bracket's Illinois trial.
+/// Returns the end of the first Newton step shorter than `step_tol` (near a
+/// simple root its error is then about f'' / (2 f') times the step squared),
+/// a trial where f is exactly zero, or after `max_iter` evaluations the
+/// bracket's midpoint.
+pub fn newton_root(
+    f: impl Fn(f64) -> (f64, f64),
+    (a, fa): (f64, f64),
+    (b, fb): (f64, f64),
+    start: Option<f64>,
+    step_tol: f64,
+    max_iter: usize,
+) -> f64 {
+    let mut br = Bracket::new(a, fa, b, fb);
+    let mut x = match start {
+        Some(x) if x > a.min(b) && x < a.max(b) => x,
+        _ => br.trial(),
+    };
+    for _ in 0..max_iter {
+        let (fx, dfx) = f(x);
+        if fx == 0.0 {
+            return x;
+        }
+        br.narrow(x, fx);
+        let next = x - fx / dfx;
+        let (lo, hi) = (br.neg.min(br.pos), br.neg.max(br.pos));
+        // The comparisons are false for NaN: a failed step takes the trial.
+        if (next - x).abs() < step_tol && next >= lo && next <= hi {
+            return next;
+        }
+        x = if next > lo && next < hi {
+            next
+        } else {
+            br.trial()
+        };
+    }
+    br.mid()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -160,5 +203,44 @@ mod tests {
         assert_eq!(br.trial(), 0.5);
         let br = Bracket::new(0.0, -1.0, 1.0, f64::INFINITY);
         assert_eq!(br.trial(), 0.5);
+    }
+
+    #[test]
+    fn newton_finds_roots_to_the_last_bits_in_few_steps() {
+        use std::cell::Cell;
+        // Exact roots: cube root of 2, ln 3, pi/4 for cos - sin; and a
+        // derivative of the wrong sign (the bracket's trial takes over).
+        type Case<'a> = (&'a dyn Fn(f64) -> (f64, f64), f64, f64, f64, usize);
+        let cases: [Case; 4] = [
+            (
+                &|x: f64| (x * x * x - 2.0, 3.0 * x * x),
+                0.0,
+                3.0,
+                2f64.cbrt(),
+                12,
+            ),
+            (&|x: f64| (x.exp() - 3.0, x.exp()), 0.0, 2.0, 3f64.ln(), 8),
+            (
+                &|x: f64| (x.sin() - x.cos(), x.cos() + x.sin()),
+                1.5,
+                0.0,
+                std::f64::consts::FRAC_PI_4,
+                8,
+            ),
+            (&|x: f64| (x - 0.3, -1.0), -1.0, 1.0, 0.3, 64),
+        ];
+        for (f, a, b, root, most) in cases {
+            let calls = Cell::new(0);
+            let g = |x: f64| {
+                calls.set(calls.get() + 1);
+                f(x)
+            };
+            let x = newton_root(g, (a, f(a).0), (b, f(b).0), None, 1e-8, 64);
+            assert!(
+                (x - root).abs() <= 4.0 * f64::EPSILON * root.abs(),
+                "{x} vs {root}"
+            );
+            assert!(calls.get() <= most, "{} evaluations", calls.get());
+        }
     }
 }

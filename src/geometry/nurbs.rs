@@ -37,6 +37,9 @@ pub struct NurbsSurface {
     count_v: usize,
     homogeneous: Vec<[f64; 4]>,
     rational: bool,
+    /// The parameter domain [u0, u1, v0, v1] (from the knots; kept because
+    /// every evaluation clamps into it).
+    bounds: [f64; 4],
     /// The trimmed face, where only part of the domain is the surface
     /// (`None`: the whole domain).
     trim: Option<std::sync::Arc<super::trim::Trim>>,
@@ -244,11 +247,18 @@ impl NurbsSurface {
             count_v,
             homogeneous,
             rational,
+            bounds: [0.0; 4],
             trim: None,
             collapsed: [false; 4],
             basis_u: None,
             basis_v: None,
         };
+        surface.bounds = [
+            surface.knots_u[degree_u],
+            surface.knots_u[count_u],
+            surface.knots_v[degree_v],
+            surface.knots_v[count_v],
+        ];
         surface.basis_u = SpanBasis::new(degree_u, count_u, &surface.knots_u).map(Into::into);
         surface.basis_v = SpanBasis::new(degree_v, count_v, &surface.knots_v).map(Into::into);
         surface.collapsed = surface.find_collapsed();
@@ -388,10 +398,8 @@ impl NurbsSurface {
 
     /// Parameter domain `((u0, u1), (v0, v1))`.
     pub fn domain(&self) -> ((f64, f64), (f64, f64)) {
-        (
-            (self.knots_u[self.degree_u], self.knots_u[self.count_u]),
-            (self.knots_v[self.degree_v], self.knots_v[self.count_v]),
-        )
+        let [u0, u1, v0, v1] = self.bounds;
+        ((u0, u1), (v0, v1))
     }
 
     /// Clamps `(u, v)` into the parameter domain.

@@ -416,7 +416,7 @@ impl<'a> Extension<'a> {
             return Ok(());
         };
         let travel_t = if at_end { t } else { -t };
-        let Some(c) = Contact::from_geometry(g, travel_t) else {
+        let Some(c) = Contact::from_geometry(g.forms(), travel_t) else {
             return Ok(());
         };
         let base = c.path_point(s)?;

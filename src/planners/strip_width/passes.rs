@@ -3,11 +3,11 @@
 //! pose leaves, and chord-tolerance sampling of a pass (docs/methods.md,
 //! "Spacing margin and chord tolerance").
 
-use super::width::{curvatures_along, cutter_of_job, gouge_error, Curvatures, WidthError};
+use super::width::{cutter_of_job, forms_curvatures_along, gouge_error, Curvatures, WidthError};
 use crate::error::Result;
 use crate::formats::PathPoint;
 use crate::geometry::differential::TangentFrame;
-use crate::geometry::{LocalGeometry, NurbsSurface};
+use crate::geometry::{FundamentalForms, LocalGeometry, NurbsSurface};
 use crate::tools::LeadCutter;
 use nalgebra::{Point3, Vector2, Vector3};
 
@@ -96,7 +96,9 @@ pub fn max_curvature(surface: &NurbsSurface) -> f64 {
 /// A contact on the surface with its travel direction.
 #[derive(Clone, Copy, Debug)]
 pub struct Contact {
-    pub g: LocalGeometry,
+    /// The surface at the contact (no principal curvatures: a contact
+    /// needs the curvatures along its travel only).
+    pub g: FundamentalForms,
     /// Unit travel direction (3-D tangent).
     pub travel: Vector3<f64>,
     pub k: Curvatures,
@@ -120,14 +122,14 @@ impl Contact {
     /// `travel` is projected onto the tangent plane and normalised; `None`
     /// where the surface is singular or the direction is normal to it.
     pub fn new(surface: &NurbsSurface, uv: Vector2<f64>, travel: Vector3<f64>) -> Option<Self> {
-        let g = LocalGeometry::at(surface, uv.x, uv.y)?;
+        let g = FundamentalForms::at(surface, uv.x, uv.y)?;
         Self::from_geometry(g, travel)
     }
 
-    pub fn from_geometry(g: LocalGeometry, travel: Vector3<f64>) -> Option<Self> {
+    pub fn from_geometry(g: FundamentalForms, travel: Vector3<f64>) -> Option<Self> {
         let t = (travel - g.n * travel.dot(&g.n)).try_normalize(1e-12)?;
         Some(Self {
-            k: curvatures_along(&g, t),
+            k: forms_curvatures_along(&g, t),
             g,
             travel: t,
             widths: None,
