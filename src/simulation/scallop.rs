@@ -1778,10 +1778,15 @@ impl<'a> Simulator<'a> {
         .flatten()
         .collect();
         let best = climbed.iter().map(|p| p.residual).fold(grid_best, f64::max);
-        let mut peaks = climbed;
-        for p in &mut peaks {
-            p.residual *= sign;
-        }
+        // A start without a sample position has no place to report.
+        let mut peaks: Vec<RefinedPeak> = climbed
+            .into_iter()
+            .filter(|p| p.uv.iter().all(|x| x.is_finite()))
+            .map(|p| RefinedPeak {
+                residual: sign * p.residual,
+                ..p
+            })
+            .collect();
         peaks.sort_by(|a, b| (sign * b.residual).total_cmp(&(sign * a.residual)));
         (Some(sign * best), peaks)
     }
