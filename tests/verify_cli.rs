@@ -92,6 +92,21 @@ fn verify_prints_the_summary_and_writes_the_map() {
         serde_json::Value::Bool(got <= 0.2)
     );
     assert_eq!(summary["uncovered_area_mm2"].as_f64(), Some(0.0));
+    // The peaks above h lie on the cusp lines midway between the passes
+    // (y = 0.5, 3.5, 6.5, 9.5), with the exact cusp height.
+    let peaks = summary["peaks_above_scallop"].as_array().unwrap();
+    assert!(!peaks.is_empty() && peaks.len() <= 10, "{peaks:?}");
+    for peak in peaks {
+        let y = peak["xyz"][1].as_f64().unwrap();
+        assert!(
+            ((y - 0.5) / 3.0 - ((y - 0.5) / 3.0).round()).abs() < 1e-3,
+            "{peak}"
+        );
+        assert!(
+            (peak["residual_mm"].as_f64().unwrap() - exact).abs() < 1e-6,
+            "{peak}"
+        );
+    }
     let map: ResidualMap =
         serde_json::from_str(&std::fs::read_to_string(&map_path).unwrap()).unwrap();
     assert_eq!((map.nu, map.nv), (80, 40));

@@ -25,8 +25,23 @@ struct Summary<'a> {
     scallop_mm: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     within_scallop: Option<bool>,
+    /// Where the residual is above h: the highest refined peaks (at most
+    /// [`LISTED_PEAKS`]), highest first.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    peaks_above_scallop: Vec<Peak>,
     verify_ms: f64,
 }
+
+/// A refined residual peak above h, as `toolpath verify` prints it.
+#[derive(Serialize)]
+struct Peak {
+    xyz: [f64; 3],
+    uv: [f64; 2],
+    residual_mm: f64,
+}
+
+/// How many peaks above h the summary lists.
+const LISTED_PEAKS: usize = 10;
 
 pub fn run(job_path: &Path, result_path: &Path, map: Option<&Path>) -> Result<()> {
     let job = formats::read_job(job_path)?;
@@ -58,6 +73,22 @@ pub fn run(job_path: &Path, result_path: &Path, map: Option<&Path>) -> Result<()
         samples: report.map.residual.len(),
         scallop_mm: job.scallop,
         within_scallop: job.scallop.map(|h| report.max_scallop_mm <= h),
+        peaks_above_scallop: job
+            .scallop
+            .map(|h| {
+                report
+                    .peaks
+                    .iter()
+                    .filter(|p| p.residual > h)
+                    .take(LISTED_PEAKS)
+                    .map(|p| Peak {
+                        xyz: p.xyz,
+                        uv: p.uv,
+                        residual_mm: p.residual,
+                    })
+                    .collect()
+            })
+            .unwrap_or_default(),
         verify_ms: (verify_ms * 1000.0).round() / 1000.0,
     };
     formats::write_json(Path::new("-"), &summary)?;
