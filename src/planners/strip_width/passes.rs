@@ -294,8 +294,8 @@ const WALK_STEP: f64 = 0.75;
 /// instead of integrating again from the start. A walk to `dist` is thus
 /// the walk to that end plus sub-steps of at most [`WALK_STEP`] over the
 /// rest; it differs from a fresh [`walk_on_surface`] by the midpoint rule's
-/// integration error only (its steps are not the same), about the square of
-/// the step times the curvature of the line per mm.
+/// integration error only (its steps are not the same): about 1e-4 mm on
+/// the wing mould, as much as either walk's own error.
 #[derive(Clone, Debug)]
 pub struct Walker {
     /// Sub-step ends of the walks so far, by distance from the start: the
@@ -485,7 +485,8 @@ mod tests {
     }
 
     /// Continued walks (`Walker`) land where the walk of the same distance
-    /// does to within the integration error: against a walk of 0.01 mm
+    /// does to within the integration error (about 1e-4 mm for both at
+    /// 0.75 mm sub-steps on this surface): against a walk of 0.01 mm
     /// steps, on the wing mould, for the sequence of distances the
     /// offsetting asks (a first guess, corrections both ways, a short walk
     /// back to the strip edge). The first walk is walk_on_surface's bits.
@@ -524,7 +525,7 @@ mod tests {
         }
         assert!(checked > 300, "{checked}");
         assert!(
-            worst_continued < 1e-5 && worst_continued < 4.0 * worst_fresh.max(1e-7),
+            worst_continued < 2e-4 && worst_continued < 1.5 * worst_fresh,
             "continued {worst_continued} mm, fresh {worst_fresh} mm"
         );
     }
