@@ -7,7 +7,7 @@ use super::*;
 use crate::error::Result;
 use crate::geometry::NurbsSurface;
 use crate::planners::strip_width::passes::{
-    walk_on_surface as walk, Contact, PassSettings, WalkStart,
+    walk_on_surface as walk, Contact, PassSettings, Walker,
 };
 use crate::planners::strip_width::regions::Region;
 use nalgebra::{Point3, Vector2, Vector3};
@@ -44,10 +44,13 @@ pub(super) fn offset_point(
     fp: &FrontPoint,
 ) -> Result<Offset> {
     let w_here = fp.c.half_width_towards(s, fp.away)?;
-    // Every walk below starts at the front point along `away`.
-    let start = WalkStart::new(surface, fp.c.uv(), fp.away);
-    let walk = |dist: f64| {
-        start
+    // Every walk below runs from the front point along `away`, each
+    // continuing the earlier ones (`Walker`): the distance changes by
+    // little between them.
+    let mut walker = Walker::new(surface, fp.c.uv(), fp.away);
+    let mut walk = |dist: f64| {
+        walker
+            .as_mut()
             .and_then(|w| w.walk(surface, dist))
             .ok_or_else(|| singular(fp.c.uv()))
     };
