@@ -101,8 +101,7 @@ impl FundamentalForms {
 
     /// [`LocalGeometry::tangent_to_uv`].
     pub fn tangent_to_uv(&self, t: Vector3<f64>) -> Vector2<f64> {
-        let rhs = Vector2::new(t.dot(&self.derivs.su), t.dot(&self.derivs.sv));
-        self.first.try_inverse().map(|gi| gi * rhs).unwrap_or(rhs)
+        tangent_to_uv(&self.derivs.su, &self.derivs.sv, &self.first, t)
     }
 }
 
@@ -175,8 +174,7 @@ impl LocalGeometry {
     }
     /// Maps a 3-D vector to the parameter-space direction of its tangent-plane projection.
     pub fn tangent_to_uv(&self, t: Vector3<f64>) -> Vector2<f64> {
-        let rhs = Vector2::new(t.dot(&self.derivs.su), t.dot(&self.derivs.sv));
-        self.first.try_inverse().map(|gi| gi * rhs).unwrap_or(rhs)
+        tangent_to_uv(&self.derivs.su, &self.derivs.sv, &self.first, t)
     }
     /// Maps a parameter-space direction to its 3-D tangent vector.
     pub fn uv_to_tangent(&self, t: Vector2<f64>) -> Vector3<f64> {
@@ -238,9 +236,22 @@ impl TangentFrame {
 
     /// [`LocalGeometry::tangent_to_uv`].
     pub fn tangent_to_uv(&self, t: Vector3<f64>) -> Vector2<f64> {
-        let rhs = Vector2::new(t.dot(&self.su), t.dot(&self.sv));
-        self.first.try_inverse().map(|gi| gi * rhs).unwrap_or(rhs)
+        tangent_to_uv(&self.su, &self.sv, &self.first, t)
     }
+}
+
+/// The uv direction of a 3-D tangent `t` at a point with derivatives `su`,
+/// `sv` and first fundamental form `first`: G^-1 (t . S_u, t . S_v) (the
+/// dot products unchanged where G is singular).
+#[inline]
+fn tangent_to_uv(
+    su: &Vector3<f64>,
+    sv: &Vector3<f64>,
+    first: &Matrix2<f64>,
+    t: Vector3<f64>,
+) -> Vector2<f64> {
+    let rhs = Vector2::new(t.dot(su), t.dot(sv));
+    first.try_inverse().map(|gi| gi * rhs).unwrap_or(rhs)
 }
 
 /// Eigen-decomposition of a symmetric 2x2 matrix: (lambda_min, lambda_max,

@@ -337,7 +337,6 @@ impl Walker {
         surface: &NurbsSurface,
         dist: f64,
     ) -> Option<(Vector2<f64>, Vector3<f64>, bool)> {
-        let ((u0, u1), (v0, v1)) = surface.domain();
         // The start always stays; a walk of 0 mm takes one empty step, as
         // walk_on_surface does.
         let keep = self.marks.iter().rposition(|m| m.s < dist).unwrap_or(0);
@@ -357,13 +356,10 @@ impl Walker {
                     step
                 }
             };
-            let mid = m.p + k1 * (0.5 * h);
-            let (mu, mv) = surface.clamp_uv(mid.x, mid.y);
-            let (k2, t2) = walk_step_at(surface, Vector2::new(mu, mv), t1)?;
-            let next = m.p + k2 * h;
-            if next.x < u0 || next.x > u1 || next.y < v0 || next.y > v1 {
-                return Some((clip_step(surface, m.p, next), t2, true));
-            }
+            let (next, t2) = match midpoint_step(surface, m.p, (k1, t1), h)? {
+                SubStep::Inside(next, t2) => (next, t2),
+                SubStep::Left(end, t2) => return Some((end, t2, true)),
+            };
             self.marks.push(WalkMark {
                 s: if i + 1 == n {
                     dist
@@ -419,6 +415,38 @@ fn walk_step_at(
     Some((g.tangent_to_uv(t), t))
 }
 
+/// Where one midpoint sub-step of a walk ends.
+enum SubStep {
+    /// Inside the domain: the end and the carried heading there.
+    Inside(Vector2<f64>, Vector3<f64>),
+    /// It left the domain: where it crosses the boundary, and the heading.
+    Left(Vector2<f64>, Vector3<f64>),
+}
+
+/// One sub-step of length `h` of a walk from `p`, whose sub-step direction
+/// there is `(k1, t1)` (uv and unit tangent): the midpoint rule, the
+/// heading re-projected at the clamped midpoint.
+#[inline]
+fn midpoint_step(
+    surface: &NurbsSurface,
+    p: Vector2<f64>,
+    (k1, t1): (Vector2<f64>, Vector3<f64>),
+    h: f64,
+) -> Option<SubStep> {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let mid = p + k1 * (0.5 * h);
+    let (mu, mv) = surface.clamp_uv(mid.x, mid.y);
+    let (k2, t2) = walk_step_at(surface, Vector2::new(mu, mv), t1)?;
+    let next = p + k2 * h;
+    Some(
+        if next.x < u0 || next.x > u1 || next.y < v0 || next.y > v1 {
+            SubStep::Left(clip_step(surface, p, next), t2)
+        } else {
+            SubStep::Inside(next, t2)
+        },
+    )
+}
+
 impl WalkStart {
     /// `None` where the surface has no tangent plane at `uv` or `dir` is
     /// along its normal (every walk from there fails).
@@ -435,7 +463,6 @@ impl WalkStart {
         surface: &NurbsSurface,
         dist: f64,
     ) -> Option<(Vector2<f64>, Vector3<f64>, bool)> {
-        let ((u0, u1), (v0, v1)) = surface.domain();
         let n = ((dist / WALK_STEP).ceil() as usize).clamp(1, 64);
         let h = dist / n as f64;
         let mut p = self.uv;
@@ -446,15 +473,13 @@ impl WalkStart {
             } else {
                 walk_step_at(surface, p, d)?
             };
-            let mid = p + k1 * (0.5 * h);
-            let (mu, mv) = surface.clamp_uv(mid.x, mid.y);
-            let (k2, t2) = walk_step_at(surface, Vector2::new(mu, mv), t1)?;
-            let next = p + k2 * h;
-            d = t2;
-            if next.x < u0 || next.x > u1 || next.y < v0 || next.y > v1 {
-                return Some((clip_step(surface, p, next), d, true));
+            match midpoint_step(surface, p, (k1, t1), h)? {
+                SubStep::Inside(next, t2) => {
+                    p = next;
+                    d = t2;
+                }
+                SubStep::Left(end, t2) => return Some((end, t2, true)),
             }
-            p = next;
         }
         Some((p, d, false))
     }
