@@ -17,6 +17,13 @@ pub(super) const SPIKE_MIN_TURN_DEG: f64 = 30.0;
 /// tensor_regions on `wing_mould` stays within h by the simulator (0.0462 mm).
 pub(super) const SPIKE_SHARE: f64 = 4.0;
 
+/// Longest corner spike, in cutter radii. The shift grows without bound as
+/// the turn nears a hairpin (28 mm at 160 deg for a 3 mm strip), and a
+/// spike that long runs across the passes beside the corner; what is left
+/// beyond this length is the repair passes' (docs/methods.md, "Repair
+/// passes").
+pub(super) const SPIKE_MAX_RADII: f64 = 2.0;
+
 /// Half-length of the sweep across a spike's tip, in cutter radii. At the
 /// tip the tool moves along its own heading, so it cuts its full strip
 /// width along the bisector there, reaching past the tip and to both sides
@@ -85,7 +92,8 @@ pub(super) fn corner_spikes(s: &PassSettings, contacts: &[Contact]) -> Result<Ve
         let half = 0.5 * turn;
         let sn = half.cos();
         let w = 2.0 * contacts[j].half_width_towards(s, out)?;
-        spikes[j] = Some((out, SPIKE_SHARE * w * (1.0 - sn) / (2.0 * sn)));
+        let len = SPIKE_SHARE * w * (1.0 - sn) / (2.0 * sn);
+        spikes[j] = Some((out, len.min(SPIKE_MAX_RADII * r)));
     }
     Ok(spikes)
 }
