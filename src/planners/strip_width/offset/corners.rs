@@ -274,3 +274,73 @@ pub(super) fn pivot(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::planners::strip_width::passes::Contact;
+
+    /// Contacts of a pass on the plane sample that runs along +x and turns
+    /// by `turn_deg` at x = 50 mm, a contact every 0.5 mm.
+    fn bent_pass(turn_deg: f64) -> (NurbsSurface, Vec<Contact>) {
+        let surface = crate::samples::surfaces::plane();
+        let a = turn_deg.to_radians();
+        let (leg_in, leg_out) = (Vector3::x(), Vector3::new(a.cos(), a.sin(), 0.0));
+        let corner = Point3::new(50.0, 30.0, 0.0);
+        let points: Vec<(Point3<f64>, Vector3<f64>)> = (-40..=0)
+            .map(|k| (corner + leg_in * (0.5 * k as f64), leg_in))
+            .chain((1..=40).map(|k| (corner + leg_out * (0.5 * k as f64), leg_out)))
+            .collect();
+        let contacts = points
+            .iter()
+            .map(|(p, t)| Contact::new(&surface, Vector2::new(p.x / 100.0, p.y / 100.0), *t))
+            .collect::<Option<Vec<_>>>()
+            .unwrap();
+        (surface, contacts)
+    }
+
+    /// One spike per corner, at the corner, out along the outer bisector,
+    /// longer the sharper the turn, and never beyond 2 R: near a hairpin
+    /// the disc geometry's shift would run it 28 mm across the passes
+    /// beside the corner.
+    #[test]
+    fn corner_spikes_grow_with_the_turn_up_to_two_radii() {
+        let job = crate::samples::job("plane").unwrap();
+        let s = PassSettings::from_job(&job).unwrap();
+        let r = s.cutter.radius;
+        let mut lengths = Vec::new();
+        for turn_deg in [40.0, 60.0, 90.0, 110.0, 150.0, 165.0, 175.0] {
+            let (_, contacts) = bent_pass(turn_deg);
+            let spikes = corner_spikes(&s, &contacts).unwrap();
+            let found: Vec<(usize, Spike)> = spikes
+                .iter()
+                .enumerate()
+                .filter_map(|(j, sp)| sp.map(|sp| (j, sp)))
+                .collect();
+            assert_eq!(found.len(), 1, "turn {turn_deg} deg: {found:?}");
+            let (j, (out, len)) = found[0];
+            assert_eq!(j, 40, "turn {turn_deg} deg: spike at contact {j}");
+            // The outer bisector of legs along +x and at turn_deg.
+            let a = turn_deg.to_radians();
+            let want = Vector3::new(1.0 - a.cos(), -a.sin(), 0.0).normalize();
+            assert!((out - want).norm() < 1e-9, "turn {turn_deg} deg: {out:?}");
+            assert!(
+                len > 0.0 && len <= 2.0 * r + 1e-12,
+                "turn {turn_deg} deg: {len} mm"
+            );
+            lengths.push((turn_deg, len));
+        }
+        for w in lengths.windows(2) {
+            assert!(w[1].1 >= w[0].1, "{lengths:?}");
+        }
+        // A right-angle corner's spike is well short of the cap (about a
+        // strip width); the sharpest turns reach it.
+        assert!(lengths[2].1 < 1.5 * r, "{lengths:?}");
+        for &(turn_deg, len) in &lengths[4..] {
+            assert!(
+                (len - 2.0 * r).abs() < 1e-12,
+                "turn {turn_deg} deg: {len} mm"
+            );
+        }
+    }
+}
