@@ -426,7 +426,7 @@ pub(super) fn gap_line(
     if line.len() < 2 {
         return None;
     }
-    extend_ends(surface, s, region, &mut line);
+    extend_ends(surface, s, region, &mut line, None);
     Some(line)
 }
 

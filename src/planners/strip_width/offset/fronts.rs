@@ -200,13 +200,18 @@ pub(super) fn smooth_indices(
 /// Extends a pass polyline at both ends along its own direction on the
 /// surface, to the domain boundary or until it has run the cutter radius
 /// beyond the region, so that the strip covers the region up to its
-/// boundary even where the pass meets it obliquely. Returns the number of
-/// points added at the head and the tail.
+/// boundary even where the pass meets it obliquely. Where `cut` says a
+/// point lies well inside an earlier strip, the end is machined material,
+/// not a boundary: the extension stops once it has run a cutter radius
+/// through it (enough for the strip's far side where the pass meets the
+/// earlier strips at 30 deg and more). Returns the number of points added
+/// at the head and the tail.
 pub(super) fn extend_ends(
     surface: &NurbsSurface,
     s: &PassSettings,
     region: &Region,
     uv: &mut Vec<Vector2<f64>>,
+    cut: Option<&dyn Fn(Point3<f64>) -> bool>,
 ) -> (usize, usize) {
     let mut counts = [0usize; 2];
     for (end, count) in counts.iter_mut().enumerate() {
@@ -233,6 +238,7 @@ pub(super) fn extend_ends(
         // points on the boundary are kept as pass points) twice that. Never
         // further: a short run's direction is not to be trusted far.
         let mut budget = 4.0 * s.cutter.radius;
+        let mut through_cut = 0.0;
         for _ in 0..10_000 {
             if budget <= 0.0 {
                 break;
@@ -242,6 +248,14 @@ pub(super) fn extend_ends(
                 outside = 0.0;
             } else if outside >= s.cutter.radius {
                 break;
+            }
+            if cut.is_some_and(|cut| cut(surface.point(at.x, at.y))) {
+                if through_cut >= s.cutter.radius {
+                    break;
+                }
+                through_cut += step;
+            } else {
+                through_cut = 0.0;
             }
             let Some((next, d, clipped)) = walk(surface, at, dir, step) else {
                 break;
@@ -293,7 +307,8 @@ pub(super) fn offset_front(
             j += 1;
         }
         let (a, b) = (i.saturating_sub(1), (j + 1).min(n - 1));
-        if let Some(run) = run_front(surface, s, region, front, &kept[a..=b])? {
+        let run = &kept[a..=b];
+        if let Some(run) = run_front(surface, s, region, (coverage, front_id), front, run)? {
             runs.push(run);
         }
         i = j + 1;
@@ -392,6 +407,7 @@ fn run_front(
     surface: &NurbsSurface,
     s: &PassSettings,
     region: &Region,
+    (coverage, front_id): (&Coverage, usize),
     front: &[FrontPoint],
     run: &[Carried],
 ) -> Result<Option<Vec<FrontPoint>>> {
@@ -430,7 +446,10 @@ fn run_front(
         &dists,
         region,
     );
-    let (head, tail) = extend_ends(surface, s, region, &mut uv);
+    // A run that ends inside the region ends at machined material (its
+    // next offset points are not needed): its extension stops in there.
+    let cut = |p: Point3<f64>| coverage.covered(p, front_id);
+    let (head, tail) = extend_ends(surface, s, region, &mut uv, Some(&cut));
     let (first, last) = (&run[0], &run[run.len() - 1]);
     for _ in 0..head {
         aways.insert(0, first.0.away);
@@ -796,5 +815,62 @@ mod tests {
             }
         }
         assert!(answered > 1000, "{answered}");
+    }
+
+    /// A pass running into machined material ends there: its extension
+    /// runs a cutter radius through the earlier strips and stops, where
+    /// without them it runs its whole 4 R (the passes that crossed the
+    /// strips of a finished front by 10 mm on suite seed 2 at h = 0.055).
+    #[test]
+    fn extension_stops_a_cutter_radius_inside_machined_material() {
+        let surface = crate::samples::surfaces::plane();
+        let job = crate::samples::job("plane").unwrap();
+        let s = PassSettings::from_job(&job).unwrap();
+        let r = s.cutter.radius;
+        let region = crate::planners::strip_width::regions::whole_domain(&surface);
+        let uv = |x: f64, y: f64| Vector2::new(x / 100.0, y / 100.0);
+        // Earlier passes along +x, 2 mm apart, filling y = 30 .. 50 mm.
+        let mut coverage = Coverage::new(&s, FOLD_SHARE);
+        for (id, y) in (0..=10).map(|k| 30.0 + 2.0 * k as f64).enumerate() {
+            let contacts: Vec<Contact> = (0..=100)
+                .map(|x| Contact::new(&surface, uv(x as f64, y), Vector3::x()).unwrap())
+                .collect();
+            coverage.add(&s, id, &contacts);
+        }
+        let cut = |p: Point3<f64>| coverage.covered(p, usize::MAX);
+        for x in [20.0, 47.3, 80.0] {
+            // A pass heading down (-y) that ends 3 mm above the strips, its
+            // points 1 mm apart (the head is at the top).
+            let line: Vec<Vector2<f64>> = (0..=20).map(|k| uv(x, 73.0 - k as f64)).collect();
+            let tail_of = |with_cut: bool| {
+                let mut l = line.clone();
+                let stop: Option<&dyn Fn(Point3<f64>) -> bool> = with_cut.then_some(&cut);
+                let (_, tail) = extend_ends(&surface, &s, &region, &mut l, stop);
+                let pts: Vec<Point3<f64>> = l[l.len() - tail - 1..]
+                    .iter()
+                    .map(|p| surface.point(p.x, p.y))
+                    .collect();
+                pts
+            };
+            let length =
+                |pts: &[Point3<f64>]| -> f64 { pts.windows(2).map(|w| (w[1] - w[0]).norm()).sum() };
+            let free = tail_of(false);
+            assert!(
+                (length(&free) - 4.0 * r).abs() <= s.point_step.min(r) + 1e-9,
+                "x {x}: {} mm without the earlier strips",
+                length(&free)
+            );
+            let stopped = tail_of(true);
+            let first_cut = stopped
+                .iter()
+                .position(|p| cut(*p))
+                .expect("the extension reaches the earlier strips");
+            let inside = length(&stopped[first_cut..]);
+            assert!(
+                inside >= r - 1e-9 && inside <= r + s.point_step.min(r) + 1e-9,
+                "x {x}: ran {inside} mm through the earlier strips (R {r})"
+            );
+            assert!(length(&stopped) < length(&free), "x {x}");
+        }
     }
 }

@@ -184,7 +184,7 @@ fn cover_sides(
     progress: &dyn Progress,
 ) -> Result<Vec<Pass>> {
     let mut initial = initial.to_vec();
-    extend_ends(surface, s, region, &mut initial);
+    extend_ends(surface, s, region, &mut initial, None);
     let first = pass_contacts(s, front_from_uv(surface, s, &initial, None)?);
     if first.len() < 2 {
         return Ok(Vec::new());
