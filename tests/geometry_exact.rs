@@ -115,7 +115,7 @@ fn sphere_is_umbilic_everywhere_with_curvature_minus_one_over_r() {
         let p = g.point();
         assert!((p.coords.norm() - r).abs() < 1e-10);
         assert!(
-            (g.n - p.coords / r).norm() < 1e-10,
+            (g.forms.n - p.coords / r).norm() < 1e-10,
             "normal points outwards"
         );
         // Convex towards the tool side (outside): kappa = -1/r in every direction.
@@ -127,7 +127,7 @@ fn sphere_is_umbilic_everywhere_with_curvature_minus_one_over_r() {
         );
         assert!(g.is_umbilic(1e-9));
         assert!((g.gaussian_curvature() - 1.0 / (r * r)).abs() < 1e-9);
-        let t = Vector3::new(0.3, -0.2, 0.7).cross(&g.n);
+        let t = Vector3::new(0.3, -0.2, 0.7).cross(&g.forms.n);
         assert!((g.normal_curvature(t) + 1.0 / r).abs() < 1e-9);
     }
 }
@@ -270,11 +270,13 @@ fn curvatures_do_not_depend_on_the_parametrisation() {
             "exact reproduction"
         );
         // Non-orthogonal: F != 0.
-        max_skew = max_skew.max(g.first[(0, 1)].abs() / (g.first[(0, 0)] * g.first[(1, 1)]).sqrt());
+        max_skew = max_skew.max(
+            g.forms.first[(0, 1)].abs() / (g.forms.first[(0, 0)] * g.forms.first[(1, 1)]).sqrt(),
+        );
         let (x, y) = (pt.x, pt.y);
         let (p, q) = ((2.0 * x + 0.5 * y) / 90.0 + 0.1, (0.5 * x - 1.6 * y) / 90.0);
         let (kmin, kmax, dmin, dmax) = graph_curvatures(p, q, 2.0 / 90.0, 0.5 / 90.0, -1.6 / 90.0);
-        let n_up = g.n.z > 0.0;
+        let n_up = g.forms.n.z > 0.0;
         let (kmin, kmax, dmin, dmax) = if n_up {
             (kmin, kmax, dmin, dmax)
         } else {
@@ -362,7 +364,7 @@ fn inversion_recovers_points_offset_along_the_normal() {
         let g = LocalGeometry::at(&t, u, v).unwrap();
         // Outwards (convex side) any distance is safe; inwards less than the tube radius.
         for off in [3.0, -4.0] {
-            let q = g.point() + g.n * off;
+            let q = g.point() + g.forms.n * off;
             let c = closest_point(&t, &q);
             assert!(
                 (c.distance - off.abs()).abs() < 1e-9,
@@ -639,7 +641,7 @@ proptest! {
         let g1 = LocalGeometry::at(&moved, u, v).unwrap();
         prop_assert!((g1.k_min * scale - g0.k_min).abs() < 1e-9 * g0.k_max.abs().max(1e-3));
         prop_assert!((g1.k_max * scale - g0.k_max).abs() < 1e-9 * g0.k_max.abs().max(1e-3));
-        prop_assert!((g1.n - rot * g0.n).norm() < 1e-9);
+        prop_assert!((g1.forms.n - rot * g0.forms.n).norm() < 1e-9);
     }
 
     /// Inversion round trip on the sphere: any point off the centre projects radially.

@@ -133,7 +133,7 @@ fn sphere_cap_normal_is_radial_and_curvature_is_one_over_r_at_the_pole() {
                     (n - radial).norm() < tol,
                     "normal at {u} {v}: {n} vs {radial}"
                 );
-                assert!((g.n - radial).norm() < tol, "{u} {v}");
+                assert!((g.forms.n - radial).norm() < tol, "{u} {v}");
                 for k in [g.k_min, g.k_max] {
                     assert!((k + 1.0 / R).abs() < 1e-7, "curvature {k} at {u} {v}");
                 }

@@ -131,7 +131,7 @@ fn concave_cylinder_is_exact_and_concave_towards_the_tool() {
         );
         // The normal points to the axis (tool side is the inside).
         let to_axis = nalgebra::Vector3::new(0.0, -p.y, 100.0 - p.z).normalize();
-        assert!((g.n - to_axis).norm() < 1e-9);
+        assert!((g.forms.n - to_axis).norm() < 1e-9);
     }
     let (lo, hi) = extent(&s);
     assert!((hi[0] - lo[0] - 100.0).abs() < 1e-9 && (hi[1] - lo[1] - 100.0).abs() < 1e-9);

@@ -136,7 +136,11 @@ fn the_cylinder_patch_has_curvature_one_over_r_and_an_outward_normal() {
             let g = LocalGeometry::at(&s, u, v).unwrap();
             // Outward normal: the cylinder is convex seen from it.
             let radial = nalgebra::Vector3::new(p.x, p.y, 0.0) / 20.0;
-            assert!((g.n - radial).norm() < 1e-9, "normal {:?} at {p:?}", g.n);
+            assert!(
+                (g.forms.n - radial).norm() < 1e-9,
+                "normal {:?} at {p:?}",
+                g.forms.n
+            );
             let (k_lo, k_hi) = (g.k_min.min(g.k_max), g.k_min.max(g.k_max));
             assert!(k_hi.abs() < 1e-9, "k {k_lo} {k_hi}");
             assert!((k_lo.abs() - 1.0 / 20.0).abs() < 1e-9, "k {k_lo} {k_hi}");
@@ -495,7 +499,11 @@ fn the_step_samples_import_with_their_exact_areas() {
         let radial = nalgebra::Vector3::new(p.x - MULTI_X, 0.0, p.z + MULTI_R);
         assert!((radial.norm() - MULTI_R).abs() < 1e-9, "{p:?}");
         let g = LocalGeometry::at(&s, u, v).unwrap();
-        assert!((g.n - radial / MULTI_R).norm() < 1e-9, "{:?} at {p:?}", g.n);
+        assert!(
+            (g.forms.n - radial / MULTI_R).norm() < 1e-9,
+            "{:?} at {p:?}",
+            g.forms.n
+        );
         let k_abs = g.k_min.abs().max(g.k_max.abs());
         assert!((k_abs - 1.0 / MULTI_R).abs() < 1e-9, "{k_abs}");
     }
@@ -624,7 +632,7 @@ fn grid_uv(s: &NurbsSurface, n: usize) -> Vec<(f64, f64)> {
 fn principal(s: &NurbsSurface, u: f64, v: f64) -> (f64, f64, nalgebra::Vector3<f64>) {
     let g = LocalGeometry::at(s, u, v).unwrap();
     let (a, b) = (g.k_min.abs(), g.k_max.abs());
-    (a.min(b), a.max(b), g.n)
+    (a.min(b), a.max(b), g.forms.n)
 }
 
 #[test]
@@ -744,7 +752,11 @@ fn extruded_faces_are_exact_rulings_along_their_vector() {
                 "{name}: K = {}",
                 g.k_min * g.k_max
             );
-            assert!(g.n.dot(&unit).abs() < 1e-9, "{name}: normal {:?}", g.n);
+            assert!(
+                g.forms.n.dot(&unit).abs() < 1e-9,
+                "{name}: normal {:?}",
+                g.forms.n
+            );
         }
     }
 }

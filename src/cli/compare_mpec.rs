@@ -46,10 +46,10 @@ pub fn ball_passes(planner: &Planner, rb: f64, scallop: f64) -> Result<(usize, f
                 let kappa = LocalGeometry::at(planner.surface, u, v)
                     .map(|g| {
                         let su = match planner.feed {
-                            crate::formats::FeedDirection::U => g.derivs.su,
-                            crate::formats::FeedDirection::V => g.derivs.sv,
+                            crate::formats::FeedDirection::U => g.forms.derivs.su,
+                            crate::formats::FeedDirection::V => g.forms.derivs.sv,
                         };
-                        let across = g.n.cross(&su.normalize());
+                        let across = g.forms.n.cross(&su.normalize());
                         g.normal_curvature(across)
                     })
                     .unwrap_or(0.0);

@@ -41,7 +41,7 @@ pub fn run(path: &Path, u: f64, v: f64) -> Result<()> {
     let out = json!({
         "uv": [u, v],
         "point": [g.point().x, g.point().y, g.point().z],
-        "normal": v3(g.n),
+        "normal": v3(g.forms.n),
         "k1": g.k_max,
         "k2": g.k_min,
         "k_max": g.k_max,
@@ -50,8 +50,8 @@ pub fn run(path: &Path, u: f64, v: f64) -> Result<()> {
         "dir_k2": v3(g.dir_min),
         "mean_curvature": g.mean_curvature(),
         "gaussian_curvature": g.gaussian_curvature(),
-        "first_fundamental_form": [[g.first[(0, 0)], g.first[(0, 1)]], [g.first[(1, 0)], g.first[(1, 1)]]],
-        "second_fundamental_form": [[g.second[(0, 0)], g.second[(0, 1)]], [g.second[(1, 0)], g.second[(1, 1)]]],
+        "first_fundamental_form": [[g.forms.first[(0, 0)], g.forms.first[(0, 1)]], [g.forms.first[(1, 0)], g.forms.first[(1, 1)]]],
+        "second_fundamental_form": [[g.forms.second[(0, 0)], g.forms.second[(0, 1)]], [g.forms.second[(1, 0)], g.forms.second[(1, 1)]]],
         "umbilic": g.is_umbilic(UMBILIC_TOL),
     });
     formats::write_json(Path::new("-"), &out)

@@ -11,14 +11,8 @@ use nalgebra::{Matrix2, Point3, Vector2, Vector3};
 /// Everything the planners need about the surface at one (u, v).
 #[derive(Clone, Copy, Debug)]
 pub struct LocalGeometry {
-    pub uv: Vector2<f64>,
-    pub derivs: SurfaceDerivs,
-    /// Unit normal, normalize(S_u x S_v).
-    pub n: Vector3<f64>,
-    /// First fundamental form [[E, F], [F, G]].
-    pub first: Matrix2<f64>,
-    /// Second fundamental form [[L, M], [M, N]] with respect to `n`.
-    pub second: Matrix2<f64>,
+    /// The point, its derivatives, the unit normal and both fundamental forms.
+    pub forms: FundamentalForms,
     /// Principal curvatures, `k_min <= k_max`.
     pub k_min: f64,
     pub k_max: f64,
@@ -32,9 +26,8 @@ pub struct LocalGeometry {
 
 /// The unit normal and both fundamental forms at one (u, v), without the
 /// principal curvatures: what a pass contact needs (the normal, curvatures
-/// along given directions, 3-D tangents mapped to (u, v)). Its fields are the
-/// bits [`LocalGeometry`] holds for them, and it is `None` exactly where
-/// `LocalGeometry::at` is.
+/// along given directions, 3-D tangents mapped to (u, v)). [`LocalGeometry`]
+/// holds one, so it is `None` exactly where `LocalGeometry::at` is.
 #[derive(Clone, Copy, Debug)]
 pub struct FundamentalForms {
     pub uv: Vector2<f64>,
@@ -114,15 +107,12 @@ impl LocalGeometry {
 
     pub fn from_derivs(uv: Vector2<f64>, d: SurfaceDerivs) -> Option<Self> {
         let (forms, [c11, c21, c22]) = FundamentalForms::with_cholesky(uv, d)?;
-        let FundamentalForms {
-            n, first, second, ..
-        } = forms;
         // Symmetric reduction with G = C C^T (Cholesky): S = C^-1 D C^-T has the
         // principal curvatures as eigenvalues; t = C^-T y maps eigenvectors back
         // (docs/methods.md, "Principal curvatures").
         // C^-1 = [[1/c11, 0], [-c21/(c11 c22), 1/c22]]
         let ci = Matrix2::new(1.0 / c11, 0.0, -c21 / (c11 * c22), 1.0 / c22);
-        let s = ci * second * ci.transpose();
+        let s = ci * forms.second * ci.transpose();
         let (k_min, k_max, y_min, y_max) = sym_eigen2(s);
         let cit = ci.transpose();
         let dir_min_uv = cit * y_min;
@@ -130,11 +120,7 @@ impl LocalGeometry {
         let dir_min = (d.su * dir_min_uv.x + d.sv * dir_min_uv.y).normalize();
         let dir_max = (d.su * dir_max_uv.x + d.sv * dir_max_uv.y).normalize();
         Some(Self {
-            uv,
-            derivs: d,
-            n,
-            first,
-            second,
+            forms,
             k_min,
             k_max,
             dir_min,
@@ -144,19 +130,8 @@ impl LocalGeometry {
         })
     }
 
-    /// The normal and fundamental forms alone.
-    pub fn forms(&self) -> FundamentalForms {
-        FundamentalForms {
-            uv: self.uv,
-            derivs: self.derivs,
-            n: self.n,
-            first: self.first,
-            second: self.second,
-        }
-    }
-
     pub fn point(&self) -> Point3<f64> {
-        self.derivs.p
+        self.forms.point()
     }
     pub fn mean_curvature(&self) -> f64 {
         0.5 * (self.k_min + self.k_max)
@@ -166,7 +141,8 @@ impl LocalGeometry {
     }
     /// Normal curvature in the direction of the parameter-space vector `t`.
     pub fn normal_curvature_uv(&self, t: Vector2<f64>) -> f64 {
-        (t.transpose() * self.second * t)[0] / (t.transpose() * self.first * t)[0]
+        let f = &self.forms;
+        (t.transpose() * f.second * t)[0] / (t.transpose() * f.first * t)[0]
     }
     /// Normal curvature in the direction of a 3-D tangent (projected onto the tangent plane).
     pub fn normal_curvature(&self, t: Vector3<f64>) -> f64 {
@@ -174,11 +150,12 @@ impl LocalGeometry {
     }
     /// Maps a 3-D vector to the parameter-space direction of its tangent-plane projection.
     pub fn tangent_to_uv(&self, t: Vector3<f64>) -> Vector2<f64> {
-        tangent_to_uv(&self.derivs.su, &self.derivs.sv, &self.first, t)
+        self.forms.tangent_to_uv(t)
     }
     /// Maps a parameter-space direction to its 3-D tangent vector.
     pub fn uv_to_tangent(&self, t: Vector2<f64>) -> Vector3<f64> {
-        self.derivs.su * t.x + self.derivs.sv * t.y
+        let d = &self.forms.derivs;
+        d.su * t.x + d.sv * t.y
     }
     /// Umbilic test: |k_max - k_min| below `tol` (absolute, 1/mm).
     pub fn is_umbilic(&self, tol: f64) -> bool {
@@ -186,7 +163,7 @@ impl LocalGeometry {
     }
     /// Area element sqrt(EG - F^2).
     pub fn area_element(&self) -> f64 {
-        self.first.determinant().max(0.0).sqrt()
+        self.forms.first.determinant().max(0.0).sqrt()
     }
 }
 
@@ -368,7 +345,12 @@ mod tests {
                         continue;
                     };
                     assert_eq!(
-                        (g.derivs.su, g.derivs.sv, g.n, g.first),
+                        (
+                            g.forms.derivs.su,
+                            g.forms.derivs.sv,
+                            g.forms.n,
+                            g.forms.first
+                        ),
                         (f.su, f.sv, f.n, f.first)
                     );
                     let t = Vector3::new(0.3, -0.7, 0.2 + u);

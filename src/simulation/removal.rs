@@ -364,7 +364,7 @@ fn wheel_positions(
             .try_normalize(1e-12)
             .ok_or_else(|| Error::invalid(field("wheel_axis"), "must be a non-zero vector"))?;
         let centre = vec3(q.wheel_center.unwrap_or(q.cl));
-        let feed = axis.cross(&geom.n);
+        let feed = axis.cross(&geom.forms.n);
         let kappa = geom.normal_curvature(feed);
         let (r, _) = hamann_depth(params, r_wheel, kappa);
         // Reach along the feed: where the wheel rises REACH_MARGIN above its depth.

@@ -105,7 +105,7 @@ pub struct NextContact {
 /// Unit feed direction and belt axis at a surface point: `t` is `feed`
 /// projected onto the tangent plane, the axis is `n x t`.
 pub fn frame(geom: &LocalGeometry, feed: Vector3<f64>) -> Option<(Vector3<f64>, Vector3<f64>)> {
-    let n = geom.n;
+    let n = geom.forms.n;
     let t = (feed - n * feed.dot(&n)).try_normalize(1e-12)?;
     let b = n.cross(&t).try_normalize(1e-12)?;
     Some((t, b))
@@ -121,17 +121,17 @@ pub fn pose(
 ) -> Option<PathPoint> {
     let (t, b) = frame(geom, feed)?;
     let p = geom.point();
-    let cl = p + geom.n * wheel_radius;
+    let cl = p + geom.forms.n * wheel_radius;
     let arr = |v: Vector3<f64>| [v.x, v.y, v.z];
     Some(PathPoint {
         cc: [p.x, p.y, p.z],
         cl: [cl.x, cl.y, cl.z],
         axis: arr(b),
-        uv: [geom.uv.x, geom.uv.y],
+        uv: [geom.forms.uv.x, geom.forms.uv.y],
         feed: Some(arr(t)),
         wheel_center: Some([cl.x, cl.y, cl.z]),
         wheel_axis: Some(arr(b)),
-        normal: Some(arr(geom.n)),
+        normal: Some(arr(geom.forms.n)),
         gouge: (gouge > BELT_GOUGE_EPS).then_some(gouge),
         ..Default::default()
     })
@@ -150,7 +150,7 @@ impl Diagnostics {
     fn record_feed_curvature(&mut self, geom: &LocalGeometry, t: Vector3<f64>) {
         let kappa = geom.normal_curvature(t);
         if kappa > 0.0 && self.worst_concave.is_none_or(|(k, _, _)| kappa > k) {
-            self.worst_concave = Some((kappa, geom.uv, geom.point()));
+            self.worst_concave = Some((kappa, geom.forms.uv, geom.point()));
         }
     }
 
@@ -193,7 +193,7 @@ pub fn cross_section(
     if b.dot(&hint) < 0.0 {
         b = -b;
     }
-    let n0 = geom.n;
+    let n0 = geom.forms.n;
     let origin = geom.point();
     let step = spec.trace_step();
     let (fwd, hit) = trace(surface, geom, origin, t, b, spec.width, step);
@@ -213,7 +213,7 @@ pub fn cross_section(
     let mut forward = Vec::with_capacity(fwd.len() + 1);
     forward.push(SectionNode {
         sigma: 0.0,
-        uv: geom.uv,
+        uv: geom.forms.uv,
         a: 0.0,
         h: 0.0,
         ta: 1.0,
@@ -246,8 +246,8 @@ fn trace(
 ) -> (Vec<Traced>, bool) {
     let ((u0, u1), (v0, v1)) = surface.domain();
     let mut out = Vec::with_capacity((reach / step) as usize + 2);
-    let mut uv = start.uv;
-    let mut d = start.derivs;
+    let mut uv = start.forms.uv;
+    let mut d = start.forms.derivs;
     let mut tau = dir;
     let mut sigma = 0.0;
     while sigma < reach {

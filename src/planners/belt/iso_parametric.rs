@@ -60,16 +60,16 @@ fn frames(
 ) {
     let feed = move |g: &LocalGeometry| -> Vector3<f64> {
         if feed_u {
-            g.derivs.su
+            g.forms.derivs.su
         } else {
-            g.derivs.sv
+            g.forms.derivs.sv
         }
     };
     let hint = move |g: &LocalGeometry| -> Vector3<f64> {
         if feed_u {
-            g.derivs.sv
+            g.forms.derivs.sv
         } else {
-            g.derivs.su
+            g.forms.derivs.su
         }
     };
     (feed, hint)

@@ -176,7 +176,7 @@ pub fn automatic_section_normal(surface: &NurbsSurface, spec: &BeltSpec) -> Opti
 pub fn rigid_sinking(cells: &[LocalGeometry], normal: Vector3<f64>, width: f64) -> f64 {
     let mut worst: f64 = 0.0;
     for g in cells {
-        let axis = normal - g.n * normal.dot(&g.n);
+        let axis = normal - g.forms.n * normal.dot(&g.forms.n);
         if axis.norm() <= 1e-9 {
             continue;
         }
@@ -233,7 +233,7 @@ pub fn plan_with(
                     "no minimum-curvature direction defined anywhere: section normal along u"
                         .into(),
                 );
-                g.derivs.su.normalize()
+                g.forms.derivs.su.normalize()
             }
         },
     };
@@ -246,7 +246,7 @@ pub fn plan_with(
         cells_v,
         max_segment: spacing,
     };
-    let feed = move |g: &LocalGeometry| -> Vector3<f64> { normal.cross(&g.n) };
+    let feed = move |g: &LocalGeometry| -> Vector3<f64> { normal.cross(&g.forms.n) };
     let hint = move |_: &LocalGeometry| -> Vector3<f64> { normal };
     for &offset in &refinement.added {
         let Some(plane) = Plane::new(Point3::from(normal * offset), normal) else {
@@ -389,7 +389,7 @@ pub fn plan_paths(
     let margin = 1e-6 * extent;
     let (lo, hi) = (lo + margin, hi - margin);
     let start = 0.5 * (lo + hi);
-    let feed = move |g: &LocalGeometry| -> Vector3<f64> { normal.cross(&g.n) };
+    let feed = move |g: &LocalGeometry| -> Vector3<f64> { normal.cross(&g.forms.n) };
     let mut diag = contact::Diagnostics::default();
     let mut sides: Vec<Vec<(f64, Vec<ContactPoint>)>> = Vec::new();
     for (side, sign) in [(0usize, 1.0), (1, -1.0)] {

@@ -234,7 +234,7 @@ pub fn fit_height(
     tool: CutterShape,
 ) -> Option<(FittedHeight, f64)> {
     let ((x0, x1), (y0, y1)) = fit_box(tool);
-    let d = &g.derivs;
+    let d = &g.forms.derivs;
     let j = nalgebra::Matrix2::new(
         d.su.dot(&frame.e1),
         d.sv.dot(&frame.e1),
@@ -248,7 +248,7 @@ pub fn fit_height(
         for b in 0..FIT_GRID {
             let x = x0 + (x1 - x0) * a as f64 / (FIT_GRID - 1) as f64;
             let y = y0 + (y1 - y0) * b as f64 / (FIT_GRID - 1) as f64;
-            let uv = g.uv + ji * Vector2::new(x, y);
+            let uv = g.forms.uv + ji * Vector2::new(x, y);
             let p = extended_point(surface, uv.x, uv.y) - frame.p;
             samples[a * FIT_GRID + b] = (
                 p.dot(&frame.e1) / scale,
@@ -292,9 +292,9 @@ pub fn march_footprint(
     let mut seeds = SeedGrid {
         bx: (x0, x1),
         by: (y0, y1),
-        uv: [g.uv; FIT_GRID * FIT_GRID],
+        uv: [g.forms.uv; FIT_GRID * FIT_GRID],
     };
-    let mut row_seed = g.uv;
+    let mut row_seed = g.forms.uv;
     let mid = (FIT_GRID - 1) / 2;
     for a in (0..FIT_GRID).rev() {
         let x = x0 + (x1 - x0) * a as f64 / (FIT_GRID - 1) as f64;
@@ -517,7 +517,7 @@ impl<'a> Planner<'a> {
             FeedDirection::U => d.su,
             FeedDirection::V => d.sv,
         };
-        let e3 = g.n;
+        let e3 = g.forms.n;
         let e1 = (tangent - e3 * tangent.dot(&e3)).normalize();
         let e2 = e3.cross(&e1);
         Ok((g, Frame { p: d.p, e1, e2, e3 }))
@@ -549,7 +549,7 @@ impl<'a> Planner<'a> {
             None => PartModel::Exact(Box::new(ExactHeight {
                 surface: self.surface,
                 frame,
-                uv: g.uv,
+                uv: g.forms.uv,
                 seeds,
             })),
         }
@@ -650,10 +650,10 @@ impl<'a> Planner<'a> {
             },
         };
         Ok(DrivePoint {
-            uv: [g.uv.x, g.uv.y],
+            uv: [g.forms.uv.x, g.forms.uv.y],
             frame,
             solution,
-            inside: inside && self.near_face(g.uv.x, g.uv.y),
+            inside: inside && self.near_face(g.forms.uv.x, g.forms.uv.y),
         })
     }
 

@@ -8,7 +8,7 @@ use nalgebra::{Matrix2, Vector2, Vector3};
 
 /// The strip-width tensor H = 1/2 (K_b G - D) in parameter coordinates.
 pub fn tensor_h(g: &LocalGeometry, k_b: f64) -> Matrix2<f64> {
-    (g.first * k_b - g.second) * 0.5
+    (g.forms.first * k_b - g.forms.second) * 0.5
 }
 
 /// Lower Cholesky factor inverse of G: L^-1 with G = L L^T.
@@ -39,7 +39,7 @@ pub struct FieldSample {
 /// right eigenvector of G^-1 H (a vector, not the covector G t). `None` where
 /// the two eigenvalues coincide (a degenerate point: every direction is optimal).
 pub fn feed_at(g: &LocalGeometry, k_b: f64) -> Option<FieldSample> {
-    let gi = g.first.try_inverse()?;
+    let gi = g.forms.first.try_inverse()?;
     let m = gi * tensor_h(g, k_b);
     let (a, b, c, d) = (m[(0, 0)], m[(0, 1)], m[(1, 0)], m[(1, 1)]);
     let mean = 0.5 * (a + d);
@@ -67,7 +67,7 @@ pub fn feed_at(g: &LocalGeometry, k_b: f64) -> Option<FieldSample> {
     Some(FieldSample {
         feed_uv: t / len,
         feed,
-        cross: g.n.cross(&feed),
+        cross: g.forms.n.cross(&feed),
         mu_feed: mu,
         mu_cross: mean - disc,
     })
@@ -79,7 +79,7 @@ pub fn feed_at(g: &LocalGeometry, k_b: f64) -> Option<FieldSample> {
 /// (the feed) is at angle atan2(f, e)/2 in that frame; a frame vector y maps
 /// to the parameter-space direction L^-T y.
 pub fn deviator(g: &LocalGeometry) -> Option<(f64, f64, Matrix2<f64>)> {
-    let li = cholesky_inverse(&g.first)?;
+    let li = cholesky_inverse(&g.forms.first)?;
     // K_b only shifts S by a multiple of I, so it does not enter e and f.
     let s = li * tensor_h(g, 0.0) * li.transpose();
     Some((
@@ -139,7 +139,7 @@ mod tests {
             let t3 = g.uv_to_tangent(t_uv).normalize();
             assert!(t3.dot(&best.1).abs() > (0.05f64).to_radians().cos());
             // The trap: a right eigenvector of H G^-1 used as a direction.
-            let m = tensor_h(&g, k_b) * g.first.try_inverse().unwrap();
+            let m = tensor_h(&g, k_b) * g.forms.first.try_inverse().unwrap();
             let (ma, mb, mc, md) = (m[(0, 0)], m[(0, 1)], m[(1, 0)], m[(1, 1)]);
             let mu = 0.5 * (ma + md) + (0.25 * (ma - md).powi(2) + mb * mc).sqrt();
             let wrong = g.uv_to_tangent(Vector2::new(mb, mu - ma)).normalize();

@@ -412,11 +412,11 @@ impl<'a> Extension<'a> {
         let Some(g) = LocalGeometry::at(surface, self.uv.x, self.uv.y) else {
             return Ok(());
         };
-        let Some(t) = (self.dir - g.n * self.dir.dot(&g.n)).try_normalize(1e-12) else {
+        let Some(t) = (self.dir - g.forms.n * self.dir.dot(&g.forms.n)).try_normalize(1e-12) else {
             return Ok(());
         };
         let travel_t = if at_end { t } else { -t };
-        let Some(c) = Contact::from_geometry(g.forms(), travel_t) else {
+        let Some(c) = Contact::from_geometry(g.forms, travel_t) else {
             return Ok(());
         };
         let base = c.path_point(s)?;
@@ -434,7 +434,7 @@ impl<'a> Extension<'a> {
         let pen0 = if s.estimate {
             0.0
         } else {
-            disc_penetration(surface, s, &g, t, o, g.n, travel_t).max(0.0)
+            disc_penetration(surface, s, &g, t, o, g.forms.n, travel_t).max(0.0)
         };
         let duv = g.tangent_to_uv(t);
         for k in 1..=n {
@@ -445,17 +445,17 @@ impl<'a> Extension<'a> {
             // material beside the edge uncut.
             let ext = crate::geometry::inversion::extended_derivs(
                 surface,
-                g.uv.x + duv.x * d,
-                g.uv.y + duv.y * d,
+                g.forms.uv.x + duv.x * d,
+                g.forms.uv.y + duv.y * d,
             );
             let n_ext = ext.su.cross(&ext.sv).try_normalize(1e-300).map(|m| {
-                if m.dot(&g.n) < 0.0 {
+                if m.dot(&g.forms.n) < 0.0 {
                     -m
                 } else {
                     m
                 }
             });
-            let below = (ext.p - (o + t * d)).dot(&g.n);
+            let below = (ext.p - (o + t * d)).dot(&g.forms.n);
             // The continued surface is followed only while it stays near the
             // straight run: next to a pole the parameter step of a tangent
             // (through |S_v| -> 0) is far from linear, and the point it gives
@@ -468,7 +468,7 @@ impl<'a> Extension<'a> {
                         .unwrap_or(travel_t);
                     (ext.p, m, tk)
                 }
-                _ => (o + t * d, g.n, travel_t),
+                _ => (o + t * d, g.forms.n, travel_t),
             };
             let lift = if s.estimate {
                 0.0
@@ -479,13 +479,20 @@ impl<'a> Extension<'a> {
                 // along the edge normal); twice for the disc's new place.
                 let mut lift = 0.0f64;
                 for _ in 0..2 {
-                    let pen =
-                        disc_penetration(surface, s, &g, t, cc + g.n * lift, n_pose, travel_k);
+                    let pen = disc_penetration(
+                        surface,
+                        s,
+                        &g,
+                        t,
+                        cc + g.forms.n * lift,
+                        n_pose,
+                        travel_k,
+                    );
                     lift = (lift + pen - pen0).max(lift);
                 }
                 lift
             };
-            cc += g.n * lift;
+            cc += g.forms.n * lift;
             let (cl, axis) = s.cutter.pose(cc, n_pose, travel_k);
             out.push(PathPoint {
                 cc: cc.into(),
@@ -520,7 +527,7 @@ fn disc_penetration(
     use crate::geometry::inversion::invert_in_frame;
     const RINGS: [(f64, usize); 3] = [(1.0, 36), (0.6, 18), (0.25, 8)];
     let o = g.point();
-    let e2 = g.n.cross(&t);
+    let e2 = g.forms.n.cross(&t);
     let (cl, axis) = s.cutter.pose(cc, n_pose, travel);
     let Some(a1) = (travel - axis * axis.dot(&travel)).try_normalize(1e-12) else {
         return f64::NEG_INFINITY;
@@ -535,7 +542,7 @@ fn disc_penetration(
         let (u, v) = surface.clamp_uv(foot.uv.x, foot.uv.y);
         (surface.point(u, v) - foot.derivs.p).norm() <= reach
     };
-    let mut seed = g.uv;
+    let mut seed = g.forms.uv;
     let mut worst = f64::NEG_INFINITY;
     for (share, count) in RINGS {
         for m in 0..count {
@@ -545,10 +552,10 @@ fn disc_penetration(
             let foot = invert_in_frame(surface, &o, &t, &e2, [rel.dot(&t), rel.dot(&e2)], seed);
             seed = foot.uv;
             if inside(&foot) {
-                worst = worst.max(foot.height - rel.dot(&g.n));
+                worst = worst.max(foot.height - rel.dot(&g.forms.n));
             }
         }
-        seed = g.uv;
+        seed = g.forms.uv;
     }
     worst
 }

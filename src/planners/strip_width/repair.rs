@@ -73,9 +73,14 @@ fn island_passes(
         return Vec::new();
     };
     let c = g.point();
-    let e1 = g.derivs.su.try_normalize(1e-300).unwrap_or(Vector3::x());
-    let e1 = (e1 - g.n * e1.dot(&g.n)).normalize();
-    let e2 = g.n.cross(&e1);
+    let e1 = g
+        .forms
+        .derivs
+        .su
+        .try_normalize(1e-300)
+        .unwrap_or(Vector3::x());
+    let e1 = (e1 - g.forms.n * e1.dot(&g.forms.n)).normalize();
+    let e2 = g.forms.n.cross(&e1);
     let plane: Vec<Vector2<f64>> = island
         .uv
         .iter()
@@ -109,7 +114,7 @@ fn island_passes(
             None => g.dir_min,
         }
     };
-    let cross = g.n.cross(&feed);
+    let cross = g.forms.n.cross(&feed);
     let (mut a0, mut a1, mut b0, mut b1) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for p in &plane {
         let q = e1 * p.x + e2 * p.y;

@@ -539,12 +539,12 @@ fn mean_feed_line(surface: &NurbsSurface, s: &PassSettings) -> Option<Vec<Vector
             let Some(f) = super::field::feed_at(&g, k_b) else {
                 continue;
             };
-            let Some(e1) = g.derivs.su.try_normalize(1e-300) else {
+            let Some(e1) = g.forms.derivs.su.try_normalize(1e-300) else {
                 continue;
             };
-            let e2 = g.n.cross(&e1);
+            let e2 = g.forms.n.cross(&e1);
             let angle = f.feed.dot(&e2).atan2(f.feed.dot(&e1));
-            let w = g.derivs.su.cross(&g.derivs.sv).norm() * (f.mu_feed - f.mu_cross);
+            let w = g.forms.derivs.su.cross(&g.forms.derivs.sv).norm() * (f.mu_feed - f.mu_cross);
             c2 += w * (2.0 * angle).cos();
             s2 += w * (2.0 * angle).sin();
         }
@@ -555,8 +555,8 @@ fn mean_feed_line(surface: &NurbsSurface, s: &PassSettings) -> Option<Vec<Vector
     let angle = 0.5 * s2.atan2(c2);
     let mid = Vector2::new(0.5 * (u0 + u1), 0.5 * (v0 + v1));
     let g = LocalGeometry::at(surface, mid.x, mid.y)?;
-    let e1 = g.derivs.su.try_normalize(1e-300)?;
-    let heading = e1 * angle.cos() + g.n.cross(&e1) * angle.sin();
+    let e1 = g.forms.derivs.su.try_normalize(1e-300)?;
+    let heading = e1 * angle.cos() + g.forms.n.cross(&e1) * angle.sin();
     let step = s.point_step;
     let (lo, hi) = surface.bounding_box();
     let max_steps = ((4.0 * (hi - lo).norm() / step).ceil() as usize).max(2);

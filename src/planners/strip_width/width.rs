@@ -320,7 +320,7 @@ static DISC_ANGLES: LazyLock<[(f64, f64); 32]> = LazyLock::new(|| {
 
 /// Normal curvatures at `g` in the frame of the unit tangent `t` (3-D).
 pub fn curvatures_along(g: &LocalGeometry, t: Vector3<f64>) -> Curvatures {
-    forms_curvatures_along(&g.forms(), t)
+    forms_curvatures_along(&g.forms, t)
 }
 
 /// [`curvatures_along`] from the fundamental forms alone (the same bits).
