@@ -3,7 +3,7 @@
 //! pose leaves, and chord-tolerance sampling of a pass (docs/methods.md,
 //! "Spacing margin and chord tolerance").
 
-use super::width::{cutter_of_job, forms_curvatures_along, gouge_error, Curvatures, WidthError};
+use super::width::{curvatures_along, cutter_of_job, gouge_error, Curvatures, WidthError};
 use crate::error::Result;
 use crate::formats::PathPoint;
 use crate::geometry::differential::TangentFrame;
@@ -129,7 +129,7 @@ impl Contact {
     pub fn from_geometry(g: FundamentalForms, travel: Vector3<f64>) -> Option<Self> {
         let t = (travel - g.n * travel.dot(&g.n)).try_normalize(1e-12)?;
         Some(Self {
-            k: forms_curvatures_along(&g, t),
+            k: curvatures_along(&g, t),
             g,
             travel: t,
             widths: None,

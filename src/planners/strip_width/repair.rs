@@ -127,7 +127,10 @@ fn island_passes(
     // Half a sample spacing around the samples: the island's true extent.
     let pad = 0.5 * island.spacing_mm;
     let (a0, a1, b0, b1) = (a0 - pad, a1 + pad, b0 - pad, b1 + pad);
-    let Ok(w) = s.cutter.strip_width(s.scallop, curvatures_along(&g, feed)) else {
+    let Ok(w) = s
+        .cutter
+        .strip_width(s.scallop, curvatures_along(&g.forms, feed))
+    else {
         return Vec::new();
     };
     // One pass's strip (less a margin) covers an island up to its width;

@@ -319,12 +319,7 @@ static DISC_ANGLES: LazyLock<[(f64, f64); 32]> = LazyLock::new(|| {
 });
 
 /// Normal curvatures at `g` in the frame of the unit tangent `t` (3-D).
-pub fn curvatures_along(g: &LocalGeometry, t: Vector3<f64>) -> Curvatures {
-    forms_curvatures_along(&g.forms, t)
-}
-
-/// [`curvatures_along`] from the fundamental forms alone (the same bits).
-pub fn forms_curvatures_along(g: &FundamentalForms, t: Vector3<f64>) -> Curvatures {
+pub fn curvatures_along(g: &FundamentalForms, t: Vector3<f64>) -> Curvatures {
     let c = g.n.cross(&t);
     let tu = g.tangent_to_uv(t);
     let cu = g.tangent_to_uv(c);
@@ -349,7 +344,7 @@ pub fn max_strip_width(
     let mut best: Option<(f64, Vector3<f64>)> = None;
     let mut err = None;
     for t in [g.dir_min, g.dir_max] {
-        match cutter.strip_width(h, curvatures_along(g, t)) {
+        match cutter.strip_width(h, curvatures_along(&g.forms, t)) {
             Ok(w) => {
                 if best.is_none_or(|(bw, _)| w > bw) {
                     best = Some((w, t));

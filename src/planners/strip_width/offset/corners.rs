@@ -282,7 +282,7 @@ mod tests {
 
     /// Contacts of a pass on the plane sample that runs along +x and turns
     /// by `turn_deg` at x = 50 mm, a contact every 0.5 mm.
-    fn bent_pass(turn_deg: f64) -> (NurbsSurface, Vec<Contact>) {
+    fn bent_pass(turn_deg: f64) -> Vec<Contact> {
         let surface = crate::samples::surfaces::plane();
         let a = turn_deg.to_radians();
         let (leg_in, leg_out) = (Vector3::x(), Vector3::new(a.cos(), a.sin(), 0.0));
@@ -291,12 +291,11 @@ mod tests {
             .map(|k| (corner + leg_in * (0.5 * k as f64), leg_in))
             .chain((1..=40).map(|k| (corner + leg_out * (0.5 * k as f64), leg_out)))
             .collect();
-        let contacts = points
+        points
             .iter()
             .map(|(p, t)| Contact::new(&surface, Vector2::new(p.x / 100.0, p.y / 100.0), *t))
             .collect::<Option<Vec<_>>>()
-            .unwrap();
-        (surface, contacts)
+            .unwrap()
     }
 
     /// One spike per corner, at the corner, out along the outer bisector,
@@ -310,7 +309,7 @@ mod tests {
         let r = s.cutter.radius;
         let mut lengths = Vec::new();
         for turn_deg in [40.0, 60.0, 90.0, 110.0, 150.0, 165.0, 175.0] {
-            let (_, contacts) = bent_pass(turn_deg);
+            let contacts = bent_pass(turn_deg);
             let spikes = corner_spikes(&s, &contacts).unwrap();
             let found: Vec<(usize, Spike)> = spikes
                 .iter()

@@ -307,8 +307,8 @@ pub(super) fn offset_front(
             j += 1;
         }
         let (a, b) = (i.saturating_sub(1), (j + 1).min(n - 1));
-        let run = &kept[a..=b];
-        if let Some(run) = run_front(surface, s, region, (coverage, front_id), front, run)? {
+        let points = &kept[a..=b];
+        if let Some(run) = run_front(surface, s, region, (coverage, front_id), front, points)? {
             runs.push(run);
         }
         i = j + 1;
