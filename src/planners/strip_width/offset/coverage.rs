@@ -119,6 +119,15 @@ impl Coverage {
         (a + (b - a) * segment_parameter(a, b, p) - p).norm() < q.reach
     }
 
+    /// The first strip other than `exclude`'s that covers `p` (as in
+    /// [`Self::covered`]): its unit direction and half-width.
+    pub(super) fn covering(&self, p: Point3<f64>, exclude: usize) -> Option<(Vector3<f64>, f64)> {
+        let list = self.grid.get(&self.key(p))?;
+        let &i = list.iter().find(|&&i| self.covers(i, p, exclude))?;
+        let (a, b, w, _) = self.segments[i];
+        Some(((b - a).try_normalize(1e-300)?, w))
+    }
+
     /// Unit direction of the strip segment nearest to `p` within reach.
     pub(super) fn nearest_direction(&self, p: Point3<f64>) -> Option<Vector3<f64>> {
         let k = self.key(p);
@@ -169,6 +178,45 @@ impl Coverage {
             }
             None => false,
         }
+    }
+
+    /// Whether `p` lies on the seam of two strips other than `exclude`'s:
+    /// between two passes whose strips meet there, its distances to them,
+    /// each over that strip's half-width, summing to at most twice
+    /// [`GAP_SHARE`]. [`Self::covered`] asks for well inside one strip, so
+    /// the line where two neighbouring strips meet counts as uncut to it;
+    /// there both passes cut (the nearer within [`GAP_SHARE`] of its
+    /// half-width), and a front of another family crossing those strips
+    /// must not be offset along each seam.
+    pub(super) fn on_seam(&self, p: Point3<f64>, exclude: usize) -> bool {
+        let Some(list) = self.grid.get(&self.key(p)) else {
+            return false;
+        };
+        let limit = 2.0 * GAP_SHARE;
+        // The two nearest passes, by distance over half-width.
+        let mut near: [(usize, f64); 2] = [(usize::MAX, limit); 2];
+        for &i in list {
+            let (a, b, w, id) = self.segments[i];
+            if id == exclude || w <= 0.0 {
+                continue;
+            }
+            let reach = limit * w;
+            if (0..3).any(|k| p[k] < a[k].min(b[k]) - reach || p[k] > a[k].max(b[k]) + reach) {
+                continue;
+            }
+            let d = (a + (b - a) * segment_parameter(a, b, p) - p).norm() / w;
+            if id == near[0].0 {
+                near[0].1 = near[0].1.min(d);
+            } else if id == near[1].0 {
+                near[1].1 = near[1].1.min(d);
+            } else if d < near[1].1 {
+                near[1] = (id, d);
+            }
+            if near[1].1 < near[0].1 {
+                near.swap(0, 1);
+            }
+        }
+        near[1].0 != usize::MAX && near[0].1 + near[1].1 < limit
     }
 
     /// [`Self::covered`] by any pass, and where that fails, with the
@@ -436,6 +484,49 @@ mod tests {
     use crate::geometry::interpolation::interpolate_height_field;
     use crate::geometry::test_rng::XorShift;
     use crate::tools::lead_cutter::LeadCutter;
+
+    /// Between two strips that meet, every point counts as on their seam
+    /// (though well inside neither near the seam); between strips a gap
+    /// apart, and beyond a lone strip's edge, none does.
+    #[test]
+    fn seams_are_where_two_strips_meet() {
+        let surface = crate::samples::surfaces::plane();
+        let job = crate::samples::job("plane").unwrap();
+        let s = PassSettings::from_job(&job).unwrap();
+        let uv = |x: f64, y: f64| Vector2::new(x / 100.0, y / 100.0);
+        let strip = |y: f64| -> Vec<Contact> {
+            (0..=100)
+                .map(|x| Contact::new(&surface, uv(x as f64, y), Vector3::x()).unwrap())
+                .collect()
+        };
+        let w = strip(50.0)[0].half_width_towards(&s, Vector3::y()).unwrap();
+        let at = |x: f64, y: f64| surface.point(x / 100.0, y / 100.0);
+        for (spacing, meet) in [(2.0 * w, true), (1.9 * w, true), (2.3 * w, false)] {
+            let mut coverage = Coverage::new(&s, FOLD_SHARE);
+            coverage.add(&s, 1, &strip(40.0));
+            coverage.add(&s, 2, &strip(40.0 + spacing));
+            for k in 0..=20 {
+                let y = 40.0 + spacing * k as f64 / 20.0;
+                for x in [13.0, 50.25, 87.0] {
+                    let p = at(x, y);
+                    if coverage.covered(p, usize::MAX) {
+                        continue;
+                    }
+                    assert_eq!(
+                        coverage.on_seam(p, usize::MAX),
+                        meet,
+                        "spacing {spacing:.3} (w {w:.3}), y {y:.3}"
+                    );
+                    // Excluding either strip leaves one: no seam.
+                    assert!(!coverage.on_seam(p, 1) && !coverage.on_seam(p, 2));
+                }
+            }
+            // Beyond the outer edges there is one strip only.
+            for y in [40.0 - 1.01 * w, 40.0 + spacing + 1.01 * w] {
+                assert!(!coverage.on_seam(at(50.0, y), usize::MAX), "y {y}");
+            }
+        }
+    }
 
     #[test]
     fn floor_i64_is_floor_as_i64() {

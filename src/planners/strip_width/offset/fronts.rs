@@ -71,7 +71,11 @@ pub(super) fn offset_point(
     // next pass? The end is tested first: where it is uncut (the usual
     // case) the walk to the strip edge is not needed.
     let uncut = |(uv, _, clipped): (Vector2<f64>, Vector3<f64>, bool)| {
-        !clipped && region.contains(uv) && !coverage.covered(surface.point(uv.x, uv.y), front_id)
+        if clipped || !region.contains(uv) {
+            return false;
+        }
+        let p = surface.point(uv.x, uv.y);
+        !coverage.covered(p, front_id) && !coverage.on_seam(p, front_id)
     };
     let needed = uncut(end) || uncut(walk(w_here * 0.98)?);
     // A point stopped by the boundary is a pass point only where the pass
@@ -197,21 +201,47 @@ pub(super) fn smooth_indices(
     }
 }
 
+/// How far a pass end runs through an earlier strip it enters heading
+/// `dir`: the strip of `along`, half-width `w`. A pass of about that
+/// half-width meeting the strip at an angle a covers up to it on both sides
+/// once its centre has run w cot(a) in: nothing where it meets the strip
+/// square (the two strips only meet), never more than a cutter radius
+/// (along the strip, the strip's own cut reaches further than that).
+pub(super) fn through_cut_budget(
+    s: &PassSettings,
+    dir: Vector3<f64>,
+    along: Vector3<f64>,
+    w: f64,
+) -> f64 {
+    let sin = dir.cross(&along).norm();
+    let cos = dir.dot(&along).abs();
+    if w * cos >= s.cutter.radius * sin {
+        s.cutter.radius
+    } else {
+        w * cos / sin
+    }
+}
+
+/// For a point of a pass end heading along a direction: how far the end
+/// may run on through the machined material the point lies in, or `None`
+/// where it is uncut.
+pub(super) type CutBudget<'a> = dyn Fn(Point3<f64>, Vector3<f64>) -> Option<f64> + 'a;
+
 /// Extends a pass polyline at both ends along its own direction on the
 /// surface, to the domain boundary or until it has run the cutter radius
 /// beyond the region, so that the strip covers the region up to its
-/// boundary even where the pass meets it obliquely. Where `cut` says a
-/// point lies well inside an earlier strip, the end is machined material,
-/// not a boundary: the extension stops once it has run a cutter radius
-/// through it (enough for the strip's far side where the pass meets the
-/// earlier strips at 30 deg and more). Returns the number of points added
-/// at the head and the tail.
+/// boundary even where the pass meets it obliquely. Where `cut` gives a
+/// budget for a point (it lies in an earlier strip, heading along the
+/// given direction), the end is machined material, not a boundary: the
+/// extension stops once it has run that far through it (see
+/// [`through_cut_budget`]). Returns the number of points added at the head
+/// and the tail.
 pub(super) fn extend_ends(
     surface: &NurbsSurface,
     s: &PassSettings,
     region: &Region,
     uv: &mut Vec<Vector2<f64>>,
-    cut: Option<&dyn Fn(Point3<f64>) -> bool>,
+    cut: Option<&CutBudget<'_>>,
 ) -> (usize, usize) {
     let mut counts = [0usize; 2];
     for (end, count) in counts.iter_mut().enumerate() {
@@ -239,6 +269,7 @@ pub(super) fn extend_ends(
         // further: a short run's direction is not to be trusted far.
         let mut budget = 4.0 * s.cutter.radius;
         let mut through_cut = 0.0;
+        let mut cut_budget = s.cutter.radius;
         for _ in 0..10_000 {
             if budget <= 0.0 {
                 break;
@@ -249,8 +280,12 @@ pub(super) fn extend_ends(
             } else if outside >= s.cutter.radius {
                 break;
             }
-            if cut.is_some_and(|cut| cut(surface.point(at.x, at.y))) {
-                if through_cut >= s.cutter.radius {
+            let p = surface.point(at.x, at.y);
+            if let Some(budget) = cut.and_then(|cut| cut(p, dir)) {
+                if through_cut == 0.0 {
+                    cut_budget = budget;
+                }
+                if through_cut >= cut_budget {
                     break;
                 }
                 through_cut += step;
@@ -293,7 +328,8 @@ pub(super) fn offset_front(
     front: &[FrontPoint],
 ) -> Result<Vec<Vec<FrontPoint>>> {
     let pts = offset_points(surface, s, region, coverage, front_id, front)?;
-    let kept = drop_clipped(without_swallowtails(surface, s, pts));
+    let mut kept = drop_clipped(without_swallowtails(surface, s, pts));
+    bridge_short_gaps(surface, s, &mut kept);
     let n = kept.len();
     let mut runs = Vec::new();
     let mut i = 0;
@@ -318,6 +354,40 @@ pub(super) fn offset_front(
 
 /// An offset point and the travel of the front point it comes from.
 type Carried = (Offset, Vector3<f64>);
+
+/// Marks needed the points of a gap between two needed runs where the gap
+/// spans less than [`MIN_RUN_SPAN`] cutter radii: a front whose corner
+/// point alone lands on cut material stays one pass through its corner.
+/// Split there, both runs would be extended past the corner into material
+/// the other is to cut (4 R each way), and the two ends cross.
+fn bridge_short_gaps(surface: &NurbsSurface, s: &PassSettings, kept: &mut [Carried]) {
+    let n = kept.len();
+    let xyz: Vec<Point3<f64>> = kept
+        .iter()
+        .map(|(o, _)| surface.point(o.uv.x, o.uv.y))
+        .collect();
+    let mut i = 0;
+    while i < n {
+        if kept[i].0.needed {
+            i += 1;
+            continue;
+        }
+        let mut j = i;
+        while j < n && !kept[j].0.needed {
+            j += 1;
+        }
+        // Gap i..j (exclusive), bounded by needed points at i - 1 and j.
+        if i > 0 && j < n {
+            let span: f64 = (i - 1..j).map(|k| (xyz[k + 1] - xyz[k]).norm()).sum();
+            if span < MIN_RUN_SPAN * s.cutter.radius {
+                for c in &mut kept[i..j] {
+                    c.0.needed = true;
+                }
+            }
+        }
+        i = j;
+    }
+}
 
 /// Offsets of the front points, with midpoints inserted where the new pass
 /// would be too sparse or deviate from its chords.
@@ -448,7 +518,12 @@ fn run_front(
     );
     // A run that ends inside the region ends at machined material (its
     // next offset points are not needed): its extension stops in there.
-    let cut = |p: Point3<f64>| coverage.covered(p, front_id);
+    let cut = |p: Point3<f64>, dir: Vector3<f64>| -> Option<f64> {
+        if let Some((along, w)) = coverage.covering(p, front_id) {
+            return Some(through_cut_budget(s, dir, along, w));
+        }
+        coverage.on_seam(p, front_id).then_some(s.cutter.radius)
+    };
     let (head, tail) = extend_ends(surface, s, region, &mut uv, Some(&cut));
     let (first, last) = (&run[0], &run[run.len() - 1]);
     for _ in 0..head {
@@ -837,14 +912,14 @@ mod tests {
                 .collect();
             coverage.add(&s, id, &contacts);
         }
-        let cut = |p: Point3<f64>| coverage.covered(p, usize::MAX);
+        let cut = |p: Point3<f64>, _: Vector3<f64>| coverage.covered(p, usize::MAX).then_some(r);
         for x in [20.0, 47.3, 80.0] {
             // A pass heading down (-y) that ends 3 mm above the strips, its
             // points 1 mm apart (the head is at the top).
             let line: Vec<Vector2<f64>> = (0..=20).map(|k| uv(x, 73.0 - k as f64)).collect();
             let tail_of = |with_cut: bool| {
                 let mut l = line.clone();
-                let stop: Option<&dyn Fn(Point3<f64>) -> bool> = with_cut.then_some(&cut);
+                let stop: Option<&CutBudget<'_>> = with_cut.then_some(&cut);
                 let (_, tail) = extend_ends(&surface, &s, &region, &mut l, stop);
                 let pts: Vec<Point3<f64>> = l[l.len() - tail - 1..]
                     .iter()
@@ -863,7 +938,7 @@ mod tests {
             let stopped = tail_of(true);
             let first_cut = stopped
                 .iter()
-                .position(|p| cut(*p))
+                .position(|p| cut(*p, Vector3::zeros()).is_some())
                 .expect("the extension reaches the earlier strips");
             let inside = length(&stopped[first_cut..]);
             assert!(
@@ -871,6 +946,79 @@ mod tests {
                 "x {x}: ran {inside} mm through the earlier strips (R {r})"
             );
             assert!(length(&stopped) < length(&free), "x {x}");
+        }
+    }
+
+    /// The budget through an earlier strip follows the angle the pass meets
+    /// it at: w cot(a), none where it meets the strip square, at most R.
+    #[test]
+    fn through_cut_budget_follows_the_meeting_angle() {
+        let job = crate::samples::job("plane").unwrap();
+        let s = PassSettings::from_job(&job).unwrap();
+        let r = s.cutter.radius;
+        let w = 1.5;
+        let along = Vector3::x();
+        for deg in [90.0f64, 75.0, 60.0, 45.0, 30.0, 20.0, 5.0, 0.0] {
+            let a = deg.to_radians();
+            let dir = Vector3::new(a.cos(), -a.sin(), 0.0);
+            let budget = through_cut_budget(&s, dir, along, w);
+            // Independently: the strip's far corner trails its centre by
+            // w / tan(a) along the pass.
+            let want = if deg == 0.0 { r } else { (w / a.tan()).min(r) };
+            assert!(
+                (budget - want).abs() < 1e-9,
+                "{deg} deg: {budget} mm, want {want}"
+            );
+            // Heading the other way along the strip changes nothing.
+            assert!((through_cut_budget(&s, -dir, along, w) - budget).abs() < 1e-12);
+        }
+    }
+
+    /// A front whose corner point alone lands on cut material stays one
+    /// run: gaps of not-needed points shorter than MIN_RUN_SPAN radii
+    /// between needed points are bridged; longer gaps, and the not-needed
+    /// points before the first and after the last needed one, are kept.
+    #[test]
+    fn short_gaps_between_needed_points_are_bridged() {
+        let surface = crate::samples::surfaces::plane();
+        let job = crate::samples::job("plane").unwrap();
+        let s = PassSettings::from_job(&job).unwrap();
+        let span = MIN_RUN_SPAN * s.cutter.radius;
+        // Points 0.5 mm apart along x at y = 50 (the plane is 100 mm square).
+        let carried = |needed: &[bool]| -> Vec<Carried> {
+            needed
+                .iter()
+                .enumerate()
+                .map(|(k, &n)| {
+                    let o = Offset {
+                        uv: Vector2::new((10.0 + 0.5 * k as f64) / 100.0, 0.5),
+                        away: Vector3::y(),
+                        needed: n,
+                        clipped: false,
+                        at_edge: false,
+                        dist: 3.0,
+                    };
+                    (o, Vector3::x())
+                })
+                .collect()
+        };
+        // A gap of g not-needed points spans (g + 1) * 0.5 mm between the
+        // needed points on its sides.
+        for g in 1..40usize {
+            let mut pattern = vec![false; 3];
+            pattern.extend([true; 5]);
+            pattern.extend(vec![false; g]);
+            pattern.extend([true; 5]);
+            pattern.extend([false; 3]);
+            let mut kept = carried(&pattern);
+            bridge_short_gaps(&surface, &s, &mut kept);
+            let got: Vec<bool> = kept.iter().map(|(o, _)| o.needed).collect();
+            let bridged = (g as f64 + 1.0) * 0.5 < span;
+            let mut want = pattern.clone();
+            if bridged {
+                want[8..8 + g].iter_mut().for_each(|n| *n = true);
+            }
+            assert_eq!(got, want, "gap of {g} points, bridged {bridged}");
         }
     }
 }
