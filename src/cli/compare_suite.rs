@@ -6,7 +6,7 @@
 use crate::error::Result;
 use crate::formats::{Job, PlanResult};
 use crate::pipeline::{self, RunOptions};
-use crate::planners::strip_width::lower_bound;
+use crate::planners::strip_width::{crossings, lower_bound};
 use crate::planners::NoProgress;
 use crate::samples;
 use std::time::Instant;
@@ -73,16 +73,31 @@ struct Checks {
     worst_scallop: f64,
     gouge: f64,
     uncovered: f64,
+    /// Pairs of the planner's passes (repair passes left out) that cross
+    /// each other, per strategy, as printed.
+    crossings: Vec<String>,
+    crossing_total: usize,
+}
+
+/// Pairs of a plan's own passes that cross each other: repair passes
+/// (appended last) cross the passes they repair by design.
+fn plan_crossings(job: &Job, r: &PlanResult) -> Option<usize> {
+    let repair = r.stats.extra.get("repair_passes").copied().unwrap_or(0.0) as usize;
+    let own = &r.passes[..r.passes.len().saturating_sub(repair)];
+    Some(crossings::crossing_pairs(own, job.surface().ok()?.domain()))
 }
 
 /// Reads the simulator's figures off a row's plans; plans above `h` are
 /// named in `over_h`, failed ones reported on stderr.
-fn checks(name: &str, row: &Row, h: f64, over_h: &mut Vec<String>) -> Checks {
+fn checks(name: &str, job: &Job, row: &Row, over_h: &mut Vec<String>) -> Checks {
+    let h = job.scallop.unwrap_or(f64::NAN);
     let mut c = Checks {
         scallops: Vec::new(),
         worst_scallop: 0.0,
         gouge: 0.0,
         uncovered: 0.0,
+        crossings: Vec::new(),
+        crossing_total: 0,
     };
     for (k, r) in row.results.iter().enumerate() {
         let strategy = super::compare_milling::STRATEGIES[k].name();
@@ -97,9 +112,13 @@ fn checks(name: &str, row: &Row, h: f64, over_h: &mut Vec<String>) -> Checks {
                 c.gouge = c.gouge.max(r.stats.max_gouge_mm.unwrap_or(0.0));
                 let uncovered = r.stats.extra.get("uncovered_area_mm2");
                 c.uncovered = c.uncovered.max(uncovered.copied().unwrap_or(0.0));
+                let n = plan_crossings(job, r);
+                c.crossing_total += n.unwrap_or(0);
+                c.crossings.push(n.map_or("-".into(), |n| n.to_string()));
             }
             Err(e) => {
                 c.scallops.push("error".into());
+                c.crossings.push("error".into());
                 eprintln!("{name} {strategy}: {e}");
             }
         }
@@ -109,9 +128,9 @@ fn checks(name: &str, row: &Row, h: f64, over_h: &mut Vec<String>) -> Checks {
 
 pub fn run(only: Option<&str>) -> Result<()> {
     println!(
-        "| surface | umbilics | lower bound mm | iso_parametric mm | iso_scallop mm | tensor_regions mm | tensor / shorter | shorter / bound | shorter / bound at 0.9 h | tensor / bound | max scallop mm (ip, is, tr) | max gouge mm | uncovered mm2 | regions | plan | repair mm | s |"
+        "| surface | umbilics | lower bound mm | iso_parametric mm | iso_scallop mm | tensor_regions mm | tensor / shorter | shorter / bound | shorter / bound at 0.9 h | tensor / bound | max scallop mm (ip, is, tr) | max gouge mm | uncovered mm2 | crossing pairs (ip, is, tr) | regions | plan | repair mm | s |"
     );
-    println!("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | --- | ---: | ---: |");
+    println!("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | --- | ---: | --- | ---: | ---: |");
     let mut to_shorter = Vec::new();
     let mut to_bound = Vec::new();
     let mut room = (0usize, 0usize);
@@ -121,6 +140,7 @@ pub fn run(only: Option<&str>) -> Result<()> {
     let mut worst_scallop: f64 = 0.0;
     let mut worst_gouge: f64 = 0.0;
     let mut over_h = Vec::new();
+    let (mut crossing_pairs, mut plans) = (0usize, 0usize);
     for (name, job) in jobs()? {
         if only.is_some_and(|o| !name.contains(o)) {
             continue;
@@ -165,17 +185,20 @@ pub fn run(only: Option<&str>) -> Result<()> {
         if let Some(x) = r_bound {
             to_bound.push(x);
         }
-        let h = job.scallop.unwrap_or(f64::NAN);
         let Checks {
             scallops,
             worst_scallop: row_scallop,
             gouge,
             uncovered,
-        } = checks(&name, &row, h, &mut over_h);
+            crossings,
+            crossing_total,
+        } = checks(&name, &job, &row, &mut over_h);
+        crossing_pairs += crossing_total;
+        plans += row.results.iter().flatten().count();
         worst_scallop = worst_scallop.max(row_scallop);
         worst_gouge = worst_gouge.max(gouge);
         println!(
-            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {gouge:.4} | {uncovered:.2} | {} | {} | {} | {:.1} |",
+            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {gouge:.4} | {uncovered:.2} | {} | {} | {} | {} | {:.1} |",
             tr.and_then(|r| r.degenerate_points.as_ref())
                 .map_or("-".into(), |d| d.len().to_string()),
             fmt(bound, 0),
@@ -187,6 +210,7 @@ pub fn run(only: Option<&str>) -> Result<()> {
             fmt(s_spacing, 3),
             fmt(r_bound, 3),
             scallops.join(", "),
+            crossings.join(", "),
             tr.and_then(|r| r.regions.as_ref())
                 .map_or("-".into(), |x| x.len().to_string()),
             tr.and_then(|r| r.plan_choice.as_deref())
@@ -219,6 +243,9 @@ pub fn run(only: Option<&str>) -> Result<()> {
         reachable.0, reachable.1
     );
     println!("max scallop over all plans {worst_scallop:.4} mm, max gouge {worst_gouge:.4} mm");
+    println!(
+        "pairs of passes crossing each other (in uv, off the domain edge, repair passes left out): {crossing_pairs} over {plans} plans"
+    );
     if !over_h.is_empty() {
         println!("above h: {}", over_h.join("; "));
     }

@@ -27,6 +27,7 @@
 //! (`tensor_regions` keeps the shortest of its candidate plans, among them
 //! the baselines' plans built from [`parametric`] and [`offset`]).
 
+pub mod crossings;
 pub mod field;
 pub mod iso_parametric;
 pub mod iso_scallop;
