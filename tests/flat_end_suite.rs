@@ -209,3 +209,68 @@ fn a_missing_pass_comes_back_as_repair_passes() {
         "repair {added} mm for a {removed_len} mm pass"
     );
 }
+
+/// `compare --suite --scallop H` plans the suite for another height: the
+/// plane's lower bound is its area over the strip width at H (the tilted
+/// flat end's ellipse, as above), every plan holds H, and no passes cross.
+/// A height that is no positive number, or the option with a job file, is
+/// refused with a message naming the option.
+#[test]
+fn suite_plans_for_another_scallop_height() {
+    let exe = env!("CARGO_BIN_EXE_toolpath");
+    let run = |args: &[&str]| {
+        std::process::Command::new(exe)
+            .arg("compare")
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let h = 0.08;
+    let out = run(&["--suite", "--only", "plane", "--scallop", "0.08"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    let row: Vec<&str> = text
+        .lines()
+        .find(|l| l.starts_with("| plane |"))
+        .unwrap_or_else(|| panic!("no plane row in\n{text}"))
+        .split('|')
+        .map(str::trim)
+        .collect();
+    let (radius, lead) = (2.5_f64, 5f64.to_radians());
+    let t = 1.0 - h / (radius * lead.sin());
+    let width = 2.0 * radius * (1.0 - t * t).sqrt();
+    let bound: f64 = row[3].parse().unwrap();
+    assert!(
+        (bound - 10_000.0 / width).abs() <= 1.0,
+        "bound {bound} against {}",
+        10_000.0 / width
+    );
+    for (k, s) in row[11].split(", ").enumerate() {
+        let s: f64 = s.parse().unwrap();
+        assert!(s <= h && s > 0.5 * h, "strategy {k}: scallop {s} at h {h}");
+    }
+    assert_eq!(row[14], "0, 0, 0", "{text}");
+    for (args, option) in [
+        (
+            &["--suite", "--only", "plane", "--scallop=-0.05"][..],
+            "--scallop",
+        ),
+        (
+            &["--suite", "--only", "plane", "--scallop", "inf"][..],
+            "--scallop",
+        ),
+        (&["job.json", "--scallop", "0.05"][..], "--scallop"),
+        (&["job.json", "--only", "plane"][..], "--only"),
+    ] {
+        let out = run(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(option),
+            "{args:?}: {err}"
+        );
+    }
+}

@@ -3,7 +3,7 @@
 //! built-in milling samples, each plan verified by the simulator. One
 //! Markdown row per surface, then the median and worst of the ratios.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::formats::{Job, PlanResult};
 use crate::pipeline::{self, RunOptions};
 use crate::planners::strip_width::{crossings, lower_bound};
@@ -126,7 +126,16 @@ fn checks(name: &str, job: &Job, row: &Row, over_h: &mut Vec<String>) -> Checks 
     c
 }
 
-pub fn run(only: Option<&str>) -> Result<()> {
+/// Prints the suite's table; `scallop` (mm) replaces every job's height.
+pub fn run(only: Option<&str>, scallop: Option<f64>) -> Result<()> {
+    if let Some(h) = scallop {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(Error::invalid(
+                "--scallop",
+                format!("must be a positive number of mm, got {h}"),
+            ));
+        }
+    }
     println!(
         "| surface | umbilics | lower bound mm | iso_parametric mm | iso_scallop mm | tensor_regions mm | tensor / shorter | shorter / bound | shorter / bound at 0.9 h | tensor / bound | max scallop mm (ip, is, tr) | max gouge mm | uncovered mm2 | crossing pairs (ip, is, tr) | regions | plan | repair mm | s |"
     );
@@ -141,9 +150,12 @@ pub fn run(only: Option<&str>) -> Result<()> {
     let mut worst_gouge: f64 = 0.0;
     let mut over_h = Vec::new();
     let (mut crossing_pairs, mut plans) = (0usize, 0usize);
-    for (name, job) in jobs()? {
+    for (name, mut job) in jobs()? {
         if only.is_some_and(|o| !name.contains(o)) {
             continue;
+        }
+        if scallop.is_some() {
+            job.scallop = scallop;
         }
         let row = plan_surface(&job);
         let len = |k: usize| row.results[k].as_ref().ok().map(|r| r.stats.path_length_mm);

@@ -145,6 +145,11 @@ pub enum Command {
         /// With --suite: only the surfaces whose name contains this.
         #[arg(long, requires = "suite")]
         only: Option<String>,
+        /// With --suite: plan every surface for this scallop height, mm,
+        /// instead of its job's (0.05); the regularity of the offsetting
+        /// shows across heights (docs/results.md).
+        #[arg(long, requires = "suite")]
+        scallop: Option<f64>,
     },
     /// Run the belt-grinding material-removal simulation on a result.
     Simulate {
@@ -376,9 +381,24 @@ fn dispatch(command: Command, ros: Option<&[String]>) -> Result<(), Error> {
         ),
         Command::Demo { out, no_record } => demo::run(&out, !no_record),
         Command::Verify { job, result, map } => verify::run(&job, &result, map.as_deref()),
-        Command::Compare { job, suite, only } => match job {
+        Command::Compare {
+            job,
+            suite,
+            only,
+            scallop,
+        } => match job {
+            // clap counts the --suite flag's default as present, so its
+            // `requires` lets these through with a job file.
+            Some(_) if !suite && (only.is_some() || scallop.is_some()) => Err(Error::invalid(
+                if only.is_some() {
+                    "--only"
+                } else {
+                    "--scallop"
+                },
+                "goes with --suite, not with a job file",
+            )),
             Some(job) if !suite => compare::run(&job),
-            _ => compare_suite::run(only.as_deref()),
+            _ => compare_suite::run(only.as_deref(), scallop),
         },
         Command::Simulate { job, result, map } => simulate::run(&job, &result, map.as_deref()),
         Command::Node { config } => node::run(config.as_deref(), ros),
