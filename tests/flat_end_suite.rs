@@ -59,13 +59,11 @@ fn check_surface(name: &str, job: &Job, room_target: bool) {
         );
         assert_eq!(uncovered, 0.0, "{name} {}", r.strategy);
         assert_eq!(r.within_scallop, Some(true), "{name} {}", r.strategy);
-        // The planner's own passes (repair passes, appended last, cross
-        // what they repair) do not cross each other.
-        let repair = s.extra.get("repair_passes").copied().unwrap_or(0.0) as usize;
-        let own = &r.passes[..r.passes.len() - repair];
+        // The planner's own passes (repair passes cross what they repair)
+        // do not cross each other.
         let domain = job.surface().unwrap().domain();
         assert_eq!(
-            crossings::crossing_pairs(own, domain),
+            crossings::plan_crossing_pairs(r, domain),
             0,
             "{name} {}: passes cross",
             r.strategy
@@ -125,17 +123,23 @@ fn anisotropic_random_surface_with_room() {
     check_surface(&name, &job, true);
 }
 
+/// The strip width of the plane sample's flat end (R 2.5 mm, lead 5 deg)
+/// at scallop `h`: the tilted end's ellipse has half-axes R across and
+/// R sin(lead) below the contact, so h leaves the half-width
+/// R sqrt(1 - (1 - h / (R sin lead))^2).
+fn plane_strip_width(h: f64) -> f64 {
+    let (radius, lead) = (2.5_f64, 5f64.to_radians());
+    let t = 1.0 - h / (radius * lead.sin());
+    2.0 * radius * (1.0 - t * t).sqrt()
+}
+
 /// The floor of the spacing rule on the plane sample (100 x 100 mm) is its
-/// area over the strip width at 0.9 h, here from the tilted flat end's
-/// ellipse: half-axes R across and R sin(lead) below the contact, so a
-/// scallop h leaves the half-width R sqrt(1 - (1 - h / (R sin lead))^2).
+/// area over the strip width at 0.9 h, from the tilted flat end's ellipse
+/// ([`plane_strip_width`]).
 #[test]
 fn spacing_floor_of_the_plane_is_area_over_the_strip_at_0_9_h() {
     let job = samples::job("plane").unwrap();
-    let (radius, lead) = (2.5_f64, 5f64.to_radians());
-    let h = 0.9 * job.scallop.unwrap();
-    let t = 1.0 - h / (radius * lead.sin());
-    let width = 2.0 * radius * (1.0 - t * t).sqrt();
+    let width = plane_strip_width(0.9 * job.scallop.unwrap());
     let floor = lower_bound::job_spacing_lower_bound(&job).unwrap();
     assert!(
         (floor - 10_000.0 / width).abs() < 1e-3 * floor,
@@ -240,9 +244,7 @@ fn suite_plans_for_another_scallop_height() {
         .split('|')
         .map(str::trim)
         .collect();
-    let (radius, lead) = (2.5_f64, 5f64.to_radians());
-    let t = 1.0 - h / (radius * lead.sin());
-    let width = 2.0 * radius * (1.0 - t * t).sqrt();
+    let width = plane_strip_width(h);
     let bound: f64 = row[3].parse().unwrap();
     assert!(
         (bound - 10_000.0 / width).abs() <= 1.0,

@@ -79,12 +79,13 @@ struct Checks {
     crossing_total: usize,
 }
 
-/// Pairs of a plan's own passes that cross each other: repair passes
-/// (appended last) cross the passes they repair by design.
+/// Pairs of a plan's own passes that cross each other (`None` without a
+/// surface to take the domain from).
 fn plan_crossings(job: &Job, r: &PlanResult) -> Option<usize> {
-    let repair = r.stats.extra.get("repair_passes").copied().unwrap_or(0.0) as usize;
-    let own = &r.passes[..r.passes.len().saturating_sub(repair)];
-    Some(crossings::crossing_pairs(own, job.surface().ok()?.domain()))
+    Some(crossings::plan_crossing_pairs(
+        r,
+        job.surface().ok()?.domain(),
+    ))
 }
 
 /// Reads the simulator's figures off a row's plans; plans above `h` are

@@ -4,7 +4,7 @@
 //! only meet on the domain's edge (the last passes of a side running along
 //! it) are not counted; a pass that crosses itself is not either.
 
-use crate::formats::Pass;
+use crate::formats::{Pass, PlanResult};
 use std::collections::{HashMap, HashSet};
 
 /// Crossings closer than this share of the domain's side to its edge are
@@ -74,6 +74,20 @@ pub fn crossing_pairs(passes: &[Pass], domain: ((f64, f64), (f64, f64))) -> usiz
         }
     }
     pairs.len()
+}
+
+/// [`crossing_pairs`] of a plan's own passes: the repair passes the
+/// pipeline appends (`repair_passes` in its stats) cross what they repair
+/// by design and are left out.
+pub fn plan_crossing_pairs(result: &PlanResult, domain: ((f64, f64), (f64, f64))) -> usize {
+    let repair = result
+        .stats
+        .extra
+        .get("repair_passes")
+        .copied()
+        .unwrap_or(0.0) as usize;
+    let own = &result.passes[..result.passes.len().saturating_sub(repair)];
+    crossing_pairs(own, domain)
 }
 
 /// The point where segments ab and cd cross (not collinear), each taken

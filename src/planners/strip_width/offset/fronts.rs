@@ -280,10 +280,10 @@ pub(super) fn extend_ends(
             } else if outside >= s.cutter.radius {
                 break;
             }
-            let p = surface.point(at.x, at.y);
-            if let Some(budget) = cut.and_then(|cut| cut(p, dir)) {
+            // Only offset runs pass `cut`: the point is evaluated for them alone.
+            if let Some(allowed) = cut.and_then(|cut| cut(surface.point(at.x, at.y), dir)) {
                 if through_cut == 0.0 {
-                    cut_budget = budget;
+                    cut_budget = allowed;
                 }
                 if through_cut >= cut_budget {
                     break;
