@@ -7,13 +7,18 @@ use std::process::{Child, Command, Stdio};
 
 /// A fresh ROS domain in 1..=230 for one node test: random per run and
 /// process, so concurrent runs in other checkouts stay apart; `salt` keeps
-/// two nodes of one test binary apart. (Not every test binary uses it.)
+/// the nodes of one test binary apart (the random base is drawn once per
+/// process, so two salts never share a domain). (Not every test binary uses it.)
 #[allow(dead_code)]
 pub fn fresh_domain(salt: u32) -> u16 {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
-    (1 + (nanos ^ std::process::id().wrapping_mul(7919)).wrapping_add(salt) % 230) as u16
+    static BASE: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
+    let base = *BASE.get_or_init(|| {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos());
+        nanos ^ std::process::id().wrapping_mul(7919)
+    });
+    (1 + base.wrapping_add(salt) % 230) as u16
 }
 
 pub struct NodeProcess {

@@ -860,7 +860,10 @@ impl Node {
   /// because without a Spinner no events would ever be delivered.
   pub fn status_receiver(&self) -> Option<Receiver<NodeEvent>> {
     if self.have_spinner() {
-      let (status_event_sender, status_event_receiver) = async_channel::bounded(8);
+      // toolpath_planner patch: 8 -> 64. A full channel drops events; the wait
+      // futures below re-check their match map on every event, so a dropped
+      // match is still found, but a deeper queue drops fewer in a discovery burst.
+      let (status_event_sender, status_event_receiver) = async_channel::bounded(64);
       self
         .status_event_senders
         .lock()
@@ -1569,17 +1572,14 @@ impl Future for ReaderWait<'_> {
       } => {
         debug!("wait_for_reader: Waiting for a reader.");
         loop {
+          // toolpath_planner patch: re-check the match map on *every* event,
+          // not only on a declared Subscription. The spinner updates the map
+          // before it sends the event, and a full channel drops events: when a
+          // discovery burst fills the channel with other events, the one for
+          // this writer is dropped, and waiting for it again hung forever.
+          // Any event read after the drop sees the updated map.
           match status_event_stream.poll_next_unpin(cx) {
-            // A GraphEvent carries only the *remote* entity (see `crate::graph`
-            // docs), not which local writer it matched, so we cannot filter by
-            // identity here as the old `NodeEvent::DDS` match did. Instead,
-            // treat any newly-declared Subscription as a cue to re-check the
-            // (unchanged) `writers_to_remote_readers` map, which the Spinner
-            // updates from the raw DDS event before it is mapped to a
-            // GraphEvent.
-            Poll::Ready(Some(NodeEvent::Graph(GraphEvent::EntityDeclared(entity))))
-              if entity.kind == EntityKind::Subscription =>
-            {
+            Poll::Ready(Some(_)) => {
               if writers_to_remote_readers
                 .lock()
                 .unwrap()
@@ -1593,10 +1593,10 @@ impl Future for ReaderWait<'_> {
               // Not (yet) for this_writer; keep polling.
             }
 
-            Poll::Ready(_) => {
-              // Received something else, such as other event or error
-              debug!("wait_for_reader: other event. Continue polling.");
-              // So we do nothing but go to the next iteration.
+            Poll::Ready(None) => {
+              // The spinner is gone: nothing will ever match.
+              warn!("wait_for_reader: the spinner stopped; giving up.");
+              return Poll::Ready(());
             }
 
             Poll::Pending => return Poll::Pending,
@@ -1644,17 +1644,9 @@ impl Future for WriterWait<'_> {
           // We loop to pump events out of the stream until we get the desired
           // event or "Pending". If we stop at the first event, then
           // there is no waker installed and we are stuck.
+          // toolpath_planner patch: re-check on every event (see ReaderWait).
           match status_event_stream.poll_next_unpin(cx) {
-            // A GraphEvent carries only the *remote* entity (see `crate::graph`
-            // docs), not which local reader it matched, so we cannot filter by
-            // identity here as the old `NodeEvent::DDS` match did. Instead,
-            // treat any newly-declared Publisher as a cue to re-check the
-            // (unchanged) `readers_to_remote_writers` map, which the Spinner
-            // updates from the raw DDS event before it is mapped to a
-            // GraphEvent.
-            Poll::Ready(Some(NodeEvent::Graph(GraphEvent::EntityDeclared(entity))))
-              if entity.kind == EntityKind::Publisher =>
-            {
+            Poll::Ready(Some(_)) => {
               if readers_to_remote_writers
                 .lock()
                 .unwrap()
@@ -1668,10 +1660,9 @@ impl Future for WriterWait<'_> {
               // Not (yet) for this_reader; keep polling.
             }
 
-            Poll::Ready(_) => {
-              // Received something else, such as other event or error
-              trace!("=== other writer. Continue polling.");
-              // No return, go to next iteration.
+            Poll::Ready(None) => {
+              warn!("wait_for_writer: the spinner stopped; giving up.");
+              return Poll::Ready(());
             }
 
             Poll::Pending => return Poll::Pending,
