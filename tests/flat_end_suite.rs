@@ -171,6 +171,27 @@ fn offset_passes_of_anisotropic_surfaces_do_not_cross() {
     }
 }
 
+/// Suite seed 2 at h = 0.055: the fronts from the v = v0 edge turn up the
+/// u = u1 edge into L-shaped passes whose concave corner runs along its
+/// bisector to the top edge (a shock). Before the offsets' loops were cut
+/// out (docs/methods.md, "Iso-scallop offsetting", "Clean fronts") the
+/// corner turned back on itself, grew, and collapsed into 21 pairs of
+/// crossing passes there. One pair is left: the last pass along the u = u1
+/// edge meets the corner of an L pass 0.016 of the side from that edge.
+#[test]
+fn the_concave_corner_of_a_front_stays_one_corner() {
+    let (name, mut job) = suite_job(2);
+    job.scallop = Some(0.055);
+    job.strategy = Strategy::IsoScallop;
+    let domain = job.surface().unwrap().domain();
+    let plan = planners::plan(&job, &NoProgress).unwrap();
+    let pairs = crossings::crossing_pairs(&plan.passes, domain);
+    assert!(
+        pairs <= 1,
+        "{name} at h = 0.055: {pairs} pairs of passes cross"
+    );
+}
+
 #[test]
 fn monkey_saddle_sample() {
     check_surface(

@@ -22,6 +22,7 @@ pub(super) struct FrontPoint {
 }
 
 /// One offset point: where the next pass goes from `fp`, and whether it is needed.
+#[derive(Clone, Copy, Debug)]
 pub(super) struct Offset {
     pub(super) uv: Vector2<f64>,
     pub(super) away: Vector3<f64>,
@@ -328,6 +329,7 @@ pub(super) fn offset_front(
     front: &[FrontPoint],
 ) -> Result<Vec<Vec<FrontPoint>>> {
     let pts = offset_points(surface, s, region, coverage, front_id, front)?;
+    let pts = without_loops(surface, s, pts);
     let mut kept = drop_clipped(without_swallowtails(surface, s, pts));
     bridge_short_gaps(surface, s, &mut kept);
     let n = kept.len();
@@ -422,6 +424,82 @@ fn offset_points(
         pts.push((o, fp.c.travel));
     }
     Ok(pts)
+}
+
+/// Longest loop of an offset front, in cutter radii, that [`without_loops`]
+/// cuts out.
+const MAX_LOOP_SPAN: f64 = 8.0;
+
+/// Cuts the loops out of the offset points: where the offsets of two legs
+/// of a concave front corner cross, the points between the crossing
+/// segments lie inside the strip of the other leg (a swallowtail), and the
+/// new front is the polyline through the crossing point, a sharp corner.
+/// Loops up to [`MAX_LOOP_SPAN`] radii of polyline (the swallowtail of one
+/// corner); the advance test of [`without_swallowtails`] misses a loop whose
+/// points still advance along the travel smoothed over 0.4 R, and the
+/// corner it leaves turns back on itself.
+fn without_loops(surface: &NurbsSurface, s: &PassSettings, mut pts: Vec<Carried>) -> Vec<Carried> {
+    let max_span = MAX_LOOP_SPAN * s.cutter.radius;
+    let mut xyz: Vec<Point3<f64>> = pts
+        .iter()
+        .map(|(o, _)| surface.point(o.uv.x, o.uv.y))
+        .collect();
+    let mut i = 0;
+    while i + 3 < pts.len() {
+        let (a, b) = (pts[i].0.uv, pts[i + 1].0.uv);
+        let mut span = (xyz[i + 1] - xyz[i]).norm();
+        let mut cut = None;
+        for j in i + 2..pts.len() - 1 {
+            span += (xyz[j] - xyz[j - 1]).norm();
+            if span > max_span {
+                break;
+            }
+            if let Some(t) = segments_cross(a, b, pts[j].0.uv, pts[j + 1].0.uv) {
+                cut = Some((j, t));
+                break;
+            }
+        }
+        let Some((j, t)) = cut else {
+            i += 1;
+            continue;
+        };
+        // The loop's points i + 1 ..= j go; the crossing point takes their
+        // place, needed where any of them was.
+        let needed = pts[i..=j].iter().any(|(o, _)| o.needed);
+        let (o, travel) = pts[i];
+        let uv = a + (b - a) * t;
+        let corner = Offset {
+            uv,
+            away: pts[j + 1].0.away + o.away,
+            needed,
+            clipped: false,
+            at_edge: false,
+            dist: o.dist + (pts[i + 1].0.dist - o.dist) * t,
+        };
+        pts.splice(i + 1..=j, [(corner, travel)]);
+        xyz.splice(i + 1..=j, [surface.point(uv.x, uv.y)]);
+        i += 1;
+    }
+    pts
+}
+
+/// Parameter along ab where segments ab and cd cross (`None` when they do
+/// not, or are parallel).
+fn segments_cross(
+    a: Vector2<f64>,
+    b: Vector2<f64>,
+    c: Vector2<f64>,
+    d: Vector2<f64>,
+) -> Option<f64> {
+    let (r, q) = (b - a, d - c);
+    let den = r.perp(&q);
+    if den.abs() <= 1e-15 * r.norm() * q.norm() || den == 0.0 {
+        return None;
+    }
+    let e = c - a;
+    let t = e.perp(&q) / den;
+    let u = e.perp(&r) / den;
+    ((0.0..1.0).contains(&t) && (0.0..1.0).contains(&u)).then_some(t)
 }
 
 /// Removes swallowtails: a point that does not advance along the travel.
@@ -896,6 +974,77 @@ mod tests {
     /// runs a cutter radius through the earlier strips and stops, where
     /// without them it runs its whole 4 R (the passes that crossed the
     /// strips of a finished front by 10 mm on suite seed 2 at h = 0.055).
+    /// The raw offsets of a concave L corner on the plane (legs along +x at
+    /// y = 0 and along +y at x = 50 mm, covered side inside the L, offset
+    /// 3 mm): the horizontal leg's offsets run past the corner to x = 50,
+    /// the vertical leg's start below y = 3. The front left is the offset L
+    /// itself, through its exact corner (47, 3) mm, with no crossing; the
+    /// advance test alone leaves the jog to x = 49.7 and back (the corner
+    /// that turned back on itself on suite seed 2 at h = 0.055).
+    #[test]
+    fn a_concave_corner_offsets_to_one_sharp_corner() {
+        let surface = crate::samples::surfaces::plane();
+        let job = crate::samples::job("plane").unwrap();
+        let s = PassSettings::from_job(&job).unwrap();
+        let carried = |x: f64, y: f64, travel: Vector3<f64>, needed: bool| -> Carried {
+            let o = Offset {
+                uv: Vector2::new(x / 100.0, y / 100.0),
+                away: Vector3::new(-travel.y, travel.x, 0.0),
+                needed,
+                clipped: false,
+                at_edge: false,
+                dist: 3.0,
+            };
+            (o, travel)
+        };
+        let mut pts: Vec<Carried> = (0..=71)
+            .map(|k| carried(0.7 * k as f64, 3.0, Vector3::x(), false))
+            .collect();
+        // Only points inside the other leg's reach are needed: the corner
+        // takes over their need.
+        pts.extend((0..=70).map(|k| carried(47.0, 0.3 + 0.7 * k as f64, Vector3::y(), k < 3)));
+        let mm = |o: &Offset| (100.0 * o.uv.x, 100.0 * o.uv.y);
+        let on_l = |(x, y): (f64, f64)| {
+            ((y - 3.0).abs() < 1e-9 && x <= 47.0 + 1e-9)
+                || ((x - 47.0).abs() < 1e-9 && y >= 3.0 - 1e-9)
+        };
+        let simple = |pts: &[Carried]| {
+            (0..pts.len() - 1).all(|i| {
+                (i + 2..pts.len() - 1).all(|j| {
+                    let uv = |k: usize| pts[k].0.uv;
+                    segments_cross(uv(i), uv(i + 1), uv(j), uv(j + 1)).is_none()
+                })
+            })
+        };
+        let plain = without_swallowtails(&surface, &s, pts.clone());
+        assert!(
+            plain.iter().any(|(o, _)| !on_l(mm(o))),
+            "the advance test alone left no jog"
+        );
+
+        let cut = without_loops(&surface, &s, pts);
+        assert!(simple(&cut), "the front still crosses itself");
+        for (o, _) in &cut {
+            assert!(on_l(mm(o)), "{:?} is off the offset L", mm(o));
+        }
+        let corner = cut
+            .iter()
+            .find(|(o, _)| {
+                let (x, y) = mm(o);
+                (x - 47.0).hypot(y - 3.0) < 1e-9
+            })
+            .expect("no point at the corner (47, 3)");
+        assert!(
+            corner.0.needed,
+            "the corner lost the need of the loop's points"
+        );
+        // What the loop removal leaves, the advance test keeps.
+        assert_eq!(
+            without_swallowtails(&surface, &s, cut.clone()).len(),
+            cut.len()
+        );
+    }
+
     #[test]
     fn extension_stops_a_cutter_radius_inside_machined_material() {
         let surface = crate::samples::surfaces::plane();
