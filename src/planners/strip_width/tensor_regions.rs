@@ -5,7 +5,7 @@
 //! each region an initial pass through its widest-strip point along the
 //! optimal feed, then iso-scallop passes offset to both sides.
 
-use super::offset::{boundary_start, cover, cover_from_edge};
+use super::offset::{boundary_start, cover, cover_from_edge, MIN_RUN_SPAN};
 use super::parametric::plan_passes;
 use super::passes::PassSettings;
 use super::regions::degenerate_points::{self, Analysis};
@@ -582,9 +582,31 @@ fn mean_feed_line(surface: &NurbsSurface, s: &PassSettings) -> Option<Vec<Vector
     (line.len() >= 2).then_some(line)
 }
 
-/// The region's widest-strip point (sampled) and the feed field line through
-/// it, traced both ways to the region boundary. For an isotropic field the
-/// u iso-curve through the region's middle.
+/// Share of the widest sampled strip that a seed of the initial field line
+/// must reach (see [`initial_pass`]).
+const SEED_WIDTH_SHARE: f64 = 0.8;
+
+/// Blocks per domain side among which seeds of the initial field line are
+/// spread (the widest sample of each block is a seed).
+const SEED_BLOCKS: usize = 6;
+
+/// Field lines traced at most to pick the initial one.
+const MAX_SEEDS: usize = 12;
+
+/// A seed of the initial field line: strip width (mm), uv, feed direction.
+type Seed = (f64, Vector2<f64>, Vector3<f64>);
+
+/// The feed field line that starts the region's cover, traced both ways to
+/// the region boundary: the line through the widest-strip sample, unless it
+/// is shorter than a fragment (runs under [`MIN_RUN_SPAN`] radii are not
+/// passes); then the line through the next widest seed that is not (the
+/// widest sample of each of [`SEED_BLOCKS`]^2 blocks, within
+/// [`SEED_WIDTH_SHARE`] of the widest, at most [`MAX_SEEDS`]), else the
+/// longest of them. The widest sample often lies at a corner of the region,
+/// where its line leaves the region within a few millimetres: a front that
+/// short is offset into fragments, and the region was left to gap passes
+/// (docs/methods.md, "Candidate plans of tensor_regions"). For an isotropic
+/// field the u iso-curve through the widest sample.
 fn initial_pass(
     surface: &NurbsSurface,
     s: &PassSettings,
@@ -593,7 +615,8 @@ fn initial_pass(
     step: f64,
 ) -> Result<Vec<Vector2<f64>>> {
     let ((u0, u1), (v0, v1)) = surface.domain();
-    let mut best: Option<(f64, Vector2<f64>, Vector3<f64>)> = None;
+    // The widest sample of each block.
+    let mut blocks: Vec<Option<Seed>> = vec![None; SEED_BLOCKS * SEED_BLOCKS];
     for i in 0..WIDEST_GRID {
         for j in 0..WIDEST_GRID {
             let uv = Vector2::new(
@@ -608,8 +631,10 @@ fn initial_pass(
             };
             match max_strip_width(&s.cutter, s.scallop, &g) {
                 Ok((w, t)) => {
-                    if best.is_none_or(|(bw, _, _)| w > bw) {
-                        best = Some((w, uv, t));
+                    let b = &mut blocks[i * SEED_BLOCKS / WIDEST_GRID * SEED_BLOCKS
+                        + j * SEED_BLOCKS / WIDEST_GRID];
+                    if b.is_none_or(|(bw, _, _)| w > bw) {
+                        *b = Some((w, uv, t));
                     }
                 }
                 Err(WidthError::Gouge { depth }) => {
@@ -618,7 +643,10 @@ fn initial_pass(
             }
         }
     }
-    let Some((_, start, feed)) = best else {
+    let mut seeds: Vec<Seed> = blocks.into_iter().flatten().collect();
+    // Widest first; equal widths in block order (the sort is stable).
+    seeds.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let Some(&(widest, start, _)) = seeds.first() else {
         // A sliver region no sample fell in: its neighbours' passes overlap it.
         return Ok(Vec::new());
     };
@@ -640,11 +668,30 @@ fn initial_pass(
         snap: 0.5 * step,
     };
     let outside = |uv: Vector2<f64>| !region.contains(uv);
-    let forward = tracer.trace(start, feed, &outside);
-    let backward = tracer.trace(start, -feed, &outside);
-    let mut line: Vec<Vector2<f64>> = backward.uv.iter().rev().copied().collect();
-    line.extend(forward.uv.iter().skip(1).copied());
-    Ok(line)
+    // Widest first, the first line that is no fragment; else the longest.
+    let fragment = MIN_RUN_SPAN * s.cutter.radius;
+    let mut longest: Option<(f64, Vec<Vector2<f64>>)> = None;
+    for &(_, start, feed) in seeds
+        .iter()
+        .take_while(|(w, _, _)| *w >= SEED_WIDTH_SHARE * widest)
+        .take(MAX_SEEDS)
+    {
+        let forward = tracer.trace(start, feed, &outside);
+        let backward = tracer.trace(start, -feed, &outside);
+        let mut line: Vec<Vector2<f64>> = backward.uv.iter().rev().copied().collect();
+        line.extend(forward.uv.iter().skip(1).copied());
+        let length: f64 = line
+            .windows(2)
+            .map(|w| (surface.point(w[1].x, w[1].y) - surface.point(w[0].x, w[0].y)).norm())
+            .sum();
+        if length >= fragment {
+            return Ok(line);
+        }
+        if longest.as_ref().is_none_or(|(l, _)| length > *l) {
+            longest = Some((length, line));
+        }
+    }
+    Ok(longest.map(|(_, line)| line).unwrap_or_default())
 }
 
 #[cfg(test)]

@@ -27,7 +27,7 @@ use coverage::*;
 use fronts::*;
 
 /// Offset runs shorter than this many cutter radii are not passes.
-const MIN_RUN_SPAN: f64 = 2.0;
+pub(crate) const MIN_RUN_SPAN: f64 = 2.0;
 
 /// Passes cannot exceed this count per region (a guard against runaway offsetting).
 const MAX_PASSES: usize = 5_000;
