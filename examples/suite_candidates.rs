@@ -6,23 +6,9 @@
 //!
 //!     cargo run --release --example suite_candidates -- partitioned,whole_field,edge_offset_u
 
-use toolpath_planner::formats::PlanResult;
 use toolpath_planner::planners::strip_width::tensor_regions;
 use toolpath_planner::planners::NoProgress;
 use toolpath_planner::samples::{self, random};
-
-fn cl_length(r: &PlanResult) -> f64 {
-    r.passes
-        .iter()
-        .flat_map(|p| p.points.windows(2))
-        .map(|w| {
-            (0..3)
-                .map(|k| (w[1].cl[k] - w[0].cl[k]).powi(2))
-                .sum::<f64>()
-                .sqrt()
-        })
-        .sum()
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let labels = std::env::args()
@@ -42,7 +28,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 Some(r) => {
                     line += &format!(
                         " {label} {:7.0} mm ({:3} passes)",
-                        cl_length(&r),
+                        r.cl_path_length(),
                         r.passes.len()
                     )
                 }

@@ -209,19 +209,7 @@ fn the_whole_field_cover_starts_from_a_field_line_not_a_stub() {
                 .unwrap()
         };
         let (field, edge) = (build("whole_field"), build("edge_offset_u"));
-        let length = |r: &PlanResult| -> f64 {
-            r.passes
-                .iter()
-                .flat_map(|p| p.points.windows(2))
-                .map(|w| {
-                    (0..3)
-                        .map(|k| (w[1].cl[k] - w[0].cl[k]).powi(2))
-                        .sum::<f64>()
-                        .sqrt()
-                })
-                .sum()
-        };
-        let ratio = length(&field) / length(&edge);
+        let ratio = field.cl_path_length() / edge.cl_path_length();
         eprintln!(
             "{name}: whole_field {} passes, {:.3} x edge_offset_u ({} passes)",
             field.passes.len(),
