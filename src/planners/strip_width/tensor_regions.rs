@@ -2,8 +2,9 @@
 //! docs/methods.md, "The strip-width tensor and its degenerate points" and
 //! "Partition at trisectors"): the strip-width tensor field, its degenerate
 //! points, the separatrices of the trisectors, the regions they bound, and in
-//! each region an initial pass through its widest-strip point along the
-//! optimal feed, then iso-scallop passes offset to both sides.
+//! each region an initial pass along the optimal feed through its
+//! widest-strip point (the next widest seed's where that line is a stub),
+//! then iso-scallop passes offset to both sides.
 
 use super::offset::{boundary_start, cover, cover_from_edge, MIN_RUN_SPAN};
 use super::parametric::plan_passes;

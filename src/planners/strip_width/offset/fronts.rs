@@ -970,10 +970,6 @@ mod tests {
         assert!(answered > 1000, "{answered}");
     }
 
-    /// A pass running into machined material ends there: its extension
-    /// runs a cutter radius through the earlier strips and stops, where
-    /// without them it runs its whole 4 R (the passes that crossed the
-    /// strips of a finished front by 10 mm on suite seed 2 at h = 0.055).
     /// The raw offsets of a concave L corner on the plane (legs along +x at
     /// y = 0 and along +y at x = 50 mm, covered side inside the L, offset
     /// 3 mm): the horizontal leg's offsets run past the corner to x = 50,
@@ -1045,6 +1041,10 @@ mod tests {
         );
     }
 
+    /// A pass running into machined material ends there: its extension
+    /// runs a cutter radius through the earlier strips and stops, where
+    /// without them it runs its whole 4 R (the passes that crossed the
+    /// strips of a finished front by 10 mm on suite seed 2 at h = 0.055).
     #[test]
     fn extension_stops_a_cutter_radius_inside_machined_material() {
         let surface = crate::samples::surfaces::plane();
