@@ -5,6 +5,7 @@
 //! it) are not counted; a pass that crosses itself is not either.
 
 use crate::formats::{Pass, PlanResult};
+use nalgebra::Vector2;
 use std::collections::{HashMap, HashSet};
 
 /// Crossings closer than this share of the domain's side to its edge are
@@ -90,21 +91,32 @@ pub fn plan_crossing_pairs(result: &PlanResult, domain: ((f64, f64), (f64, f64))
     crossing_pairs(own, domain)
 }
 
-/// The point where segments ab and cd cross (not collinear), each taken
-/// half-open, from its start up to but not including its end: a crossing
-/// at a point two segments of a polyline share is found once.
+/// The point where segments ab and cd cross (see [`segment_crossing`]).
 fn crossing(a: Uv, b: Uv, c: Uv, d: Uv) -> Option<Uv> {
-    let r = [b[0] - a[0], b[1] - a[1]];
-    let s = [d[0] - c[0], d[1] - c[1]];
-    let den = r[0] * s[1] - r[1] * s[0];
-    let scale = (r[0].hypot(r[1])) * (s[0].hypot(s[1]));
-    if den.abs() <= 1e-12 * scale {
+    let v = |p: Uv| Vector2::new(p[0], p[1]);
+    let t = segment_crossing(v(a), v(b), v(c), v(d))?;
+    Some([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])])
+}
+
+/// Where segments ab and cd cross (not collinear), as the parameter along
+/// ab, each segment taken half-open, from its start up to but not including
+/// its end: a crossing at a point two segments of a polyline share is found
+/// once.
+pub(crate) fn segment_crossing(
+    a: Vector2<f64>,
+    b: Vector2<f64>,
+    c: Vector2<f64>,
+    d: Vector2<f64>,
+) -> Option<f64> {
+    let (r, s) = (b - a, d - c);
+    let den = r.perp(&s);
+    if den.abs() <= 1e-12 * r.norm() * s.norm() {
         return None;
     }
-    let q = [c[0] - a[0], c[1] - a[1]];
-    let t = (q[0] * s[1] - q[1] * s[0]) / den;
-    let u = (q[0] * r[1] - q[1] * r[0]) / den;
-    ((0.0..1.0).contains(&t) && (0.0..1.0).contains(&u)).then(|| [a[0] + t * r[0], a[1] + t * r[1]])
+    let q = c - a;
+    let t = q.perp(&s) / den;
+    let u = q.perp(&r) / den;
+    ((0.0..1.0).contains(&t) && (0.0..1.0).contains(&u)).then_some(t)
 }
 
 #[cfg(test)]

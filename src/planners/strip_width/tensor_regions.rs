@@ -14,6 +14,7 @@ use super::regions::partition::{partition, Region, Tracer};
 use super::regions::whole_domain;
 use super::width::{gouge_error, max_strip_width, WidthError};
 use crate::error::Result;
+use crate::formats::result::polyline_length;
 use crate::formats::result::{DegeneratePoint, Region as RegionOut};
 use crate::formats::{FeedDirection, Job, Pass, PlanResult};
 use crate::geometry::{LocalGeometry, NurbsSurface};
@@ -681,10 +682,7 @@ fn initial_pass(
         let backward = tracer.trace(start, -feed, &outside);
         let mut line: Vec<Vector2<f64>> = backward.uv.iter().rev().copied().collect();
         line.extend(forward.uv.iter().skip(1).copied());
-        let length: f64 = line
-            .windows(2)
-            .map(|w| (surface.point(w[1].x, w[1].y) - surface.point(w[0].x, w[0].y)).norm())
-            .sum();
+        let length = polyline_length(line.iter().map(|p| surface.point(p.x, p.y).coords.into()));
         if length >= fragment {
             return Ok(line);
         }

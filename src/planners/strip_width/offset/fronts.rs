@@ -6,6 +6,7 @@
 use super::*;
 use crate::error::Result;
 use crate::geometry::NurbsSurface;
+use crate::planners::strip_width::crossings::segment_crossing;
 use crate::planners::strip_width::passes::{
     walk_on_surface as walk, Contact, PassSettings, Walker,
 };
@@ -454,7 +455,7 @@ fn without_loops(surface: &NurbsSurface, s: &PassSettings, mut pts: Vec<Carried>
             if span > max_span {
                 break;
             }
-            if let Some(t) = segments_cross(a, b, pts[j].0.uv, pts[j + 1].0.uv) {
+            if let Some(t) = segment_crossing(a, b, pts[j].0.uv, pts[j + 1].0.uv) {
                 cut = Some((j, t));
                 break;
             }
@@ -481,25 +482,6 @@ fn without_loops(surface: &NurbsSurface, s: &PassSettings, mut pts: Vec<Carried>
         i += 1;
     }
     pts
-}
-
-/// Parameter along ab where segments ab and cd cross (`None` when they do
-/// not, or are parallel).
-fn segments_cross(
-    a: Vector2<f64>,
-    b: Vector2<f64>,
-    c: Vector2<f64>,
-    d: Vector2<f64>,
-) -> Option<f64> {
-    let (r, q) = (b - a, d - c);
-    let den = r.perp(&q);
-    if den.abs() <= 1e-15 * r.norm() * q.norm() || den == 0.0 {
-        return None;
-    }
-    let e = c - a;
-    let t = e.perp(&q) / den;
-    let u = e.perp(&r) / den;
-    ((0.0..1.0).contains(&t) && (0.0..1.0).contains(&u)).then_some(t)
 }
 
 /// Removes swallowtails: a point that does not advance along the travel.
@@ -1008,7 +990,7 @@ mod tests {
             (0..pts.len() - 1).all(|i| {
                 (i + 2..pts.len() - 1).all(|j| {
                     let uv = |k: usize| pts[k].0.uv;
-                    segments_cross(uv(i), uv(i + 1), uv(j), uv(j + 1)).is_none()
+                    segment_crossing(uv(i), uv(i + 1), uv(j), uv(j + 1)).is_none()
                 })
             })
         };
