@@ -5,6 +5,8 @@
 //! --suite` does not show.
 //!
 //!     cargo run --release --example suite_candidates -- partitioned,whole_field,edge_offset_u
+//!
+//! (`partitioned_as_traced`: the partition before merging.)
 
 use toolpath_planner::planners::strip_width::tensor_regions;
 use toolpath_planner::planners::NoProgress;
@@ -13,7 +15,7 @@ use toolpath_planner::samples::{self, random};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let labels = std::env::args()
         .nth(1)
-        .ok_or("usage: suite_candidates LABEL[,LABEL...] (partitioned, whole_field, mean_feed, edge_offset_u, ...)")?;
+        .ok_or("usage: suite_candidates LABEL[,LABEL...] (partitioned, partitioned_as_traced, whole_field, mean_feed, edge_offset_u, ...)")?;
     let mut jobs = Vec::new();
     for p in random::suite() {
         jobs.push((p.name(), samples::random_job(&p)?));

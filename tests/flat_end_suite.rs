@@ -229,6 +229,44 @@ fn the_whole_field_cover_starts_from_a_field_line_not_a_stub() {
     }
 }
 
+/// Merging the partition where a region boundary costs more than it saves
+/// (docs/methods.md, "Merging regions") shortens its cover: exact builds of
+/// the merged partition (the whole field where every region merged) against
+/// the partition as traced, with fewer regions; the merged plan, repaired
+/// as the pipeline does, holds h in the simulator.
+#[test]
+fn merging_the_partition_shortens_its_cover() {
+    for seed in [2, 12, 20] {
+        let (name, job) = suite_job(seed);
+        let build = |label: &str| tensor_regions::candidate(&job, label, &NoProgress).unwrap();
+        let traced = build("partitioned_as_traced").unwrap();
+        let merged = build("partitioned")
+            .or_else(|| build("whole_field"))
+            .unwrap();
+        let regions = |r: &PlanResult| r.regions.as_ref().map_or(1, Vec::len);
+        let ratio = merged.cl_path_length() / traced.cl_path_length();
+        eprintln!(
+            "{name}: {} regions -> {}, {:.3} x the traced partition's cover; {:?}",
+            regions(&traced),
+            regions(&merged),
+            ratio,
+            merged.plan_choice
+        );
+        assert!(regions(&merged) < regions(&traced), "{name}");
+        assert!(ratio <= 0.95, "{name}: merged {ratio} x as traced");
+        let length = merged.cl_path_length();
+        let (repaired, report, _) = pipeline::verify_and_repair(&job, merged).unwrap();
+        assert!(
+            report.max_scallop_mm <= H,
+            "{name}: {}",
+            report.max_scallop_mm
+        );
+        assert!(report.max_gouge_mm <= GOUGE_LIMIT, "{name}");
+        assert_eq!(repaired.within_scallop, Some(true), "{name}");
+        assert!(repaired.cl_path_length() <= 1.02 * length, "{name}: repair");
+    }
+}
+
 #[test]
 fn monkey_saddle_sample() {
     check_surface(

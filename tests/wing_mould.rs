@@ -6,7 +6,7 @@
 //! On wing_mould: all three strategies within h, and tensor_regions' length
 //! ratios against both baselines. Elsewhere each test asserts its own limit:
 //! h for iso_parametric and iso_scallop on the second surface, and for
-//! tensor_regions' partitioned candidate on the monkey saddle and the
+//! tensor_regions' partition as traced on the monkey saddle and the
 //! 303 mm mould (the partition itself, whichever candidate the strategy
 //! keeps); 1.1 h for
 //! tensor_regions on the second surface and on the strongly anisotropic bowl;
@@ -42,13 +42,14 @@ fn plan_and_simulate(job: &Job) -> (PlanResult, ScallopReport) {
     (result, report)
 }
 
-/// The partitioned candidate of tensor_regions (the regions of the
-/// partition, each offset from its field line), simulated: the tests of the
-/// partition itself, whichever candidate the strategy keeps.
+/// The partition of tensor_regions as traced (its regions unmerged, each
+/// offset from its field line), simulated: the tests of the partition
+/// itself, whichever candidate the strategy keeps.
 fn partitioned_and_simulate(job: &Job) -> (PlanResult, ScallopReport) {
-    let result = planners::strip_width::tensor_regions::candidate(job, "partitioned", &NoProgress)
-        .unwrap()
-        .expect("a partitioned candidate");
+    let result =
+        planners::strip_width::tensor_regions::candidate(job, "partitioned_as_traced", &NoProgress)
+            .unwrap()
+            .expect("a partition");
     let report = simulate(
         job.surface().unwrap(),
         job.tool().unwrap(),

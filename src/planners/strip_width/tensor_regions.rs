@@ -10,7 +10,8 @@ use super::offset::{boundary_start, cover, cover_from_edge, MIN_RUN_SPAN};
 use super::parametric::plan_passes;
 use super::passes::PassSettings;
 use super::regions::degenerate_points::{self, Analysis};
-use super::regions::partition::{partition, Region, Tracer};
+use super::regions::merge::merge_regions;
+use super::regions::partition::{partition, FaceGraph, Region, Tracer};
 use super::regions::whole_domain;
 use super::width::{gouge_error, max_strip_width, WidthError};
 use crate::error::Result;
@@ -34,8 +35,12 @@ const SHORTEST: usize = 0;
 /// The candidate plans, in the order they are built (ties keep the first).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Candidate {
-    /// The regions of the partition, each offset from its own field line.
+    /// The regions of the partition, each offset from its own field line
+    /// (merged where a boundary costs more than it saves).
     Partitioned,
+    /// The partition as traced, unmerged: built on request only (see
+    /// [`candidate`]), to compare with.
+    PartitionedAsTraced,
     /// The whole surface as one region, offset from the field line through
     /// its widest-strip point.
     WholeField,
@@ -57,6 +62,7 @@ impl Candidate {
         };
         match self {
             Candidate::Partitioned => "partitioned".into(),
+            Candidate::PartitionedAsTraced => "partitioned_as_traced".into(),
             Candidate::WholeField => "whole_field".into(),
             Candidate::MeanFeed => "mean_feed".into(),
             Candidate::EdgeOffset(f, far) => {
@@ -132,12 +138,18 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
         if exact {
             return Ok(Built::Exact(setup.build(kind, &setup.settings, &checks)?));
         }
+        // The merge search estimated the merged partition's cover already
+        // (the whole field's too where it merged every region).
+        match (kind, setup.partitioned_estimate) {
+            (Candidate::Partitioned | Candidate::WholeField, Some((l, regions)))
+                if (kind == Candidate::WholeField) == (regions == 1) =>
+            {
+                return Ok(Built::Estimate(l));
+            }
+            _ => {}
+        }
         let passes = setup.build(kind, &coarse, &checks)?;
-        let passes = match surface.trim() {
-            Some(_) => crate::planners::trim_clip::clip_passes(surface, &passes, reach),
-            None => passes,
-        };
-        Ok(Built::Estimate(passes.iter().map(pass_length).sum()))
+        Ok(Built::Estimate(estimate_length(surface, &passes, reach)))
     });
     stop_if_stopped(&done)?;
     progress.set(0.6);
@@ -199,17 +211,32 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
             crate::error::Error::planning("tensor_regions: no candidate plan has any pass")
         }));
     }
-    Ok(ranked(plans, &estimates, kinds.len(), &warnings))
+    Ok(ranked(
+        plans,
+        &estimates,
+        kinds.len(),
+        setup.partition_note.as_deref(),
+        &warnings,
+    ))
 }
 
 /// One candidate plan built at the job's settings, named by its label as
 /// in `plan_choice` (`partitioned`, `whole_field`, `mean_feed`,
 /// `edge_offset_u`, ..., `iso_curves_v`): for looking at a candidate the
-/// estimates did not keep. `None` when the job has no such candidate
-/// (`partitioned` needs more than one region) or it has no pass.
+/// estimates did not keep, or `partitioned_as_traced` (the partition before
+/// merging, never a candidate of [`plan`]). `None` when the job has no such
+/// candidate (`partitioned` needs more than one region after merging,
+/// `partitioned_as_traced` before) or it has no pass.
 pub fn candidate(job: &Job, label: &str, progress: &dyn Progress) -> Result<Option<PlanResult>> {
     let setup = Setup::new(job, progress)?;
-    let Some(kind) = setup.kinds.iter().copied().find(|k| k.label() == label) else {
+    let on_request = (setup.traced_regions.len() > 1).then_some(Candidate::PartitionedAsTraced);
+    let Some(kind) = setup
+        .kinds
+        .iter()
+        .copied()
+        .chain(on_request)
+        .find(|k| k.label() == label)
+    else {
         return Ok(None);
     };
     let passes = setup.build(kind, &setup.settings, progress)?;
@@ -217,7 +244,14 @@ pub fn candidate(job: &Job, label: &str, progress: &dyn Progress) -> Result<Opti
         return Ok(None);
     }
     let mut result = setup.result(kind, passes, setup.bound()?);
-    result.plan_choice = Some(format!("{label}: built on request"));
+    result.plan_choice = Some(
+        format!("{label}: built on request")
+            + &setup
+                .partition_note
+                .as_deref()
+                .map(|n| format!("; {n}"))
+                .unwrap_or_default(),
+    );
     result.warnings = setup.warnings.clone();
     Ok(Some(result))
 }
@@ -240,6 +274,18 @@ fn stop_if_stopped<T>(built: &[Result<T>]) -> Result<()> {
     }
 }
 
+/// An estimate's length: its passes' on the face (clipped to the trim like
+/// the exact plans; `reach` as [`crate::planners::trim_clip::reach`]), mm.
+fn estimate_length(surface: &NurbsSurface, passes: &[Pass], reach: f64) -> f64 {
+    match surface.trim() {
+        Some(_) => crate::planners::trim_clip::clip_passes(surface, passes, reach)
+            .iter()
+            .map(pass_length)
+            .sum(),
+        None => passes.iter().map(pass_length).sum(),
+    }
+}
+
 /// Length of a pass's cl polyline, mm.
 fn pass_length(pass: &Pass) -> f64 {
     crate::formats::result::polyline_length(pass.points.iter().map(|q| q.cl))
@@ -253,10 +299,17 @@ struct Setup<'a> {
     settings: PassSettings,
     analysis: Analysis,
     whole: Region,
+    /// The merged partition, and the partition as traced.
     regions: Vec<Region>,
+    traced_regions: Vec<Region>,
     separatrices_uv: Vec<Vec<Vector2<f64>>>,
     warnings: Vec<String>,
     kinds: Vec<Candidate>,
+    /// How the partition was merged, for `plan_choice`.
+    partition_note: Option<String>,
+    /// The estimated length of the merged partition's cover (the sum of its
+    /// regions' estimates), mm, and how many regions it has.
+    partitioned_estimate: Option<(f64, usize)>,
 }
 
 impl<'a> Setup<'a> {
@@ -271,8 +324,43 @@ impl<'a> Setup<'a> {
         let mut warnings = Vec::new();
         let step = settings.point_step.min(settings.cutter.radius);
         let whole = whole_domain(surface);
-        let (regions, separatrices_uv) =
+        let (regions, separatrices_uv, graph) =
             regions_of(surface, k_b, &analysis, step, &whole, &mut warnings);
+        progress.set(0.15);
+        progress.check()?;
+        // The partition merged where a region boundary costs more than it
+        // saves, judged by the estimated covers (docs/methods.md, "Merging
+        // regions").
+        let coarse = settings.coarsened(ESTIMATE_COARSENING);
+        let reach = crate::planners::trim_clip::reach(job.tool()?);
+        let mut traced_regions = Vec::new();
+        let (regions, partition_note, partitioned_estimate) = match graph {
+            Some(graph) if regions.len() > 1 => {
+                let cost = |region: &Region| -> Result<f64> {
+                    let passes = cover_regions(
+                        surface,
+                        &coarse,
+                        std::slice::from_ref(region),
+                        &analysis,
+                        coarse.point_step.min(coarse.cutter.radius),
+                        &CheckOnly(progress),
+                    )?;
+                    Ok(estimate_length(surface, &passes, reach))
+                };
+                let merged = merge_regions(surface, &graph, &regions, cost, progress)?;
+                traced_regions = regions.clone();
+                let note = format!(
+                    "partition: {} regions as traced, {} after merging where a boundary cost more than it saved (estimates {:.0} -> {:.0} mm)",
+                    regions.len(),
+                    merged.regions.len(),
+                    merged.traced_length,
+                    merged.merged_length
+                );
+                let estimate = (merged.merged_length, merged.regions.len());
+                (merged.regions, Some(note), Some(estimate))
+            }
+            _ => (regions, None, None),
+        };
         progress.set(0.2);
         progress.check()?;
         let mut kinds = Vec::new();
@@ -296,9 +384,12 @@ impl<'a> Setup<'a> {
             analysis,
             whole,
             regions,
+            traced_regions,
             separatrices_uv,
             warnings,
             kinds,
+            partition_note,
+            partitioned_estimate,
         })
     }
 
@@ -308,6 +399,15 @@ impl<'a> Setup<'a> {
             self.surface,
             &self.settings.cutter,
         )
+    }
+
+    /// The regions candidate `kind` covers.
+    fn regions_of(&self, kind: Candidate) -> &[Region] {
+        match kind {
+            Candidate::Partitioned => &self.regions,
+            Candidate::PartitionedAsTraced => &self.traced_regions,
+            _ => std::slice::from_ref(&self.whole),
+        }
     }
 
     /// The passes of candidate `kind` at `settings` (the job's, or coarser
@@ -321,10 +421,10 @@ impl<'a> Setup<'a> {
         let (surface, whole) = (self.surface, &self.whole);
         let step = settings.point_step.min(settings.cutter.radius);
         match kind {
-            Candidate::Partitioned => cover_regions(
+            Candidate::Partitioned | Candidate::PartitionedAsTraced => cover_regions(
                 surface,
                 settings,
-                &self.regions,
+                self.regions_of(kind),
                 &self.analysis,
                 step,
                 checks,
@@ -355,11 +455,7 @@ impl<'a> Setup<'a> {
     /// Candidate `kind`'s result: its passes, the lower bound, and the
     /// analysis it shares with the others (see [`candidate_result`]).
     fn result(&self, kind: Candidate, passes: Vec<Pass>, bound: f64) -> PlanResult {
-        let used: &[Region] = if kind == Candidate::Partitioned {
-            &self.regions
-        } else {
-            std::slice::from_ref(&self.whole)
-        };
+        let used = self.regions_of(kind);
         candidate_result(
             self.job,
             self.surface,
@@ -374,7 +470,8 @@ impl<'a> Setup<'a> {
 
 /// The regions to plan: the partition at the degenerate points when its
 /// regions tile the surface, else the whole surface as one region (with a
-/// warning saying why), and the separatrices in (u, v).
+/// warning saying why), the separatrices in (u, v) and the graph the regions
+/// are the faces of (none where the regions are not its faces).
 fn regions_of(
     surface: &NurbsSurface,
     k_b: f64,
@@ -382,13 +479,13 @@ fn regions_of(
     step: f64,
     whole: &Region,
     warnings: &mut Vec<String>,
-) -> (Vec<Region>, Vec<Vec<Vector2<f64>>>) {
+) -> (Vec<Region>, Vec<Vec<Vector2<f64>>>, Option<FaceGraph>) {
     if analysis.everywhere {
         warnings.push(
             "the strip-width field is isotropic everywhere (every point is degenerate): one region, feed along u"
                 .into(),
         );
-        return (vec![whole.clone()], Vec::new());
+        return (vec![whole.clone()], Vec::new(), None);
     }
     let p = partition(surface, k_b, &analysis.points, step);
     // The regions must tile the surface: where the separatrix graph did
@@ -401,9 +498,9 @@ fn regions_of(
             "the separatrices split the surface into regions covering {covered:.0} of {:.0} mm^2: planned as one region",
             whole.area_mm2
         ));
-        (vec![whole.clone()], p.separatrices_uv)
+        (vec![whole.clone()], p.separatrices_uv, None)
     } else {
-        (p.regions, p.separatrices_uv)
+        (p.regions, p.separatrices_uv, Some(p.graph))
     }
 }
 
@@ -468,6 +565,7 @@ fn ranked(
     mut plans: Vec<(Candidate, PlanResult, f64)>,
     estimates: &[String],
     considered: usize,
+    partition_note: Option<&str>,
     warnings: &[String],
 ) -> Vec<PlanResult> {
     plans.sort_by(|a, b| a.2.total_cmp(&b.2));
@@ -480,7 +578,7 @@ fn ranked(
         "{n} built of {considered} candidate plans ({}): the baselines' plans and the {EXACT_BUILDS} shortest of the others by an estimate at {ESTIMATE_COARSENING} x the point step ({})",
         summary.join(", "),
         estimates.join(", ")
-    );
+    ) + &partition_note.map(|n| format!("; {n}")).unwrap_or_default();
     plans
         .into_iter()
         .enumerate()
@@ -769,10 +867,15 @@ mod tests {
         let best = plan(&job, &NoProgress).unwrap();
         assert_eq!(best.passes, all[0].passes);
         let choice = all[0].plan_choice.as_deref().unwrap();
-        assert!(choice.contains("built of 9 candidate plans"), "{choice}");
+        // Its three sectors merge into one (the whole field): a boundary
+        // costs more than the sectors' feed directions save.
+        assert!(choice.contains("built of 8 candidate plans"), "{choice}");
+        assert!(
+            choice.contains("partition: 3 regions as traced, 1 after merging"),
+            "{choice}"
+        );
         // Every candidate has an estimate in the choice.
         for label in [
-            "partitioned",
             "whole_field",
             "mean_feed",
             "edge_offset_u",
@@ -800,14 +903,19 @@ mod tests {
     #[test]
     fn monkey_saddle_partitioned_candidate_carries_the_partition() {
         let job = monkey_saddle_job();
-        let r = candidate(&job, "partitioned", &NoProgress)
+        // Merged into one region, the partition is no candidate; as traced
+        // it is built on request.
+        assert!(candidate(&job, "partitioned", &NoProgress)
+            .unwrap()
+            .is_none());
+        let r = candidate(&job, "partitioned_as_traced", &NoProgress)
             .unwrap()
             .unwrap();
         assert!(r
             .plan_choice
             .as_deref()
             .unwrap()
-            .starts_with("partitioned:"));
+            .starts_with("partitioned_as_traced:"));
         assert!(candidate(&job, "no_such_plan", &NoProgress)
             .unwrap()
             .is_none());

@@ -4,6 +4,7 @@
 //! partition of the parameter domain along the separatrices of trisectors.
 
 pub mod degenerate_points;
+pub mod merge;
 pub mod partition;
 
 pub use partition::{polygon_area, Region};

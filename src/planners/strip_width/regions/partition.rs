@@ -177,6 +177,134 @@ pub struct Partition {
     pub regions: Vec<Region>,
     /// Separatrices in parameter space, each from its trisector.
     pub separatrices_uv: Vec<Vec<Vector2<f64>>>,
+    /// The planar graph the regions are the faces of.
+    pub graph: FaceGraph,
+}
+
+/// The planar graph of the separatrices and the domain boundary: its
+/// bounded faces are the regions. The first `separatrices` edges are the
+/// separatrices (each once), the rest the boundary ring.
+#[derive(Clone, Debug)]
+pub struct FaceGraph {
+    nodes: Vec<Vector2<f64>>,
+    edges: Vec<(usize, usize, Vec<Vector2<f64>>)>,
+    separatrices: usize,
+    scale: (f64, f64),
+}
+
+impl FaceGraph {
+    /// How many separatrix edges the graph has (the ones [`Self::regions_without`] may drop).
+    pub fn separatrix_count(&self) -> usize {
+        self.separatrices
+    }
+
+    /// The regions of the graph with the separatrix edges marked in
+    /// `removed` taken out: the faces they separated merge into one. A
+    /// separatrix the removal leaves ending at a point no other kept edge
+    /// reaches goes too (it would bound nothing; removed iteratively; spurs
+    /// of the whole graph, such as a separatrix ending at a wedge, stay).
+    /// Returns the faces (counter-clockwise polygons) and which separatrices
+    /// were left out in the end.
+    pub fn faces_without(&self, removed: &[bool]) -> (Vec<Vec<Vector2<f64>>>, Vec<bool>) {
+        let mut out: Vec<bool> = (0..self.edges.len())
+            .map(|e| e < self.separatrices && removed.get(e).copied().unwrap_or(false))
+            .collect();
+        let degrees = |out: &[bool]| {
+            let mut degree = vec![0usize; self.nodes.len()];
+            for (e, (a, b, _)) in self.edges.iter().enumerate() {
+                if !out[e] {
+                    degree[*a] += 1;
+                    degree[*b] += 1;
+                }
+            }
+            degree
+        };
+        let whole = degrees(&vec![false; self.edges.len()]);
+        loop {
+            let degree = degrees(&out);
+            let left_alone = |n: usize| degree[n] == 1 && whole[n] > 1;
+            let dangling: Vec<usize> = (0..self.separatrices)
+                .filter(|&e| {
+                    let (a, b, _) = &self.edges[e];
+                    !out[e] && a != b && (left_alone(*a) || left_alone(*b))
+                })
+                .collect();
+            if dangling.is_empty() {
+                break;
+            }
+            for e in dangling {
+                out[e] = true;
+            }
+        }
+        let kept: Vec<(usize, usize, Vec<Vector2<f64>>)> = self
+            .edges
+            .iter()
+            .zip(&out)
+            .filter(|(_, &o)| !o)
+            .map(|(e, _)| e.clone())
+            .collect();
+        let faces = faces(&self.nodes, &kept, self.scale);
+        out.truncate(self.separatrices);
+        (faces, out)
+    }
+
+    /// [`Self::faces_without`] as regions with their areas (ids by centroid).
+    pub fn regions_without(
+        &self,
+        surface: &NurbsSurface,
+        removed: &[bool],
+    ) -> (Vec<Region>, Vec<bool>) {
+        let (faces, out) = self.faces_without(removed);
+        (regions_of_faces(surface, faces), out)
+    }
+}
+
+/// A point strictly inside `poly` (even-odd): the middle of the widest
+/// inside interval on the rows at 1/4, 1/2 and 3/4 of its v range.
+pub fn interior_point(poly: &[Vector2<f64>]) -> Option<Vector2<f64>> {
+    let (lo, hi) = poly
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.y), b.max(p.y))
+        });
+    let mut best: Option<(f64, Vector2<f64>)> = None;
+    for t in [0.5, 0.25, 0.75] {
+        let y = lo + t * (hi - lo);
+        let mut xs: Vec<f64> = crossings(poly, y).collect();
+        xs.sort_by(f64::total_cmp);
+        for pair in xs.chunks_exact(2) {
+            let w = pair[1] - pair[0];
+            if w > 0.0 && best.is_none_or(|(bw, _)| w > bw) {
+                best = Some((w, Vector2::new(0.5 * (pair[0] + pair[1]), y)));
+            }
+        }
+    }
+    best.map(|(_, p)| p)
+}
+
+/// The faces as regions with their areas, ids by centroid (u, then v) so
+/// that they do not depend on the order the faces were found in.
+fn regions_of_faces(surface: &NurbsSurface, faces: Vec<Vec<Vector2<f64>>>) -> Vec<Region> {
+    let mut regions: Vec<Region> = faces
+        .into_iter()
+        .map(|poly| Region {
+            id: 0,
+            area_mm2: polygon_area(surface, &poly, 48),
+            boundary_uv: poly,
+        })
+        .collect();
+    let centroid = |r: &Region| {
+        let n = r.boundary_uv.len() as f64;
+        r.boundary_uv.iter().fold(Vector2::zeros(), |a, p| a + p) / n
+    };
+    regions.sort_by(|a, b| {
+        let (ca, cb) = (centroid(a), centroid(b));
+        ca.x.total_cmp(&cb.x).then(ca.y.total_cmp(&cb.y))
+    });
+    for (k, r) in regions.iter_mut().enumerate() {
+        r.id = k;
+    }
+    regions
 }
 
 /// Gauss-Legendre on [0, 1], 3 points.
@@ -376,36 +504,26 @@ pub fn partition(
         perimeter_s(surface, nodes[a]).total_cmp(&perimeter_s(surface, nodes[b]))
     });
     ring.dedup_by(|a, b| (nodes[*a] - nodes[*b]).norm() <= 1e-12 * (w + h));
+    let mut ring_edges = 0;
     for k in 0..ring.len() {
         let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
         if (nodes[a] - nodes[b]).norm() > 0.0 {
             edges.push((a, b, vec![nodes[a], nodes[b]]));
+            ring_edges += 1;
         }
     }
-    let faces = faces(&nodes, &edges, (w, h));
-    let mut regions: Vec<Region> = faces
-        .into_iter()
-        .map(|poly| Region {
-            id: 0,
-            area_mm2: polygon_area(surface, &poly, 48),
-            boundary_uv: poly,
-        })
-        .collect();
-    // Deterministic ids: by centroid, u then v.
-    let centroid = |r: &Region| {
-        let n = r.boundary_uv.len() as f64;
-        r.boundary_uv.iter().fold(Vector2::zeros(), |a, p| a + p) / n
+    let separatrices = edges.len() - ring_edges;
+    let graph = FaceGraph {
+        nodes,
+        edges,
+        separatrices,
+        scale: (w, h),
     };
-    regions.sort_by(|a, b| {
-        let (ca, cb) = (centroid(a), centroid(b));
-        ca.x.total_cmp(&cb.x).then(ca.y.total_cmp(&cb.y))
-    });
-    for (k, r) in regions.iter_mut().enumerate() {
-        r.id = k;
-    }
+    let (regions, _) = graph.regions_without(surface, &[]);
     Partition {
         regions,
         separatrices_uv,
+        graph,
     }
 }
 
@@ -609,6 +727,79 @@ mod tests {
                 assert!((g - w).abs() / w < 0.01, "{proj:?}");
             }
         }
+    }
+
+    #[test]
+    fn removing_a_separatrix_merges_the_regions_it_separated() {
+        // Monkey saddle: three rays from the trisector. Without one of them
+        // the two sectors it separated are one region of their joint exact
+        // area; without two, the third ray dangles and goes too.
+        let reference = reference_areas();
+        let total: f64 = reference.iter().map(|r| r.0).sum();
+        let s = test_surfaces::monkey_saddle([0.0, 0.0], 0.0);
+        let a = degenerate_points::find(&s, 32).unwrap();
+        let p = partition(&s, 5f64.to_radians().sin() / 2.5, &a.points, 1.0);
+        let g = &p.graph;
+        assert_eq!(g.separatrix_count(), 3);
+        for e in 0..3 {
+            let mut removed = vec![false; 3];
+            removed[e] = true;
+            let (regions, out) = g.regions_without(&s, &removed);
+            assert_eq!(out, removed);
+            assert_eq!(regions.len(), 2);
+            let mut got: Vec<f64> = regions.iter().map(|r| r.area_mm2).collect();
+            got.sort_by(f64::total_cmp);
+            // The kept sector is one of the reference's; the merged region
+            // the sum of the other two.
+            let kept = reference
+                .iter()
+                .map(|r| r.0)
+                .min_by(|a, b| (a - got[0]).abs().total_cmp(&(b - got[0]).abs()))
+                .unwrap();
+            assert!((got[0] - kept).abs() / kept < 0.01, "{got:?}");
+            assert!((got[1] - (total - kept)).abs() / total < 0.01, "{got:?}");
+            // Every point of the domain lies in exactly one region.
+            for i in 0..20 {
+                for j in 0..20 {
+                    let uv = Vector2::new((i as f64 + 0.37) / 20.0, (j as f64 + 0.61) / 20.0);
+                    let ((u0, u1), (v0, v1)) = s.domain();
+                    let uv = Vector2::new(u0 + (u1 - u0) * uv.x, v0 + (v1 - v0) * uv.y);
+                    assert_eq!(regions.iter().filter(|r| r.contains(uv)).count(), 1);
+                }
+            }
+            let mut two = removed.clone();
+            two[(e + 1) % 3] = true;
+            let (regions, out) = g.regions_without(&s, &two);
+            assert_eq!(out, vec![true; 3], "the last ray dangles");
+            assert_eq!(regions.len(), 1);
+            assert!((regions[0].area_mm2 - total).abs() / total < 0.005);
+        }
+        // Nothing removed: the partition as traced.
+        let (regions, out) = g.regions_without(&s, &[]);
+        assert_eq!(out, vec![false; 3]);
+        assert_eq!(regions.len(), 3);
+        for (r, t) in regions.iter().zip(&p.regions) {
+            assert_eq!(r.boundary_uv, t.boundary_uv);
+        }
+    }
+
+    #[test]
+    fn an_interior_point_lies_inside() {
+        // A U shape: the middle of its bounding box is outside.
+        let poly = [
+            (0.0, 0.0),
+            (3.0, 0.0),
+            (3.0, 3.0),
+            (2.0, 3.0),
+            (2.0, 1.0),
+            (1.0, 1.0),
+            (1.0, 3.0),
+            (0.0, 3.0),
+        ]
+        .map(|(x, y)| Vector2::new(x, y));
+        let p = interior_point(&poly).unwrap();
+        assert!(polygon_contains(&poly, p), "{p:?}");
+        assert!(interior_point(&poly[..2]).is_none());
     }
 
     #[test]
