@@ -347,17 +347,28 @@ impl<'a> Setup<'a> {
                     )?;
                     Ok(estimate_length(surface, &passes, reach))
                 };
-                let merged = merge_regions(surface, &graph, &regions, cost, progress)?;
                 traced_regions = regions.clone();
-                let note = format!(
-                    "partition: {} regions as traced, {} after merging where a boundary cost more than it saved (estimates {:.0} -> {:.0} mm)",
-                    regions.len(),
-                    merged.regions.len(),
-                    merged.traced_length,
-                    merged.merged_length
-                );
-                let estimate = (merged.merged_length, merged.regions.len());
-                (merged.regions, Some(note), Some(estimate))
+                match merge_regions(surface, &graph, &regions, cost, progress) {
+                    Ok(merged) => {
+                        let note = format!(
+                            "partition: {} regions as traced, {} after merging where a boundary cost more than it saved (estimates {:.0} -> {:.0} mm)",
+                            regions.len(),
+                            merged.regions.len(),
+                            merged.traced_length,
+                            merged.merged_length
+                        );
+                        let estimate = (merged.merged_length, merged.regions.len());
+                        (merged.regions, Some(note), Some(estimate))
+                    }
+                    Err(e @ crate::error::Error::Stopped { .. }) => return Err(e),
+                    // A region whose cover cannot be estimated: the
+                    // partition as traced stays a candidate (its build
+                    // reports the error if it fails too).
+                    Err(e) => {
+                        warnings.push(format!("partition not merged: {e}"));
+                        (regions, None, None)
+                    }
+                }
             }
             _ => (regions, None, None),
         };
