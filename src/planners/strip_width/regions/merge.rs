@@ -10,6 +10,10 @@ use crate::geometry::NurbsSurface;
 use crate::planners::Progress;
 use std::collections::BTreeMap;
 
+/// Trials estimated at once after the first step (one per core): the first
+/// group with a removal that shortens the total gives the step.
+const TRIALS_AT_ONCE: usize = 2;
+
 /// A face of the graph with some separatrices removed: the (sorted) traced
 /// regions it holds, which name it, and its polygon as a region.
 struct Face {
@@ -99,31 +103,55 @@ where
     fill(&start.iter().collect::<Vec<_>>(), &mut costs)?;
     let traced_length = total(&start, &costs);
     let mut best = traced_length;
+    // What removing each separatrix saved from the partition as traced:
+    // the order later steps try them in.
+    let mut first_saving: Option<Vec<f64>> = None;
     loop {
         progress.check()?;
-        let trials: Vec<(Vec<Face>, Vec<bool>)> = (0..n)
+        let mut trials: Vec<(usize, Vec<Face>, Vec<bool>)> = (0..n)
             .filter(|&e| !removed[e])
             .map(|e| {
                 let mut r = removed.clone();
                 r[e] = true;
-                faces_without(&r)
+                let (faces, out) = faces_without(&r);
+                (e, faces, out)
             })
             // Every face must hold a traced region (it does, unless the
             // graph's faces did not close).
-            .filter(|(faces, _)| !faces.is_empty() && faces.iter().all(|f| !f.held.is_empty()))
+            .filter(|(_, faces, _)| !faces.is_empty() && faces.iter().all(|f| !f.held.is_empty()))
             .collect();
-        let all: Vec<&Face> = trials.iter().flat_map(|t| t.0.iter()).collect();
-        fill(&all, &mut costs)?;
-        let mut pick: Option<(f64, usize)> = None;
-        for (k, (faces, _)) in trials.iter().enumerate() {
-            let t = total(faces, &costs);
-            if t < best && pick.is_none_or(|(b, _)| t < b) {
-                pick = Some((t, k));
+        let chunk = match &first_saving {
+            // The first step tries every separatrix.
+            None => trials.len().max(1),
+            Some(saving) => {
+                trials.sort_by(|a, b| saving[b.0].total_cmp(&saving[a.0]).then(a.0.cmp(&b.0)));
+                TRIALS_AT_ONCE
             }
+        };
+        let mut pick: Option<(f64, usize)> = None;
+        for (c, group) in trials.chunks(chunk).enumerate() {
+            let faces: Vec<&Face> = group.iter().flat_map(|t| t.1.iter()).collect();
+            fill(&faces, &mut costs)?;
+            for (k, (_, faces, _)) in group.iter().enumerate() {
+                let t = total(faces, &costs);
+                if t < best && pick.is_none_or(|(b, _)| t < b) {
+                    pick = Some((t, c * chunk + k));
+                }
+            }
+            if pick.is_some() {
+                break;
+            }
+        }
+        if first_saving.is_none() {
+            let mut saving = vec![f64::NEG_INFINITY; n];
+            for (e, faces, _) in &trials {
+                saving[*e] = best - total(faces, &costs);
+            }
+            first_saving = Some(saving);
         }
         let Some((t, k)) = pick else { break };
         best = t;
-        removed = trials[k].1.clone();
+        removed = trials[k].2.clone();
     }
     let (regions, removed) = graph.regions_without(surface, &removed);
     Ok(Merged {
