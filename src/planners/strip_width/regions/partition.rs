@@ -784,6 +784,65 @@ mod tests {
     }
 
     #[test]
+    fn any_separatrices_removed_the_regions_still_tile_the_domain() {
+        // Random surfaces outside the suite (seeds 40-45, 200 x 150 mm),
+        // partitions of several regions; for 12 subsets of separatrices
+        // removed each: every point of a 30 x 30 grid lies in exactly one
+        // region, the areas add up to the surface's, and fewer separatrices
+        // never give more regions.
+        let mut partitions = 0;
+        for seed in 40..46u64 {
+            let params = crate::samples::random::RandomSurface {
+                seed,
+                anisotropy: (seed % 3) as f64,
+                ..Default::default()
+            };
+            let s = params.surface().unwrap();
+            let a = degenerate_points::find(&s, 48).unwrap();
+            let p = partition(&s, 5f64.to_radians().sin() / 2.5, &a.points, 2.5);
+            let whole: f64 = p.regions.iter().map(|r| r.area_mm2).sum();
+            let total = polygon_area(
+                &s,
+                &crate::planners::strip_width::regions::whole_domain(&s).boundary_uv,
+                48,
+            );
+            if p.regions.len() < 3 || (whole - total).abs() > 0.005 * total {
+                continue; // too few regions, or a partition planned as one region
+            }
+            partitions += 1;
+            let n = p.graph.separatrix_count();
+            let mut bits = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            for _ in 0..12 {
+                bits = bits.rotate_left(7) ^ 0x2545_F491_4F6C_DD1D;
+                let removed: Vec<bool> = (0..n).map(|e| (bits >> (e % 64)) & 1 == 1).collect();
+                let (regions, out) = p.graph.regions_without(&s, &removed);
+                assert!(out.iter().zip(&removed).all(|(o, r)| *o || !*r), "{seed}");
+                assert!(
+                    !regions.is_empty() && regions.len() <= p.regions.len(),
+                    "{seed}"
+                );
+                let sum: f64 = regions.iter().map(|r| r.area_mm2).sum();
+                assert!(
+                    (sum - total).abs() < 0.005 * total,
+                    "{seed}: {sum} of {total}"
+                );
+                let ((u0, u1), (v0, v1)) = s.domain();
+                for i in 0..30 {
+                    for j in 0..30 {
+                        let uv = Vector2::new(
+                            u0 + (u1 - u0) * (i as f64 + 0.43) / 30.0,
+                            v0 + (v1 - v0) * (j as f64 + 0.57) / 30.0,
+                        );
+                        let holding = regions.iter().filter(|r| r.contains(uv)).count();
+                        assert_eq!(holding, 1, "seed {seed}, uv {uv:?}, removed {removed:?}");
+                    }
+                }
+            }
+        }
+        assert!(partitions >= 3, "only {partitions} partitions to test");
+    }
+
+    #[test]
     fn an_interior_point_lies_inside() {
         // A U shape: the middle of its bounding box is outside.
         let poly = [
