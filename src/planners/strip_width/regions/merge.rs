@@ -1,7 +1,7 @@
 //! Merging the regions of a partition where a boundary costs more than the
 //! better feed directions on its two sides save (docs/methods.md, "Merging
-//! regions"): separatrices are taken out one at a time, each time the one
-//! whose removal shortens the estimated cover most, until none does.
+//! regions"): separatrices are taken out one at a time while a removal
+//! shortens the estimated cover.
 
 use super::partition::{interior_point, polygon_contains, FaceGraph};
 use super::Region;
@@ -36,9 +36,15 @@ pub struct Merged {
 /// estimated cover length of one region; it is called once per distinct
 /// region, on up to two threads. A region of the merged partition is a
 /// union of traced ones and is known by the set of them, so its cost is
-/// computed once however many trials meet it. Each step tries every kept
+/// computed once however many trials meet it. The first step tries every
 /// separatrix and takes the removal with the shortest total (ties: the
-/// lowest index); it stops when no removal is shorter.
+/// lowest index). Later steps try the separatrices left in the order of
+/// what they saved in the first step, [`TRIALS_AT_ONCE`] at a time, and take
+/// the shorter of the first group that shortens the total: the grown
+/// region's union with each neighbour is most of the surface late in the
+/// search, and trying them all at every step estimated twice the area for
+/// the same regions on 22 of 23 suite surfaces. It stops when no removal
+/// shortens the total.
 pub fn merge_regions<F>(
     surface: &NurbsSurface,
     graph: &FaceGraph,
