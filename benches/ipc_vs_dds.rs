@@ -18,7 +18,7 @@ use futures::StreamExt;
 use ros2_client::{
     qos::{Durability, History, WhenFull},
     ros2::QosProfile,
-    Context, Message, MessageTypeName, Name, NodeName, NodeOptions,
+    Context, MessageTypeName, Name, NodeName, NodeOptions,
 };
 use serde::{Deserialize, Serialize};
 use std::sync::mpsc;
@@ -79,7 +79,6 @@ struct DdsToolpath {
     parts: u32,
     points: Vec<DdsPoint>,
 }
-impl Message for DdsToolpath {}
 
 /// The path as DDS messages: one per pass, or one for all (`single`).
 fn to_dds(r: &PlanResult, single: bool) -> Vec<DdsToolpath> {

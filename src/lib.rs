@@ -1,47 +1,40 @@
 //! toolpath_planner: CNC toolpaths and tool-pose trajectories on freeform
 //! surfaces, for a 5-axis mill and a 6-axis belt grinder, and 2.5-axis pockets.
 //!
-//! Layers, each depending only on those listed before it:
-//! 1. `error`, `parallel` (deterministic chunked threads), `geometry` (NURBS,
-//!    differential geometry, pockets), `tools`
-//! 2. `formats` (surface, pocket, job and result files), `samples`
-//! 3. `planners` (one module per method)
-//! 4. `simulation` (scallop simulator, material removal)
-//! 5. `machines` (kinematics, timed joint trajectories)
-//! 6. `pipeline` (plan + verify + stats: what every edge calls), `post` (NC
-//!    programs from results)
-//! 7. `messages` (the node's ROS 2 messages, their conversions, topic names
-//!    and the output messages of a planned job: what the node and the bags share)
-//! 8. edges: `ipc` (iceoryx2), `plot` and `recording` (MCAP bags), none of
-//!    which uses another; above them `ros` (the node, which records into
-//!    bags); above all `cli`
+//! The work is done by the workspace's layer crates, each depending only on
+//! those before it (Cargo checks it; docs/architecture.md, "Layers"):
+//! 1. `toolpath_kernel`: errors, parallel maps, RNG, progress, geometry, tools
+//! 2. `toolpath_formats` (files, STEP), `toolpath_samples`
+//! 3. `toolpath_planners`, `toolpath_simulation`
+//! 4. `toolpath_machines` (kinematics, timing), `toolpath_post` (NC programs)
+//! 5. `toolpath_pipeline` (plan + verify + stats: what every edge calls)
+//! 6. `toolpath_messages` (ROS 2 messages and a job's outputs)
+//! 7. edges: `toolpath_ipc`, `toolpath_plot`, `toolpath_recording`, and
+//!    `toolpath_node` above the recording
 //!
-//! Nothing in layers 1-7 imports from an edge, and an edge imports only edges
-//! below it (checked by tests/layering.rs).
+//! This package is the top: the CLI (`cli`, binary `toolpath`). It
+//! re-exports the layers under their module names, so that the integration
+//! tests, benches and examples see one tree.
 
-pub mod error;
-pub mod geometry;
-pub mod parallel;
-pub mod tools;
+pub use toolpath_kernel::{error, geometry, parallel, progress, rng, tools};
 
-pub mod formats;
-pub mod samples;
+pub use toolpath_formats as formats;
+pub use toolpath_samples as samples;
 
-pub mod planners;
+pub use toolpath_planners as planners;
+pub use toolpath_simulation as simulation;
 
-pub mod simulation;
+pub use toolpath_machines as machines;
+pub use toolpath_post as post;
 
-pub mod machines;
+pub use toolpath_pipeline as pipeline;
 
-pub mod pipeline;
-pub mod post;
+pub use toolpath_messages as messages;
 
-pub mod messages;
-
-pub mod ipc;
-pub mod plot;
-pub mod recording;
-pub mod ros;
+pub use toolpath_ipc as ipc;
+pub use toolpath_node as ros;
+pub use toolpath_plot as plot;
+pub use toolpath_recording as recording;
 
 pub mod cli;
 

@@ -1,261 +1,250 @@
-//! The layering is visible in src/: the algorithms (geometry, tools, formats,
-//! samples, planners, simulation, machines, post) never reach the edges (cli,
-//! ros, recording, ipc, plot), every layer uses only the layers below it, and
-//! the edges are ranked among themselves so that no two of them can import
-//! each other (the node records, so `ros` may use `recording`, never the
-//! reverse).
+//! The workspace's layers (docs/architecture.md, "Layers"). Cargo forbids
+//! cycles between crates; this test checks what Cargo cannot: that every crate
+//! depends only on crates ranked below it (an upward dependency that makes no
+//! cycle compiles), that the edges stay apart, and that the kernel and the
+//! planning crates build without transport (no DDS, tokio, iceoryx2, OpenSSL
+//! or plotting in their dependency trees). It reads `cargo metadata`.
 
-use std::collections::BTreeSet;
-use std::path::{Path, PathBuf};
+use serde_json::Value;
+use std::collections::{BTreeMap, BTreeSet};
+use std::process::Command;
+use std::sync::OnceLock;
 
-/// Layer rank of a top-level module (lib.rs order). Modules of one rank may
-/// use each other, except the edges: an edge uses only lower ranks.
-fn rank(module: &str) -> Option<u32> {
-    Some(match module {
-        "error" | "parallel" => 0,
-        "geometry" | "tools" => 1,
-        "formats" | "samples" => 2,
-        "planners" => 3,
-        "simulation" => 4,
-        "machines" => 5,
-        // NC post-processors: from machines' joint trajectories to NC code.
-        "pipeline" | "post" => 6,
-        // The node's messages, shared by the node and the bags.
-        "messages" => 7,
-        "ipc" | "plot" | "recording" => 8,
-        "ros" => 9,
-        "cli" => 10,
+/// A workspace crate's rank: a crate may depend (normally, not as a
+/// dev-dependency) only on crates of a lower rank. The edges share a rank
+/// but `ipc`, `plot` and `recording` use none of each other, and the node is
+/// above the recording; the CLI package is above everything.
+fn rank(name: &str) -> Option<u32> {
+    Some(match name {
+        "toolpath_kernel" => 0,
+        "toolpath_formats" => 1,
+        "toolpath_samples" => 2,
+        "toolpath_planners" | "toolpath_simulation" | "toolpath_machines" => 3,
+        "toolpath_post" => 4,
+        "toolpath_pipeline" => 5,
+        "toolpath_messages" => 6,
+        "toolpath_ipc" | "toolpath_plot" | "toolpath_recording" => 7,
+        "toolpath_node" => 8,
+        "toolpath_planner" => 9,
         _ => return None,
     })
 }
 
-const EDGES: [&str; 5] = ["cli", "ros", "recording", "ipc", "plot"];
-const ALGORITHMS: [&str; 8] = [
-    "geometry",
-    "tools",
-    "formats",
-    "samples",
-    "planners",
-    "simulation",
-    "machines",
-    "post",
+/// Crates that must not appear anywhere in the dependency tree of the
+/// geometry and planning layers.
+const TRANSPORT: [&str; 8] = [
+    "rustdds",
+    "ros2-client",
+    "tokio",
+    "iceoryx2",
+    "openssl",
+    "plotters",
+    "mcap",
+    "clap",
 ];
 
-/// Whether module `from` may refer to module `to` (both ranked).
-fn may_use(from: &str, to: &str) -> bool {
-    match (rank(from), rank(to)) {
-        (Some(f), Some(t)) => t < f || (t == f && (from == to || !EDGES.contains(&from))),
-        _ => true,
-    }
+/// The layers that must build without `TRANSPORT`.
+const ALGORITHMS: [&str; 8] = [
+    "toolpath_kernel",
+    "toolpath_formats",
+    "toolpath_samples",
+    "toolpath_planners",
+    "toolpath_simulation",
+    "toolpath_machines",
+    "toolpath_post",
+    "toolpath_pipeline",
+];
+
+struct Metadata {
+    /// Workspace crate -> its normal dependencies (names), workspace or not.
+    direct: BTreeMap<String, BTreeSet<String>>,
+    /// Every package (by id) -> its normal dependencies (ids), resolved.
+    resolved: BTreeMap<String, Vec<String>>,
+    /// Package id -> name.
+    names: BTreeMap<String, String>,
+    /// Workspace crate name -> package id.
+    members: BTreeMap<String, String>,
 }
 
-fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
-    };
-    let mut entries: Vec<_> = entries.flatten().map(|e| e.path()).collect();
-    entries.sort();
-    for p in entries {
-        if p.is_dir() {
-            rust_files(&p, out);
-        } else if p.extension().is_some_and(|e| e == "rs") {
-            out.push(p);
-        }
-    }
+/// The host's target triple, from `rustc -vV`.
+fn host() -> String {
+    let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".into());
+    let out = Command::new(rustc)
+        .arg("-vV")
+        .output()
+        .expect("run rustc -vV");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    text.lines()
+        .find_map(|l| l.strip_prefix("host: "))
+        .expect("rustc -vV names the host")
+        .to_string()
 }
 
-/// Top-level crate modules a source text refers to as `crate::NAME` (also
-/// inside `use crate::{a, b::c}` groups), comments stripped.
-fn crate_refs(text: &str) -> Vec<String> {
-    let mut code = String::new();
-    for line in text.lines() {
-        let line = match line.find("//") {
-            Some(k) => &line[..k],
-            None => line,
-        };
-        code.push_str(line);
-        code.push('\n');
-    }
-    let mut refs = Vec::new();
-    let mut rest = code.as_str();
-    while let Some(k) = rest.find("crate::") {
-        let after = &rest[k + "crate::".len()..];
-        if let Some(group) = after.strip_prefix('{') {
-            // Top-level names of a group: split at commas outside nested braces.
-            let mut depth = 0;
-            let mut item = String::new();
-            for c in group.chars() {
-                match c {
-                    '{' => depth += 1,
-                    '}' if depth == 0 => break,
-                    '}' => depth -= 1,
-                    ',' if depth == 0 => {
-                        refs.push(item.trim().split("::").next().unwrap_or("").to_string());
-                        item.clear();
-                        continue;
-                    }
-                    _ => {}
-                }
-                if depth == 0 {
-                    item.push(c);
-                }
-            }
-            refs.push(item.trim().split("::").next().unwrap_or("").to_string());
-        } else {
-            let name: String = after
-                .chars()
-                .take_while(|c| c.is_alphanumeric() || *c == '_')
-                .collect();
-            refs.push(name);
-        }
-        rest = after;
-    }
-    refs.retain(|r| !r.is_empty());
-    refs
+/// `cargo metadata` once per test binary (the tests share it), resolved for
+/// the host only, so that no other platform's crates are needed.
+fn metadata() -> &'static Metadata {
+    static MD: OnceLock<Metadata> = OnceLock::new();
+    MD.get_or_init(read_metadata)
 }
 
-fn src() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
-}
-
-/// The top-level module a source file under src/ belongs to (`ros` for
-/// `ros/node.rs`, `pipeline` for `pipeline.rs`).
-fn module_of(rel: &Path) -> String {
-    let first = rel
-        .components()
-        .next()
-        .unwrap()
-        .as_os_str()
-        .to_string_lossy()
-        .to_string();
-    first.trim_end_matches(".rs").to_string()
-}
-
-/// (file, module of the file, referenced module) for every crate:: reference
-/// in `sources` (paths relative to src/, with their text).
-fn references_in(sources: &[(PathBuf, String)]) -> Vec<(PathBuf, String, String)> {
-    let mut out = Vec::new();
-    for (rel, text) in sources {
-        let module = module_of(rel);
-        for r in crate_refs(text) {
-            out.push((rel.clone(), module.clone(), r));
-        }
-    }
-    out
-}
-
-/// Every .rs file under src/ (relative path, text).
-fn sources() -> Vec<(PathBuf, String)> {
-    let mut files = Vec::new();
-    rust_files(&src(), &mut files);
-    files
-        .into_iter()
-        .map(|f| {
-            let text = std::fs::read_to_string(&f).unwrap();
-            (f.strip_prefix(src()).unwrap().to_path_buf(), text)
-        })
-        .collect()
-}
-
-/// "file (layer m) uses crate::r" for every reference against the ranks.
-fn upward_uses(refs: &[(PathBuf, String, String)]) -> Vec<String> {
-    refs.iter()
-        .filter(|(_, m, r)| !may_use(m, r))
-        .map(|(f, m, r)| format!("{} (layer {m}) uses crate::{r}", f.display()))
-        .collect()
-}
-
-#[test]
-fn the_scanner_finds_grouped_and_plain_references() {
-    let text = "use crate::geometry::NurbsSurface;\n// crate::ros is only mentioned\nuse crate::{formats::{Job, Shape}, ros, tools::Tool};\nlet x = crate::plot::draw();";
-    assert_eq!(
-        crate_refs(text),
-        vec!["geometry", "formats", "ros", "tools", "plot"]
+fn read_metadata() -> Metadata {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(cargo)
+        .args([
+            "metadata",
+            "--format-version",
+            "1",
+            "--offline",
+            "--filter-platform",
+        ])
+        .arg(host())
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run cargo metadata");
+    assert!(
+        out.status.success(),
+        "cargo metadata failed: {}",
+        String::from_utf8_lossy(&out.stderr)
     );
-}
-
-#[test]
-fn algorithms_never_reach_the_edges() {
-    let refs = references_in(&sources());
-    assert!(refs.iter().any(|(_, m, _)| m == "geometry"), "scanned src/");
-    let bad: Vec<_> = refs
+    let v: Value = serde_json::from_slice(&out.stdout).expect("cargo metadata is JSON");
+    let ids: BTreeSet<&str> = v["workspace_members"]
+        .as_array()
+        .unwrap()
         .iter()
-        .filter(|(_, m, r)| ALGORITHMS.contains(&m.as_str()) && EDGES.contains(&r.as_str()))
-        .map(|(f, _, r)| format!("{} uses crate::{r}", f.display()))
+        .map(|m| m.as_str().unwrap())
         .collect();
-    assert!(bad.is_empty(), "layering violations:\n{}", bad.join("\n"));
+    let mut md = Metadata {
+        direct: BTreeMap::new(),
+        resolved: BTreeMap::new(),
+        names: BTreeMap::new(),
+        members: BTreeMap::new(),
+    };
+    for p in v["packages"].as_array().unwrap() {
+        let id = p["id"].as_str().unwrap();
+        let name = p["name"].as_str().unwrap().to_string();
+        md.names.insert(id.to_string(), name.clone());
+        if ids.contains(id) {
+            md.members.insert(name.clone(), id.to_string());
+            let deps = p["dependencies"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .filter(|d| d["kind"].is_null())
+                .map(|d| d["name"].as_str().unwrap().to_string())
+                .collect();
+            md.direct.insert(name, deps);
+        }
+    }
+    for n in v["resolve"]["nodes"].as_array().unwrap() {
+        let deps = n["deps"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|d| {
+                d["dep_kinds"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .any(|k| k["kind"].is_null())
+            })
+            .map(|d| d["pkg"].as_str().unwrap().to_string())
+            .collect();
+        md.resolved
+            .insert(n["id"].as_str().unwrap().to_string(), deps);
+    }
+    md
+}
+
+/// "a depends on b (rank ra <= rb)" for every workspace dependency against
+/// the ranks, and edges that use each other.
+fn upward(direct: &BTreeMap<String, BTreeSet<String>>) -> Vec<String> {
+    let mut bad = Vec::new();
+    for (a, deps) in direct {
+        let Some(ra) = rank(a) else { continue };
+        for b in deps {
+            let Some(rb) = rank(b) else { continue };
+            if rb >= ra {
+                bad.push(format!("{a} (rank {ra}) depends on {b} (rank {rb})"));
+            }
+        }
+    }
+    bad
+}
+
+/// Every package in the normal dependency tree of `root`, by name.
+fn tree(md: &Metadata, root: &str) -> BTreeSet<String> {
+    let mut seen = BTreeSet::new();
+    let mut stack = vec![md.members[root].clone()];
+    let mut names = BTreeSet::new();
+    while let Some(id) = stack.pop() {
+        if !seen.insert(id.clone()) {
+            continue;
+        }
+        names.insert(md.names[&id].clone());
+        stack.extend(md.resolved.get(&id).into_iter().flatten().cloned());
+    }
+    names
 }
 
 #[test]
-fn every_layer_uses_only_layers_below_it() {
-    let bad = upward_uses(&references_in(&sources()));
+fn every_workspace_crate_has_a_rank() {
+    let md = metadata();
+    let unranked: Vec<&String> = md.members.keys().filter(|m| rank(m).is_none()).collect();
+    assert!(
+        unranked.is_empty(),
+        "give these crates a rank in tests/layering.rs: {unranked:?}"
+    );
+    assert!(md.members.len() >= 14, "{:?}", md.members.keys());
+}
+
+#[test]
+fn every_crate_depends_only_on_lower_layers() {
+    let md = metadata();
+    let bad = upward(&md.direct);
     assert!(bad.is_empty(), "upward dependencies:\n{}", bad.join("\n"));
 }
 
 #[test]
-fn every_top_level_module_has_a_rank() {
-    let unranked: BTreeSet<String> = sources()
-        .iter()
-        .map(|(rel, _)| module_of(rel))
-        .filter(|m| m != "lib" && m != "main" && rank(m).is_none())
-        .collect();
-    assert!(
-        unranked.is_empty(),
-        "give these modules a rank in tests/layering.rs: {unranked:?}"
-    );
+fn the_algorithms_build_without_transport() {
+    let md = metadata();
+    for c in ALGORITHMS {
+        let t = tree(md, c);
+        let found: Vec<&str> = TRANSPORT
+            .iter()
+            .copied()
+            .filter(|x| t.contains(*x))
+            .collect();
+        assert!(found.is_empty(), "{c} pulls in {found:?}");
+    }
+    // The check sees a transport crate where there is one.
+    assert!(tree(md, "toolpath_node").contains("rustdds"));
 }
 
-/// The rank check on made-up sources: an edge importing a higher edge, or an
-/// edge of its own rank, is reported; the allowed directions are not.
 #[test]
-fn the_rank_check_reports_an_edge_importing_a_higher_edge() {
-    let source = |path: &str, text: &str| (PathBuf::from(path), text.to_string());
-    let bad = upward_uses(&references_in(&[
-        source(
-            "recording/runs.rs",
-            "use crate::messages::topics;\nuse crate::ros::node::{qos, RosNode};\n",
+fn the_rank_check_reports_upward_and_sideways_dependencies() {
+    let direct: BTreeMap<String, BTreeSet<String>> = [
+        (
+            "toolpath_recording",
+            &["toolpath_node", "toolpath_messages"][..],
         ),
-        source("recording/mod.rs", "pub fn f() { crate::plot::draw(); }\n"),
-        source(
-            "messages/convert.rs",
-            "use crate::{formats::Job, recording::runs};\n",
+        ("toolpath_plot", &["toolpath_ipc"][..]),
+        ("toolpath_planners", &["toolpath_machines", "nalgebra"][..]),
+        ("toolpath_kernel", &["toolpath_formats"][..]),
+        (
+            "toolpath_node",
+            &["toolpath_recording", "toolpath_kernel"][..],
         ),
-        source("ipc/mod.rs", "use crate::cli;\n"),
-        source("post/mod.rs", "use crate::messages::Toolpath;\n"),
-    ]));
+    ]
+    .into_iter()
+    .map(|(a, b)| (a.to_string(), b.iter().map(|s| s.to_string()).collect()))
+    .collect();
     assert_eq!(
-        bad,
+        upward(&direct),
         vec![
-            "recording/runs.rs (layer recording) uses crate::ros",
-            "recording/mod.rs (layer recording) uses crate::plot",
-            "messages/convert.rs (layer messages) uses crate::recording",
-            "ipc/mod.rs (layer ipc) uses crate::cli",
-            "post/mod.rs (layer post) uses crate::messages",
+            "toolpath_kernel (rank 0) depends on toolpath_formats (rank 1)",
+            "toolpath_planners (rank 3) depends on toolpath_machines (rank 3)",
+            "toolpath_plot (rank 7) depends on toolpath_ipc (rank 7)",
+            "toolpath_recording (rank 7) depends on toolpath_node (rank 8)",
         ]
     );
-    let fine = upward_uses(&references_in(&[
-        source(
-            "ros/recorder.rs",
-            "use crate::recording::{runs, BagWriter};\nuse crate::ipc::SERVICE_NAME;\n",
-        ),
-        source("ros/node.rs", "use crate::ros::config::NodeConfig;\n"),
-        source(
-            "recording/runs.rs",
-            "use crate::{messages, pipeline, recording::Bag};\n",
-        ),
-        source(
-            "messages/outputs.rs",
-            "use crate::{formats::Job, machines, pipeline};\n",
-        ),
-        source(
-            "post/mod.rs",
-            "use crate::{formats::Job, machines::JointTrajectory};\n",
-        ),
-        source(
-            "cli/replay.rs",
-            "use crate::{plot, recording::runs, ros::republish};\n",
-        ),
-        source("geometry/nurbs.rs", "use crate::tools::Tool;\n"),
-    ]));
-    assert!(fine.is_empty(), "{fine:?}");
 }

@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash .ci/install
-cargo test --locked
+cargo test --workspace --locked
 if ls tests/python/test_*.py >/dev/null 2>&1; then
   # `cargo test` has just built target/debug/toolpath for the integration tests (dependencies
   # at opt-level 3, this crate at 1): the Python tests drive that binary, which spares CI a

@@ -19,14 +19,6 @@
 //! (tests/node_burst.rs).
 
 use super::demo::{demo_domain, start_node_with};
-use crate::error::{Error, Result};
-use crate::formats::{FeedDirection, Job, JobFile, Machine, Shape, Strategy};
-use crate::geometry::NurbsSurface;
-use crate::messages::{self as msgs, convert, topics, JobStatus};
-use crate::pipeline::{self, RunOptions};
-use crate::planners::NoProgress;
-use crate::ros::node::{qos, RosNode, TIMING_TAG};
-use crate::tools::Tool;
 use futures::StreamExt;
 use ros2_client::qos::{History, WhenFull};
 use ros2_client::{MessageInfo, Publisher, Subscription};
@@ -35,6 +27,14 @@ use std::io::{BufRead, BufReader};
 use std::net::{IpAddr, Ipv4Addr};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
+use toolpath_formats::{FeedDirection, Job, JobFile, Machine, Shape, Strategy};
+use toolpath_kernel::error::{Error, Result};
+use toolpath_kernel::geometry::NurbsSurface;
+use toolpath_kernel::tools::Tool;
+use toolpath_messages::{self as msgs, convert, topics, JobStatus};
+use toolpath_node::node::{qos, RosNode, TIMING_TAG};
+use toolpath_pipeline::{self as pipeline, RunOptions};
+use toolpath_planners::NoProgress;
 
 /// Target for the node overhead at the 99th percentile, ms.
 const OVERHEAD_P99_TARGET_MS: f64 = 20.0;
@@ -268,7 +268,7 @@ impl BurstLoad {
     /// The benchmark's small job: iso_parametric on the plane sample.
     pub fn small() -> Result<Self> {
         Ok(BurstLoad {
-            surface: crate::samples::surfaces::plane(),
+            surface: toolpath_samples::surfaces::plane(),
             job: Box::new(|id, s| bench_job(id, s.clone())),
         })
     }
@@ -369,7 +369,7 @@ fn print_table(f: &Figures, domain: u16) {
             println!(
                 "burst jobs: planning p50 {p50:.1} ms, max {max:.1} ms each ({:.2} s of planning per burst at p50, over {} workers)",
                 p50 * first.sent as f64 / 1e3,
-                crate::ros::config::NodeSettings::default().worker_count()
+                toolpath_node::config::NodeSettings::default().worker_count()
             );
         }
     }

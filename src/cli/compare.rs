@@ -1,8 +1,8 @@
 //! `toolpath compare JOB`: dispatches on what the job machines.
 
-use crate::error::Result;
-use crate::formats::{self, Shape, Strategy};
 use std::path::Path;
+use toolpath_formats::{self as formats, Shape, Strategy};
+use toolpath_kernel::error::Result;
 
 pub fn run(job_path: &Path) -> Result<()> {
     let job = formats::read_job(job_path)?;

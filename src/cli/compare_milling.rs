@@ -4,10 +4,10 @@
 //! over the lower bound (integral of dA / w_max).
 
 use super::table;
-use crate::error::Result;
-use crate::formats::{Job, Strategy};
-use crate::pipeline::{self, RunOptions};
-use crate::planners::NoProgress;
+use toolpath_formats::{Job, Strategy};
+use toolpath_kernel::error::Result;
+use toolpath_pipeline::{self as pipeline, RunOptions};
+use toolpath_planners::NoProgress;
 
 pub const STRATEGIES: [Strategy; 3] = [
     Strategy::IsoParametric,

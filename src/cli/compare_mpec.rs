@@ -7,12 +7,12 @@
 //! across the feed; a pass is as wide as its narrowest stepover, and passes
 //! are placed with the same gap measure as the MPEC planner's.
 
-use crate::error::Result;
-use crate::formats::Job;
-use crate::geometry::LocalGeometry;
-use crate::pipeline::{self, RunOptions};
-use crate::planners::mpec::Planner;
-use crate::planners::NoProgress;
+use toolpath_formats::Job;
+use toolpath_kernel::error::Result;
+use toolpath_kernel::geometry::LocalGeometry;
+use toolpath_pipeline::{self as pipeline, RunOptions};
+use toolpath_planners::mpec::Planner;
+use toolpath_planners::NoProgress;
 
 /// Exact stepover (arc length on the part) of a ball of radius `rb` leaving a
 /// scallop `h` on a part whose normal curvature across the feed is `kappa`
@@ -46,8 +46,8 @@ pub fn ball_passes(planner: &Planner, rb: f64, scallop: f64) -> Result<(usize, f
                 let kappa = LocalGeometry::at(planner.surface, u, v)
                     .map(|g| {
                         let su = match planner.feed {
-                            crate::formats::FeedDirection::U => g.forms.derivs.su,
-                            crate::formats::FeedDirection::V => g.forms.derivs.sv,
+                            toolpath_formats::FeedDirection::U => g.forms.derivs.su,
+                            toolpath_formats::FeedDirection::V => g.forms.derivs.sv,
                         };
                         let across = g.forms.n.cross(&su.normalize());
                         g.normal_curvature(across)

@@ -1,11 +1,11 @@
 //! `toolpath compare` on a pocket: the medial-axis tool sequence against the
 //! root tool alone (contour-parallel at the same stepover), the paper's case.
 
-use crate::error::Result;
-use crate::formats::Job;
-use crate::planners::pocket::offset_passes::rapid_length;
-use crate::planners::pocket::pocket_mat::{plan_pocket, plan_single_tool, PocketPlan};
-use crate::planners::NoProgress;
+use toolpath_formats::Job;
+use toolpath_kernel::error::Result;
+use toolpath_planners::pocket::offset_passes::rapid_length;
+use toolpath_planners::pocket::pocket_mat::{plan_pocket, plan_single_tool, PocketPlan};
+use toolpath_planners::NoProgress;
 
 fn row(name: &str, tools: &str, plan: &PocketPlan, feed_rate: f64) -> String {
     let length = plan.path_length();

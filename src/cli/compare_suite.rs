@@ -3,13 +3,13 @@
 //! built-in milling samples, each plan verified by the simulator. One
 //! Markdown row per surface, then the median and worst of the ratios.
 
-use crate::error::{Error, Result};
-use crate::formats::{Job, PlanResult};
-use crate::pipeline::{self, RunOptions};
-use crate::planners::strip_width::{crossings, lower_bound};
-use crate::planners::NoProgress;
-use crate::samples;
 use std::time::Instant;
+use toolpath_formats::{Job, PlanResult};
+use toolpath_kernel::error::{Error, Result};
+use toolpath_pipeline::{self as pipeline, RunOptions};
+use toolpath_planners::strip_width::{crossings, lower_bound};
+use toolpath_planners::NoProgress;
+use toolpath_samples as samples;
 
 /// The built-in samples planned with the flat end.
 pub const BUILT_IN: [&str; 4] = ["plane", "concave_cylinder", "monkey_saddle", "wing_mould"];

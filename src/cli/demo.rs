@@ -13,15 +13,6 @@
 //! carries what the Toolpath message does not (separatrices, medial axis,
 //! degenerate-point kinds) plus the simulator's residual map.
 
-use crate::error::{Error, Result};
-use crate::formats::{Job, PlanResult, Shape};
-use crate::messages::{self as msgs, convert, topics, JobStatus};
-use crate::pipeline::{self, RunOptions};
-use crate::planners::NoProgress;
-use crate::plot::{self, PlotInput};
-use crate::post::{self, Format, PostMachine};
-use crate::ros::node::{qos, RosNode};
-use crate::samples;
 use futures::StreamExt;
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
@@ -29,6 +20,15 @@ use std::net::{IpAddr, Ipv4Addr};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
+use toolpath_formats::{Job, PlanResult, Shape};
+use toolpath_kernel::error::{Error, Result};
+use toolpath_messages::{self as msgs, convert, topics, JobStatus};
+use toolpath_node::node::{qos, RosNode};
+use toolpath_pipeline::{self as pipeline, RunOptions};
+use toolpath_planners::NoProgress;
+use toolpath_plot::{self as plot, PlotInput};
+use toolpath_post::{self as post, Format, PostMachine};
+use toolpath_samples as samples;
 
 /// How long the demo waits for all jobs.
 const JOBS_TIMEOUT: Duration = Duration::from_secs(900);

@@ -1,9 +1,9 @@
 //! `toolpath import`: the faces of a STEP file (docs/formats.md, "STEP import").
 
-use crate::error::{Error, Result};
-use crate::formats;
-use crate::formats::step::StepFile;
 use std::path::Path;
+use toolpath_formats as formats;
+use toolpath_formats::step::StepFile;
+use toolpath_kernel::error::{Error, Result};
 
 pub fn run(step: &Path, list: bool, faces: &[u64], output: &Path) -> Result<()> {
     if list != faces.is_empty() {

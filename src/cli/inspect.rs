@@ -1,8 +1,8 @@
-use crate::error::{Error, Result};
-use crate::formats::{self, Shape};
-use crate::geometry::LocalGeometry;
 use serde_json::json;
 use std::path::Path;
+use toolpath_formats::{self as formats, Shape};
+use toolpath_kernel::error::{Error, Result};
+use toolpath_kernel::geometry::LocalGeometry;
 
 /// Curvature difference (1/mm) below which a point counts as umbilic.
 pub const UMBILIC_TOL: f64 = 1e-7;

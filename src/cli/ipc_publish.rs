@@ -1,7 +1,7 @@
-use crate::error::Result;
-use crate::formats;
-use crate::ipc::ToolpathPublisher;
 use std::path::Path;
+use toolpath_formats as formats;
+use toolpath_ipc::ToolpathPublisher;
+use toolpath_kernel::error::Result;
 
 /// `toolpath ipc-publish RESULT`: sends a result file over iceoryx2 `repeat`
 /// times (a consumer that attaches late still gets one).

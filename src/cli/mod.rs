@@ -24,9 +24,9 @@ mod simulate;
 mod table;
 mod verify;
 
-use crate::error::Error;
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
+use toolpath_kernel::error::Error;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -59,13 +59,13 @@ pub enum Command {
         #[arg(long, value_name = "S")]
         time_limit: Option<f64>,
         /// Refuse, before planning, a job estimated to need more passes.
-        #[arg(long, value_name = "N", default_value_t = crate::pipeline::Budget::DEFAULT.max_passes)]
+        #[arg(long, value_name = "N", default_value_t = toolpath_pipeline::Budget::DEFAULT.max_passes)]
         max_passes: f64,
         /// Refuse, before planning, a job estimated to need more toolpath points.
-        #[arg(long, value_name = "N", default_value_t = crate::pipeline::Budget::DEFAULT.max_points)]
+        #[arg(long, value_name = "N", default_value_t = toolpath_pipeline::Budget::DEFAULT.max_points)]
         max_points: f64,
         /// Refuse, before planning, a job estimated to need more memory (MB).
-        #[arg(long, value_name = "MB", default_value_t = crate::pipeline::Budget::DEFAULT.max_memory_mb)]
+        #[arg(long, value_name = "MB", default_value_t = toolpath_pipeline::Budget::DEFAULT.max_memory_mb)]
         max_memory_mb: f64,
     },
     /// List the faces of a STEP file, or write chosen faces as trimmed surfaces (JSON).
@@ -221,7 +221,7 @@ pub enum Command {
     /// Publish a result file over iceoryx2 (the zero-copy toolpath service; layout in docs/formats.md).
     IpcPublish {
         result: PathBuf,
-        #[arg(long, default_value = crate::ipc::SERVICE_NAME)]
+        #[arg(long, default_value = toolpath_ipc::SERVICE_NAME)]
         service: String,
         /// iceoryx2 file-name prefix (default: iceoryx2's own).
         #[arg(long)]
@@ -301,7 +301,7 @@ pub fn run_guarded() -> i32 {
 /// Runs the CLI and returns the process exit code.
 pub fn run() -> i32 {
     // The `--ros-args` block is ROS's, not clap's (see `ros::ros_args`).
-    let (own, ros) = match crate::ros::ros_args::split(std::env::args_os()) {
+    let (own, ros) = match toolpath_node::ros_args::split(std::env::args_os()) {
         Ok(split) => split,
         Err(e) => {
             eprintln!("error: {e}");
@@ -312,7 +312,7 @@ pub fn run() -> i32 {
     if ros.is_some() && !matches!(cli.command, Command::Node { .. }) {
         eprintln!(
             "error: {} is only accepted by `toolpath node`",
-            crate::ros::ros_args::ROS_ARGS
+            toolpath_node::ros_args::ROS_ARGS
         );
         return 2;
     }
@@ -344,7 +344,7 @@ fn dispatch(command: Command, ros: Option<&[String]>) -> Result<(), Error> {
                 no_verify,
                 no_timing,
                 time_limit_s: time_limit,
-                budget: crate::pipeline::Budget {
+                budget: toolpath_pipeline::Budget {
                     max_passes,
                     max_points,
                     max_memory_mb,
@@ -454,7 +454,7 @@ fn dispatch(command: Command, ros: Option<&[String]>) -> Result<(), Error> {
 }
 
 fn reindex(bag: &std::path::Path) -> Result<(), Error> {
-    let (summary, truncated) = crate::recording::reindex::reindex(bag)?;
+    let (summary, truncated) = toolpath_recording::reindex::reindex(bag)?;
     if let Some(why) = truncated {
         eprintln!("{why}");
     }

@@ -1,7 +1,7 @@
-use crate::error::{Error, Result};
-use crate::ros::ros_args::{self, RosArgs};
-use crate::ros::{logging, node, parameters, security, NodeConfig};
 use std::path::Path;
+use toolpath_kernel::error::{Error, Result};
+use toolpath_node::ros_args::{self, RosArgs};
+use toolpath_node::{logging, node, parameters, security, NodeConfig};
 
 /// `toolpath node [--config FILE] [--ros-args ...]`: runs the node until
 /// SIGINT/SIGTERM. The ROS arguments override the config (see

@@ -1,8 +1,8 @@
 use super::progress::Bar;
-use crate::error::Result;
-use crate::formats;
-use crate::pipeline::{self, Budget, Conformance, RunOptions, TimeLimit};
 use std::path::Path;
+use toolpath_formats as formats;
+use toolpath_kernel::error::Result;
+use toolpath_pipeline::{self as pipeline, Budget, Conformance, RunOptions, TimeLimit};
 
 /// The options of `toolpath plan` that bound or skip work.
 pub struct Limits {

@@ -1,7 +1,7 @@
-use crate::error::{Error, Result};
-use crate::formats::{self, Shape};
-use crate::plot::{self, PlotInput};
 use std::path::Path;
+use toolpath_formats::{self as formats, Shape};
+use toolpath_kernel::error::{Error, Result};
+use toolpath_plot::{self as plot, PlotInput};
 
 /// `toolpath plot RESULT [--job JOB] -o FILE.png|svg`. The job supplies the
 /// surface or pocket outline and, for milling results, the simulator's

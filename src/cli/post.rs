@@ -2,10 +2,10 @@
 //! writes a milling result as an NC program (formats in docs/formats.md) and
 //! prints what it did: blocks, inverse-time blocks, the largest rotary step.
 
-use crate::error::{Error, Result};
-use crate::formats;
-use crate::post::{self, Format, PostMachine};
 use std::path::Path;
+use toolpath_formats as formats;
+use toolpath_kernel::error::{Error, Result};
+use toolpath_post::{self as post, Format, PostMachine};
 
 pub fn run(
     result_path: &Path,

@@ -1,7 +1,7 @@
 //! A progress bar on a terminal; silent when stderr is not one.
 
-use crate::planners::Progress;
 use indicatif::{ProgressBar, ProgressStyle};
+use toolpath_planners::Progress;
 
 pub struct Bar(ProgressBar);
 

@@ -1,9 +1,9 @@
-use crate::error::{Error, Result};
-use crate::formats;
-use crate::machines::Machines;
-use crate::messages as msgs;
-use crate::recording::runs;
 use std::path::Path;
+use toolpath_formats as formats;
+use toolpath_kernel::error::{Error, Result};
+use toolpath_machines::Machines;
+use toolpath_messages as msgs;
+use toolpath_recording::runs;
 
 /// `toolpath record JOB -o BAG [--require-success]`: plans the job as the
 /// node would and records its inputs and outputs as a rosbag2 bag (a job that

@@ -8,16 +8,16 @@
 //! pass.
 
 use super::demo::{demo_domain, start_node_with};
-use crate::error::{Error, Result};
-use crate::formats::{Job, Machine, Shape};
-use crate::machines::Machines;
-use crate::messages::{self as msgs, convert, topics};
-use crate::ros::fake_controller::{self, Behaviour, FakeOptions};
-use crate::ros::node::{qos, RosNode};
 use futures::StreamExt;
 use std::net::{IpAddr, Ipv4Addr};
 use std::path::Path;
 use std::time::Duration;
+use toolpath_formats::{Job, Machine, Shape};
+use toolpath_kernel::error::{Error, Result};
+use toolpath_machines::Machines;
+use toolpath_messages::{self as msgs, convert, topics};
+use toolpath_node::fake_controller::{self, Behaviour, FakeOptions};
+use toolpath_node::node::{qos, RosNode};
 
 /// How long the job may take, planning and execution.
 const JOB_TIMEOUT: Duration = Duration::from_secs(600);

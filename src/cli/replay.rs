@@ -1,11 +1,11 @@
-use crate::error::{Error, Result};
-use crate::machines::Machines;
-use crate::recording::runs;
-use crate::ros::republish::{self, PublishOptions};
-use crate::ros::NodeConfig;
 use std::net::{IpAddr, Ipv4Addr};
 use std::path::Path;
 use std::time::Duration;
+use toolpath_kernel::error::{Error, Result};
+use toolpath_machines::Machines;
+use toolpath_node::republish::{self, PublishOptions};
+use toolpath_node::NodeConfig;
+use toolpath_recording::runs;
 
 /// How `--publish` reaches the node.
 pub struct PublishArgs<'a> {

@@ -1,7 +1,7 @@
-use crate::error::{Error, Result};
-use crate::formats::{self, Shape};
-use crate::samples::{self, random::RandomSurface};
 use std::path::Path;
+use toolpath_formats::{self as formats, Shape};
+use toolpath_kernel::error::{Error, Result};
+use toolpath_samples::{self as samples, random::RandomSurface};
 
 /// The options of `toolpath sample random`.
 pub struct RandomArgs {

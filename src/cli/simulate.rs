@@ -3,11 +3,11 @@
 //! and optionally writes the removal-depth map. Exits 4 when the residual is
 //! above the job's h; refuses (exit 2) a result of another job.
 
-use crate::error::Result;
-use crate::formats::{read_job, read_result, write_json};
-use crate::pipeline::{check_belongs, is_belt, Conformance};
-use crate::simulation::removal::simulate_job;
 use std::path::Path;
+use toolpath_formats::{read_job, read_result, write_json};
+use toolpath_kernel::error::Result;
+use toolpath_pipeline::{check_belongs, is_belt, Conformance};
+use toolpath_simulation::removal::simulate_job;
 
 pub fn run(job: &Path, result: &Path, map: Option<&Path>) -> Result<()> {
     let job = read_job(job)?;

@@ -3,12 +3,12 @@
 //! Exits 3 when the simulated gouge is beyond the job's gouge tolerance, 4
 //! when the residual is above h; refuses (exit 2) a result of another job.
 
-use crate::error::{Error, Result};
-use crate::formats;
-use crate::pipeline;
 use serde::Serialize;
 use std::path::Path;
 use std::time::Instant;
+use toolpath_formats as formats;
+use toolpath_kernel::error::{Error, Result};
+use toolpath_pipeline as pipeline;
 
 #[derive(Serialize)]
 struct Summary<'a> {

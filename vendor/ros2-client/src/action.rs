@@ -1,7 +1,7 @@
 use serde::{Deserialize, Serialize};
 pub use action_msgs::{CancelGoalRequest, CancelGoalResponse, GoalId, GoalInfo, GoalStatusEnum};
 
-use crate::{action_msgs, builtin_interfaces, message::Message};
+use crate::{action_msgs, builtin_interfaces};
 
 mod client;
 #[doc(inline)]
@@ -40,7 +40,6 @@ pub struct SendGoalRequest<G> {
   pub goal_id: GoalId,
   pub goal: G,
 }
-impl<G: Message> Message for SendGoalRequest<G> {}
 
 /// Emulating ROS2 IDL code generator: Goal sending/setting service response
 #[derive(Clone, Serialize, Deserialize, Debug)]
@@ -48,14 +47,12 @@ pub struct SendGoalResponse {
   pub accepted: bool,
   pub stamp: builtin_interfaces::Time,
 }
-impl Message for SendGoalResponse {}
 
 /// Emulating ROS2 IDL code generator: Result getting service request
 #[derive(Clone, Serialize, Deserialize, Debug)]
 pub struct GetResultRequest {
   pub goal_id: GoalId,
 }
-impl Message for GetResultRequest {}
 
 /// Emulating ROS2 IDL code generator: Result getting service response
 #[derive(Clone, Serialize, Deserialize, Debug)]
@@ -63,7 +60,6 @@ pub struct GetResultResponse<R> {
   pub status: GoalStatusEnum, // interpretation same as in GoalStatus message?
   pub result: R,
 }
-impl<R: Message> Message for GetResultResponse<R> {}
 
 /// Emulating ROS2 IDL code generator: Feedback Topic message type
 #[derive(Clone, Serialize, Deserialize, Debug)]
@@ -71,7 +67,6 @@ pub struct FeedbackMessage<F> {
   pub goal_id: GoalId,
   pub feedback: F,
 }
-impl<F: Message> Message for FeedbackMessage<F> {}
 
 // Example topic names and types at DDS level:
 

@@ -1,7 +1,6 @@
 use serde::{Deserialize, Serialize};
 use serde_repr::{Deserialize_repr, Serialize_repr};
 
-use crate::message::Message;
 
 /// A handle used to identify action goals.
 pub type GoalId = crate::unique_identifier_msgs::UUID;
@@ -12,7 +11,6 @@ pub struct GoalInfo {
   pub goal_id: GoalId,
   pub stamp: crate::builtin_interfaces::Time, // Time when the goal was accepted
 }
-impl Message for GoalInfo {}
 
 /// Named goal statuses from [GoalStatus](https://docs.ros2.org/foxy/api/action_msgs/msg/GoalStatus.html)
 #[derive(Clone, Copy, Serialize_repr, Deserialize_repr, PartialEq, Debug)]
@@ -34,14 +32,12 @@ pub struct GoalStatus {
   pub goal_info: GoalInfo,
   pub status: GoalStatusEnum,
 }
-impl Message for GoalStatus {}
 
 /// From [GoalStatusArray](https://docs.ros2.org/foxy/api/action_msgs/msg/GoalStatusArray.html)
 #[derive(Clone, Serialize, Deserialize, Debug)]
 pub struct GoalStatusArray {
   pub status_list: Vec<GoalStatus>,
 }
-impl Message for GoalStatusArray {}
 
 /// From [CancelGoal](https://docs.ros2.org/foxy/api/action_msgs/srv/CancelGoal.html)
 // Cancel one or more goals with the following policy:
@@ -57,7 +53,6 @@ impl Message for GoalStatusArray {}
 pub struct CancelGoalRequest {
   pub(crate) goal_info: GoalInfo,
 }
-impl Message for CancelGoalRequest {}
 
 /// From [CancelGoal](https://docs.ros2.org/foxy/api/action_msgs/srv/CancelGoal.html)
 #[derive(Clone, Copy, Serialize_repr, Deserialize_repr, PartialEq, Debug)]
@@ -91,4 +86,3 @@ pub struct CancelGoalResponse {
   pub return_code: CancelGoalResponseEnum,
   pub goals_canceling: Vec<GoalInfo>,
 }
-impl Message for CancelGoalResponse {}

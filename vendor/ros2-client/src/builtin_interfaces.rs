@@ -27,10 +27,7 @@
 use serde::{Deserialize, Serialize};
 use log::{error, warn};
 
-use crate::{
-  message::Message,
-  ros_time::{OutOfRangeError, ROSTime},
-};
+use crate::ros_time::{OutOfRangeError, ROSTime};
 
 /// Over-the wire representation of a timestamp.
 ///
@@ -182,14 +179,12 @@ impl From<Time> for repr::Time {
 mod repr {
   use serde::{Deserialize, Serialize};
 
-  use crate::message::Message;
 
   #[derive(Clone, Copy, Serialize, Deserialize, Debug)]
   pub struct Time {
     pub sec: i32,
     pub nanosec: u32,
   }
-  impl Message for Time {}
 }
 
 // NOTE:
@@ -271,7 +266,6 @@ pub struct Duration {
   sec: i32,     // ROS2: Seconds component, range is valid over any possible int32 value.
   nanosec: u32, /* ROS2:  Nanoseconds component in the range of [0, 10e9). */
 }
-impl Message for Duration {}
 
 impl Duration {
   pub const fn zero() -> Self {

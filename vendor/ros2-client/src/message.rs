@@ -6,17 +6,6 @@ use serde::{Serialize, de::DeserializeOwned};
 /// Trait to ensure Messages can be (de)serialized
 pub trait Message: Serialize + DeserializeOwned {}
 
-impl Message for () {}
-impl Message for String {}
-
-impl Message for i8 {}
-impl Message for i16 {}
-impl Message for i32 {}
-impl Message for i64 {}
-
-impl Message for u8 {}
-impl Message for u16 {}
-impl Message for u32 {}
-impl Message for u64 {}
-
-impl<T: Message> Message for Vec<T> {}
+/// Every (de)serializable type is a message, so that message types defined in
+/// a crate that does not depend on ros2-client can be used in actions.
+impl<T: Serialize + DeserializeOwned> Message for T {}

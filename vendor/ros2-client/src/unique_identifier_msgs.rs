@@ -3,7 +3,6 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 use uuid::Uuid;
 
-use crate::message::Message;
 
 // deriving also Copy here is a bit on the expensive side, but makes life easier
 #[derive(Clone, Copy, Serialize, Deserialize, Eq, PartialEq, Ord, PartialOrd)]
@@ -11,7 +10,6 @@ pub struct UUID {
   #[serde(with = "uuid::serde::compact")] // straightforward binary serialization, not text
   pub uuid: Uuid,
 }
-impl Message for UUID {}
 
 impl fmt::Debug for UUID {
   fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {

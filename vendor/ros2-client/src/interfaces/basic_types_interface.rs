@@ -1,6 +1,5 @@
 use serde::{Deserialize, Serialize};
 
-use crate::Message;
 
 #[derive(Debug, Clone, Serialize, Deserialize, Default)]
 pub struct BasicTypesRequest {
@@ -39,7 +38,6 @@ impl BasicTypesRequest {
     }
   }
 }
-impl Message for BasicTypesRequest {}
 
 #[derive(Debug, Clone, Serialize, Deserialize, Default)]
 pub struct BasicTypesResponse {
@@ -78,4 +76,3 @@ impl BasicTypesResponse {
     }
   }
 }
-impl Message for BasicTypesResponse {}

@@ -6,10 +6,8 @@ use crate::Message;
 pub struct MarkerRequest {
   pub marker: String,
 }
-impl Message for MarkerRequest {}
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct MarkerResponse {
   pub marker: String,
 }
-impl Message for MarkerResponse {}

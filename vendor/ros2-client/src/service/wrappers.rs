@@ -259,7 +259,6 @@ impl BasicRequestHeader {
     }
   }
 }
-impl Message for BasicRequestHeader {}
 
 #[derive(Serialize, Deserialize)]
 pub struct BasicReplyHeader {
@@ -276,7 +275,6 @@ impl BasicReplyHeader {
     }
   }
 }
-impl Message for BasicReplyHeader {}
 
 // Cyclone mode header
 //
@@ -305,7 +303,6 @@ impl CycloneHeader {
     }
   }
 }
-impl Message for CycloneHeader {}
 
 // helper function, because Cyclone Request and Response unwrapping/decoding are
 // the same.

@@ -1,0 +1,19 @@
+//! Base geometry: NURBS surfaces, their differential geometry, and the
+//! curve operations the planners share. Depends on nothing else in the crate
+//! but `error`.
+
+pub mod differential;
+pub mod field_trace;
+pub mod interpolation;
+pub mod inversion;
+pub mod medial_axis;
+pub mod numeric;
+pub mod nurbs;
+pub mod plane_intersection;
+pub mod pocket;
+pub mod trim;
+
+pub use differential::{FundamentalForms, LocalGeometry};
+pub use nurbs::{NurbsSurface, SurfaceDerivs};
+pub use pocket::Pocket;
+pub use trim::{Trim, TrimCurve};

@@ -1,0 +1,35 @@
+//! 6-axis belt grinding (docs/methods.md, "Belt contact and removal").
+//!
+//! - [`contact`]: the contact wheel's line contact, its pose, the scallop
+//!   between neighbouring contact paths and the gouge of a rigid belt on a
+//!   concave section.
+//! - [`iso_parametric`]: contact paths along one parameter, stepped so the
+//!   scallop between paths stays within h.
+//! - [`iso_planar`]: contact paths in parallel section planes whose normal is
+//!   the dominant minimum-curvature direction (orientation tensor), stepped the
+//!   same way.
+
+pub mod contact;
+pub mod iso_parametric;
+pub mod iso_planar;
+
+use crate::Progress;
+use toolpath_formats::{Job, PlanResult, Strategy};
+use toolpath_kernel::error::{Error, Result};
+
+/// Plans a belt job as refined by the removal simulation
+/// ([`crate::refine`]).
+pub fn plan_with(
+    job: &Job,
+    progress: &dyn Progress,
+    refinement: &crate::refine::Refinement,
+) -> Result<PlanResult> {
+    match job.strategy {
+        Strategy::BeltIsoParametric => iso_parametric::plan_with(job, progress, refinement),
+        Strategy::BeltIsoPlanar => iso_planar::plan_with(job, progress, refinement),
+        other => Err(Error::planning(format!(
+            "internal: {} is not a belt strategy",
+            other.name()
+        ))),
+    }
+}
