@@ -51,8 +51,9 @@ pub fn x_interval(rows: &[Row], lo: f64, hi: f64) -> Option<(f64, f64)> {
     (lo <= hi).then_some((lo, hi))
 }
 
-/// The interval of u meeting every row at fixed `x`, or `None` when empty.
-pub fn u_interval(rows: &[Row], x: f64) -> Option<(f64, f64)> {
+/// The bounds on u that the rows with b != 0 give at fixed `x`: the interval
+/// of feasible u when lower <= upper (rows with b = 0 do not involve u).
+pub fn u_range(rows: &[Row], x: f64) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
     for r in rows {
         let rhs = r.c - r.a * x;
@@ -60,11 +61,9 @@ pub fn u_interval(rows: &[Row], x: f64) -> Option<(f64, f64)> {
             hi = hi.min(rhs / r.b);
         } else if r.b < 0.0 {
             lo = lo.max(rhs / r.b);
-        } else if rhs < -SLACK * r.c.abs().max(1.0) {
-            return None;
         }
     }
-    (lo <= hi).then_some((lo, hi))
+    (lo, hi)
 }
 
 #[cfg(test)]
@@ -133,12 +132,12 @@ mod tests {
     }
 
     #[test]
-    fn u_interval_of_a_box() {
+    fn u_range_of_a_box() {
         let rows = [
             Row { a: 1.0, b: 1.0, c: 3.0 },
             Row { a: 0.0, b: -1.0, c: 1.0 },
         ];
-        assert_eq!(u_interval(&rows, 1.0), Some((-1.0, 2.0)));
-        assert_eq!(u_interval(&rows, 5.0), None);
+        assert_eq!(u_range(&rows, 1.0), (-1.0, 2.0));
+        assert_eq!(u_range(&rows, 5.0), (-1.0, -2.0));
     }
 }

@@ -4,7 +4,7 @@
 //!
 //! Every waypoint of the path is sent. An interval between two sent points
 //! whose interpolation, sampled at the controller's period (and at least at
-//! four inner points), breaks a limit or leaves the chord or axis tolerance
+//! both ends and three inner points), breaks a limit or leaves the chord or axis tolerance
 //! on a cut is split, at the profile's knot nearest the middle of the
 //! interval (a switch of s_ddot must be a point: no cubic follows a kink of
 //! the velocity), or in the middle within one profile piece, until it holds
@@ -225,7 +225,8 @@ impl Ctx<'_> {
         let h = b.t - a.t;
         let m = ((h / self.period).ceil() as usize).max(4);
         let (first, last) = self.span;
-        for i in 1..m {
+        // The ends too: the cubic's acceleration is extreme there.
+        for i in 0..=m {
             let tau = h * i as f64 / m as f64;
             let js: Vec<JointState> = a
                 .state

@@ -15,7 +15,7 @@
 //!   profile on the grid (Pham & Pham 2018).
 
 use crate::error::{Error, Result};
-use crate::lp::{u_interval, x_interval, Row};
+use crate::lp::{u_range, x_interval, Row};
 use crate::path::{Limits, Piece, Segment, Tips};
 use crate::spline::Spline;
 
@@ -251,11 +251,11 @@ pub(crate) fn time_piece(
     for i in 0..m - 1 {
         stage_rows(&g, limits, scale, i, k[i + 1], &mut rows);
         let delta = g.s[i + 1] - g.s[i];
-        let next = match u_interval(&rows, x[i]) {
-            Some((_, hi)) => x[i] + 2.0 * delta * hi,
-            // Rounding left x_i just outside K_i: keep to the next set.
-            None => x[i].min(k[i + 1]),
-        };
+        // x_i lies in K_i, so some u exists; on K_i's boundary rounding can
+        // cross the bounds, and the middle of the crossed pair is the vertex.
+        let (lo, hi) = u_range(&rows, x[i]);
+        let u_best = if lo <= hi { hi } else { 0.5 * (lo + hi) };
+        let next = x[i] + 2.0 * delta * u_best;
         x[i + 1] = next.clamp(0.0, k[i + 1]);
         u[i] = (x[i + 1] - x[i]) / (2.0 * delta);
     }
