@@ -13,12 +13,15 @@
 use crate::check::{check, measure, segment_of, Planned, Report, Tolerance};
 use crate::error::Result;
 use crate::jtc::{cubic, quintic, JointState, Trajectory};
-use crate::path::{Limits, Path, ToolPose};
+use crate::path::{Limits, Path, Tips, ToolPose};
 use crate::timing::{parameterise, PathState, Timing};
 use crate::topp::Options;
 
 /// Intervals are not split below this, s.
 pub const MIN_INTERVAL: f64 = 1e-5;
+
+/// Splits inside one polynomial piece of the profile at most.
+const MAX_SMOOTH_SPLITS: usize = 4;
 
 /// What the tool must follow: forward kinematics, the planned poses (one per
 /// waypoint; `None`: the kinematics of the waypoints) and the tolerance.
@@ -45,15 +48,23 @@ pub struct Plan {
 pub fn plan(path: &Path, limits: &Limits, options: &Options, follow: Option<Follow>) -> Result<Plan> {
     let mut timing = parameterise(path, limits, options)?;
     let s_wp = timing.s.clone();
-    let own_poses: Vec<ToolPose> = match follow {
-        Some(f) if f.poses.is_none() => path.positions.iter().map(|q| (f.kinematics)(q)).collect(),
+    // The tip is checked wherever kinematics are known: the follow's, else
+    // the path's own (then for the tip speed caps; no tolerance applies).
+    let kinematics = match (follow, path.tips) {
+        (Some(f), _) => Some(f.kinematics),
+        (None, Tips::Kinematics(fk)) => Some(fk),
+        _ => None,
+    };
+    let given = follow.and_then(|f| f.poses);
+    let own_poses: Vec<ToolPose> = match (kinematics, given) {
+        (Some(fk), None) => path.positions.iter().map(|q| fk(q)).collect(),
         _ => Vec::new(),
     };
-    let planned = follow.map(|f| Planned {
+    let planned = kinematics.map(|fk| Planned {
         s: &s_wp,
         segments: path.segments,
-        poses: f.poses.unwrap_or(&own_poses),
-        kinematics: f.kinematics,
+        poses: given.unwrap_or(&own_poses),
+        kinematics: fk,
     });
     let tol = follow.map(|f| f.tolerance);
     for _ in 0..4 {
@@ -193,20 +204,25 @@ impl Ctx<'_> {
     }
 
     /// Splits (a, b) until its interpolation holds, pushing the inner points.
-    fn refine(&self, a: &At, b: &At, out: &mut Trajectory, depth: usize) {
+    /// `smooth_splits` counts the splits already made inside one piece of
+    /// the profile (no knot inside): there the plan is smooth and the
+    /// interpolation converges in a few, so more would only chase the plan.
+    fn refine(&self, a: &At, b: &At, out: &mut Trajectory, smooth_splits: usize) {
         let h = b.t - a.t;
-        if depth >= 40 || h < MIN_INTERVAL || !self.breaks(a, b) {
+        if smooth_splits > MAX_SMOOTH_SPLITS || h < MIN_INTERVAL || !self.breaks(a, b) {
             return;
         }
-        let mid = self.split_time(a.t, b.t);
+        let (mid, at_knot) = self.split_time(a.t, b.t);
+        let next = if at_knot { 0 } else { smooth_splits + 1 };
         let m = self.at(mid);
-        self.refine(a, &m, out, depth + 1);
+        self.refine(a, &m, out, next);
         push(out, &m, self.timing, self.quintic);
-        self.refine(&m, b, out, depth + 1);
+        self.refine(&m, b, out, next);
     }
 
-    /// The profile knot nearest the middle of (ta, tb), else the middle.
-    fn split_time(&self, ta: f64, tb: f64) -> f64 {
+    /// The profile knot nearest the middle of (ta, tb), else the middle
+    /// (and whether it is a knot).
+    fn split_time(&self, ta: f64, tb: f64) -> (f64, bool) {
         let mid = 0.5 * (ta + tb);
         let guard = 1e-3 * (tb - ta);
         let i = self.knots.partition_point(|&t| t < mid);
@@ -216,7 +232,7 @@ impl Ctx<'_> {
             .filter_map(|k| self.knots.get(k).copied())
             .filter(|&t| t > ta + guard && t < tb - guard)
             .min_by(|x, y| (x - mid).abs().total_cmp(&(y - mid).abs()))
-            .unwrap_or(mid)
+            .map_or((mid, false), |t| (t, true))
     }
 
     /// Whether the controller's interpolation between `a` and `b` breaks a
@@ -241,11 +257,21 @@ impl Ctx<'_> {
                     }
                 })
                 .collect();
-            let s = self.timing.state_in(self.p, a.t + tau).s;
-            let seg = segment_of(&self.timing.s, s, first, last);
-            let meas = measure(&js, self.limits, self.planned, s, seg, (first, last));
-            if meas.breaks(self.path.segments[seg].kind, self.tol) {
-                return true;
+            let plan = self.timing.state_in(self.p, a.t + tau);
+            let seg = segment_of(&self.timing.s, plan.s, first, last);
+            let span = (first, last);
+            let meas = measure(&js, self.limits, self.planned, plan.s, seg, span);
+            let kind = self.path.segments[seg].kind;
+            if meas.breaks(kind, self.tol) {
+                // Where the plan itself breaks as much, more points cannot
+                // help (the piece's stretch will).
+                let own = measure(&plan.joints, self.limits, self.planned, plan.s, seg, span);
+                let worse = meas.stretch() > own.stretch().max(1.0) + 1e-9
+                    || meas.deviation > own.deviation.max(self.tol.map_or(f64::INFINITY, |t| t.chord))
+                    || meas.axis > own.axis.max(self.tol.map_or(f64::INFINITY, |t| t.axis));
+                if worse {
+                    return true;
+                }
             }
         }
         false

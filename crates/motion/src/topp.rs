@@ -36,7 +36,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            min_intervals: 100,
+            min_intervals: 1000,
             margin: 2e-3,
             sample_period: 1e-3,
         }
@@ -89,27 +89,69 @@ struct Grid {
     xmax: Vec<f64>,
 }
 
-/// Parameter grid: the piece's knots, each interval split evenly so that no
-/// grid interval is longer than the piece over `min_intervals`.
-fn grid_params(knots: &[f64], min_intervals: usize) -> (Vec<f64>, Vec<usize>, Vec<usize>) {
-    let len = knots[knots.len() - 1] - knots[0];
-    let h_max = len / min_intervals.max(1) as f64;
-    let mut s = vec![knots[0]];
-    let mut interval = Vec::new();
-    let mut knot_index = vec![0];
-    for (k, w) in knots.windows(2).enumerate() {
-        let m = ((w[1] - w[0]) / h_max).ceil().max(1.0) as usize;
-        for i in 1..=m {
-            interval.push(k);
-            s.push(if i == m {
-                w[1]
-            } else {
-                w[0] + (w[1] - w[0]) * i as f64 / m as f64
-            });
+/// Where the grid points lie: the parameter, the spline interval of each
+/// grid interval, and the grid index of each knot.
+struct Layout {
+    s: Vec<f64>,
+    interval: Vec<usize>,
+    knot_index: Vec<usize>,
+}
+
+impl Layout {
+    /// The piece's knots, each interval split evenly so that no grid
+    /// interval is longer than the piece over `min_intervals`.
+    fn new(knots: &[f64], min_intervals: usize) -> Self {
+        let len = knots[knots.len() - 1] - knots[0];
+        let h_max = len / min_intervals.max(1) as f64;
+        let mut s = vec![knots[0]];
+        let mut interval = Vec::new();
+        let mut knot_index = vec![0];
+        for (k, w) in knots.windows(2).enumerate() {
+            let m = ((w[1] - w[0]) / h_max).ceil().max(1.0) as usize;
+            for i in 1..=m {
+                interval.push(k);
+                s.push(if i == m {
+                    w[1]
+                } else {
+                    w[0] + (w[1] - w[0]) * i as f64 / m as f64
+                });
+            }
+            knot_index.push(s.len() - 1);
         }
-        knot_index.push(s.len() - 1);
+        Layout {
+            s,
+            interval,
+            knot_index,
+        }
     }
-    (s, interval, knot_index)
+
+    /// Splits the grid intervals `bad` (sorted) at their middles.
+    fn split(&mut self, bad: &[usize]) {
+        let mut s = Vec::with_capacity(self.s.len() + bad.len());
+        let mut interval = Vec::with_capacity(s.capacity());
+        let mut next = bad.iter().peekable();
+        for i in 0..self.s.len() - 1 {
+            s.push(self.s[i]);
+            interval.push(self.interval[i]);
+            if next.peek() == Some(&&i) {
+                next.next();
+                s.push(0.5 * (self.s[i] + self.s[i + 1]));
+                interval.push(self.interval[i]);
+            }
+        }
+        s.push(self.s[self.s.len() - 1]);
+        let mut shift = 0;
+        let mut b = bad.iter().peekable();
+        for ki in self.knot_index.iter_mut() {
+            while b.peek().is_some_and(|&&i| i < *ki) {
+                b.next();
+                shift += 1;
+            }
+            *ki += shift;
+        }
+        self.s = s;
+        self.interval = interval;
+    }
 }
 
 /// |p'(s)| of the tool tip.
@@ -141,10 +183,15 @@ fn build_grid(
     segments: &[Segment],
     limits: &Limits,
     options: &Options,
+    layout: &Layout,
 ) -> Grid {
     let sp: &Spline = &piece.joints;
     let n = sp.dim();
-    let (s, interval, knot_index) = grid_params(sp.knots(), options.min_intervals);
+    let (s, interval, knot_index) = (
+        layout.s.clone(),
+        &layout.interval,
+        layout.knot_index.clone(),
+    );
     let scale = 1.0 - options.margin;
     let cap = |seg: usize| segments[piece.first + seg].tip_speed_cap;
     let mut d1 = Vec::with_capacity(s.len() * n);
@@ -228,7 +275,10 @@ fn stage_rows(g: &Grid, limits: &Limits, scale: f64, i: usize, k_next: f64, rows
     });
 }
 
-/// Times one piece; `t0` is the time at its first point.
+/// Times one piece; `t0` is the time at its first point. The constraints
+/// hold at the grid points; where the motion between two of them breaks a
+/// true limit (the margin did not cover how fast the path's derivatives
+/// change there), that grid interval is split and the piece solved again.
 pub(crate) fn time_piece(
     piece: &Piece,
     tips: &Tips,
@@ -237,19 +287,36 @@ pub(crate) fn time_piece(
     options: &Options,
     t0: f64,
 ) -> Result<PieceProfile> {
-    let g = build_grid(piece, tips, segments, limits, options);
-    let scale = 1.0 - options.margin;
+    let mut layout = Layout::new(piece.joints.knots(), options.min_intervals);
+    let mut rounds = 0;
+    loop {
+        let g = build_grid(piece, tips, segments, limits, options, &layout);
+        let (x, u) = solve(&g, limits, 1.0 - options.margin);
+        let bad = between_points(piece, tips, segments, limits, &layout, &x, &u);
+        rounds += 1;
+        if bad.is_empty() || rounds >= MAX_ROUNDS {
+            return profile(piece, g, x, u, t0);
+        }
+        layout.split(&bad);
+    }
+}
+
+/// Grid refinements per piece at most.
+const MAX_ROUNDS: usize = 8;
+
+/// Backward pass (controllable sets) and forward pass (largest u).
+fn solve(g: &Grid, limits: &Limits, scale: f64) -> (Vec<f64>, Vec<f64>) {
     let m = g.s.len();
     let mut k = vec![0.0; m];
     let mut rows = Vec::with_capacity(4 * limits.joints() + 2);
     for i in (0..m - 1).rev() {
-        stage_rows(&g, limits, scale, i, k[i + 1], &mut rows);
+        stage_rows(g, limits, scale, i, k[i + 1], &mut rows);
         k[i] = x_interval(&rows, 0.0, g.xmax[i]).map_or(0.0, |(_, hi)| hi.max(0.0));
     }
     let mut x = vec![0.0; m];
     let mut u = vec![0.0; m - 1];
     for i in 0..m - 1 {
-        stage_rows(&g, limits, scale, i, k[i + 1], &mut rows);
+        stage_rows(g, limits, scale, i, k[i + 1], &mut rows);
         let delta = g.s[i + 1] - g.s[i];
         // x_i lies in K_i, so some u exists; on K_i's boundary rounding can
         // cross the bounds, and the middle of the crossed pair is the vertex.
@@ -259,6 +326,44 @@ pub(crate) fn time_piece(
         x[i + 1] = next.clamp(0.0, k[i + 1]);
         u[i] = (x[i + 1] - x[i]) / (2.0 * delta);
     }
+    (x, u)
+}
+
+/// Grid intervals inside which the planned motion (x linear in s, u
+/// constant) breaks a true limit at a quarter, the middle or three quarters.
+fn between_points(
+    piece: &Piece,
+    tips: &Tips,
+    segments: &[Segment],
+    limits: &Limits,
+    layout: &Layout,
+    x: &[f64],
+    u: &[f64],
+) -> Vec<usize> {
+    let sp = &piece.joints;
+    let n = sp.dim();
+    let slack = 1.0 + 1e-9;
+    let over = |i: usize, w: f64| {
+        let k = layout.interval[i];
+        let s = layout.s[i] + w * (layout.s[i + 1] - layout.s[i]);
+        let xs = (x[i] + 2.0 * u[i] * (s - layout.s[i])).max(0.0);
+        let joint_over = (0..n).any(|j| {
+            let jet = sp.jet_in(k, j, s);
+            jet.d1.abs() * xs.sqrt() > limits.velocity[j] * slack
+                || (jet.d2 * xs + jet.d1 * u[i]).abs() > limits.acceleration[j] * slack
+        });
+        joint_over
+            || segments[piece.first + k]
+                .tip_speed_cap
+                .is_some_and(|cap| tip_rate(piece, tips, s) * xs.sqrt() > cap * slack)
+    };
+    (0..layout.s.len() - 1)
+        .filter(|&i| [0.25, 0.5, 0.75].into_iter().any(|w| over(i, w)))
+        .collect()
+}
+
+fn profile(piece: &Piece, g: Grid, x: Vec<f64>, u: Vec<f64>, t0: f64) -> Result<PieceProfile> {
+    let m = g.s.len();
     let mut t = Vec::with_capacity(m);
     t.push(t0);
     for i in 0..m - 1 {
