@@ -112,7 +112,11 @@ impl Trajectory {
             if self.times[k] <= self.times[k - 1] {
                 return Err(Error::invalid(
                     format!("times[{k}]"),
-                    format!("{} s does not come after {} s", self.times[k], self.times[k - 1]),
+                    format!(
+                        "{} s does not come after {} s",
+                        self.times[k],
+                        self.times[k - 1]
+                    ),
                 ));
             }
         }
@@ -152,6 +156,9 @@ impl Trajectory {
     /// Every joint at time `t` (held at the ends).
     pub fn sample(&self, t: f64) -> Vec<JointState> {
         let n = self.times.len();
+        if n == 0 {
+            return Vec::new();
+        }
         if n < 2 || t >= self.times[n - 1] {
             // JTC holds the last point once the trajectory has played out.
             let pick = |rows: &[Vec<f64>], j: usize| rows.get(n - 1).map_or(0.0, |r| r[j]);
@@ -209,8 +216,9 @@ pub fn quintic(s0: [f64; 3], s1: [f64; 3], h: f64, t: f64) -> JointState {
     let c2 = 0.5 * a0;
     let c3 = (-20.0 * p0 + 20.0 * p1 - 3.0 * a0 * h2 + a1 * h2 - 12.0 * v0 * h - 8.0 * v1 * h)
         / (2.0 * h3);
-    let c4 = (30.0 * p0 - 30.0 * p1 + 3.0 * a0 * h2 - 2.0 * a1 * h2 + 16.0 * v0 * h + 14.0 * v1 * h)
-        / (2.0 * h3 * h);
+    let c4 =
+        (30.0 * p0 - 30.0 * p1 + 3.0 * a0 * h2 - 2.0 * a1 * h2 + 16.0 * v0 * h + 14.0 * v1 * h)
+            / (2.0 * h3 * h);
     let c5 = (-12.0 * p0 + 12.0 * p1 - a0 * h2 + a1 * h2 - 6.0 * v0 * h - 6.0 * v1 * h)
         / (2.0 * h3 * h2);
     JointState {

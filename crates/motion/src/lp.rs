@@ -34,6 +34,19 @@ pub fn x_interval(rows: &[Row], lo: f64, hi: f64) -> Option<(f64, f64)> {
             hi = f64::NEG_INFINITY;
         }
     };
+    let mut upper = [Row {
+        a: 0.0,
+        b: 0.0,
+        c: 0.0,
+    }; 64];
+    let mut n_upper = 0;
+    for r in rows.iter().filter(|r| r.b > 0.0) {
+        if n_upper == upper.len() {
+            break;
+        }
+        upper[n_upper] = *r;
+        n_upper += 1;
+    }
     for p in rows {
         if p.b == 0.0 {
             bound(p.a, p.c);
@@ -43,7 +56,7 @@ pub fn x_interval(rows: &[Row], lo: f64, hi: f64) -> Option<(f64, f64)> {
             continue;
         }
         // p is a lower bound on u (b < 0); pair it with every upper bound.
-        for m in rows.iter().filter(|m| m.b > 0.0) {
+        for m in &upper[..n_upper] {
             // (c_p - a_p x) / b_p <= (c_m - a_m x) / b_m, times b_m (-b_p) > 0.
             bound(m.b * p.a - p.b * m.a, m.b * p.c - p.b * m.c);
         }
@@ -75,12 +88,18 @@ mod tests {
     /// keep the feasible ones, and take their smallest and largest x.
     fn vertices(rows: &[Row], lo: f64, hi: f64) -> Option<(f64, f64)> {
         let mut lines: Vec<Row> = rows.to_vec();
-        lines.push(Row { a: 1.0, b: 0.0, c: hi });
-        lines.push(Row { a: -1.0, b: 0.0, c: -lo });
+        lines.push(Row {
+            a: 1.0,
+            b: 0.0,
+            c: hi,
+        });
+        lines.push(Row {
+            a: -1.0,
+            b: 0.0,
+            c: -lo,
+        });
         let feasible = |x: f64, u: f64| {
-            x >= lo - 1e-9
-                && x <= hi + 1e-9
-                && rows.iter().all(|r| r.a * x + r.b * u <= r.c + 1e-9)
+            x >= lo - 1e-9 && x <= hi + 1e-9 && rows.iter().all(|r| r.a * x + r.b * u <= r.c + 1e-9)
         };
         let (mut xl, mut xh) = (f64::INFINITY, f64::NEG_INFINITY);
         for (i, p) in lines.iter().enumerate() {
@@ -105,7 +124,9 @@ mod tests {
         // A small LCG: deterministic rows without a dependency.
         let mut seed = 12345u64;
         let mut rnd = move || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
         };
         let mut checked = 0;
@@ -121,7 +142,10 @@ mod tests {
             let want = vertices(&rows, 0.0, 10.0);
             match (got, want) {
                 (Some(g), Some(w)) => {
-                    assert!((g.0 - w.0).abs() < 1e-9 && (g.1 - w.1).abs() < 1e-9, "{g:?} {w:?}");
+                    assert!(
+                        (g.0 - w.0).abs() < 1e-9 && (g.1 - w.1).abs() < 1e-9,
+                        "{g:?} {w:?}"
+                    );
                     checked += 1;
                 }
                 (None, None) => {}
@@ -134,8 +158,16 @@ mod tests {
     #[test]
     fn u_range_of_a_box() {
         let rows = [
-            Row { a: 1.0, b: 1.0, c: 3.0 },
-            Row { a: 0.0, b: -1.0, c: 1.0 },
+            Row {
+                a: 1.0,
+                b: 1.0,
+                c: 3.0,
+            },
+            Row {
+                a: 0.0,
+                b: -1.0,
+                c: 1.0,
+            },
         ];
         assert_eq!(u_range(&rows, 1.0), (-1.0, 2.0));
         assert_eq!(u_range(&rows, 5.0), (-1.0, -2.0));

@@ -45,7 +45,12 @@ pub struct Plan {
 /// stretched in time by the factor that brings it within every limit, which
 /// holds exactly because the controller's interpolation is covariant under a
 /// time scaling.
-pub fn plan(path: &Path, limits: &Limits, options: &Options, follow: Option<Follow>) -> Result<Plan> {
+pub fn plan(
+    path: &Path,
+    limits: &Limits,
+    options: &Options,
+    follow: Option<Follow>,
+) -> Result<Plan> {
     let mut timing = parameterise(path, limits, options)?;
     let s_wp = timing.s.clone();
     // The tip is checked wherever kinematics are known: the follow's, else
@@ -68,7 +73,14 @@ pub fn plan(path: &Path, limits: &Limits, options: &Options, follow: Option<Foll
     });
     let tol = follow.map(|f| f.tolerance);
     for _ in 0..4 {
-        let traj = place(&timing, limits, path, planned.as_ref(), tol.as_ref(), options);
+        let traj = place(
+            &timing,
+            limits,
+            path,
+            planned.as_ref(),
+            tol.as_ref(),
+            options,
+        );
         let report = check(
             &traj,
             limits,
@@ -89,7 +101,14 @@ pub fn plan(path: &Path, limits: &Limits, options: &Options, follow: Option<Foll
             timing.stretch_piece(p, k * (1.0 + 1e-6));
         }
     }
-    let traj = place(&timing, limits, path, planned.as_ref(), tol.as_ref(), options);
+    let traj = place(
+        &timing,
+        limits,
+        path,
+        planned.as_ref(),
+        tol.as_ref(),
+        options,
+    );
     let report = check(
         &traj,
         limits,
@@ -172,8 +191,10 @@ struct At {
 fn push(out: &mut Trajectory, at: &At, timing: &Timing, quintic: bool) {
     let seg = segment_of(&timing.s, at.state.s, 0, timing.s.len() - 1);
     out.times.push(at.t);
-    out.positions.push(at.state.joints.iter().map(|j| j.q).collect());
-    out.velocities.push(at.state.joints.iter().map(|j| j.v).collect());
+    out.positions
+        .push(at.state.joints.iter().map(|j| j.q).collect());
+    out.velocities
+        .push(at.state.joints.iter().map(|j| j.v).collect());
     if quintic {
         out.accelerations
             .push(at.state.joints.iter().map(|j| j.a).collect());
@@ -267,7 +288,10 @@ impl Ctx<'_> {
                 // help (the piece's stretch will).
                 let own = measure(&plan.joints, self.limits, self.planned, plan.s, seg, span);
                 let worse = meas.stretch() > own.stretch().max(1.0) + 1e-9
-                    || meas.deviation > own.deviation.max(self.tol.map_or(f64::INFINITY, |t| t.chord))
+                    || meas.deviation
+                        > own
+                            .deviation
+                            .max(self.tol.map_or(f64::INFINITY, |t| t.chord))
                     || meas.axis > own.axis.max(self.tol.map_or(f64::INFINITY, |t| t.axis));
                 if worse {
                     return true;

@@ -10,6 +10,7 @@
 //!   range, and continuous;
 //! - s_f''' = (s*''(t) - s*''(t - tau)) / tau: bounded by the range of s*''
 //!   over tau.
+//!
 //! So the joint jerk q''' s'^3 + 3 q'' s' s'' + q' s''' is bounded, and tau
 //! is the time a joint needs to swing its acceleration through its range at
 //! its jerk limit. The bounds hold up to the curvature terms, so the caller
@@ -91,7 +92,7 @@ impl Filtered {
     /// Times where the filtered profile's polynomial pieces change.
     pub fn knot_times(&self) -> Vec<f64> {
         let b = &self.base;
-        let mut t: Vec<f64> = b.t.iter().copied().collect();
+        let mut t: Vec<f64> = b.t.to_vec();
         t.extend(b.t.iter().map(|x| x + self.tau));
         t.sort_by(f64::total_cmp);
         t.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * b.abs().max(1.0));

@@ -107,29 +107,62 @@ pub fn parameterise(path: &Path, limits: &Limits, options: &Options) -> Result<T
     Ok(timing)
 }
 
-/// The moving-average length for jerk limits: the longest time any joint
-/// needs, at its jerk limit, to swing q' s'' through the range the profile
-/// asks of it (at most its whole acceleration range).
+/// The moving-average length for jerk limits: long enough that each joint,
+/// at its jerk limit, swings q' s'' through the largest change of it over one
+/// window (at most its whole acceleration range). The change over a window
+/// grows with the window, so the length is iterated from the largest single
+/// step of s'' until it settles.
 fn filter_length(piece: &Piece, p: &PieceProfile, limits: &Limits, jerk: &[f64]) -> f64 {
-    let (lo, hi) = p
-        .u
-        .iter()
-        .fold((0.0f64, 0.0f64), |(l, h), &u| (l.min(u), h.max(u)));
     let n = limits.joints();
-    let mut tau: f64 = 0.0;
-    for j in 0..n {
-        let rate = p
-            .s
-            .iter()
-            .map(|&s| {
-                let k = piece.joints.interval(s);
-                piece.joints.jet_in(k, j, s).d1.abs()
-            })
-            .fold(0.0, f64::max);
-        let swing = (rate * (hi - lo)).min(2.0 * limits.acceleration[j]);
-        tau = tau.max(swing / jerk[j]);
+    let rates: Vec<f64> = (0..n)
+        .map(|j| {
+            p.s.iter()
+                .map(|&s| {
+                    let k = piece.joints.interval(s);
+                    piece.joints.jet_in(k, j, s).d1.abs()
+                })
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    let length = |change: f64| {
+        (0..n)
+            .map(|j| (rates[j] * change).min(2.0 * limits.acceleration[j]) / jerk[j])
+            .fold(1e-6, f64::max)
+    };
+    // s'' in time: u on each stage, 0 outside the piece.
+    let u_at = |t: f64| {
+        let m = p.t.len();
+        if t <= p.t[0] || t >= p.t[m - 1] {
+            return 0.0;
+        }
+        p.u[p.t.partition_point(|&x| x <= t).clamp(1, m - 1) - 1]
+    };
+    let first_step = std::iter::once(0.0)
+        .chain(p.u.iter().copied())
+        .chain(std::iter::once(0.0))
+        .collect::<Vec<f64>>()
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .fold(0.0, f64::max);
+    let mut tau = length(first_step);
+    for _ in 0..6 {
+        let end = p.t[p.t.len() - 1] + tau;
+        let change =
+            p.t.iter()
+                .chain(std::iter::once(&end))
+                .map(|&t| {
+                    (u_at(t) - u_at(t - tau))
+                        .abs()
+                        .max((u_at(t + 1e-12) - u_at(t - tau + 1e-12)).abs())
+                })
+                .fold(0.0, f64::max);
+        let next = length(change);
+        if next <= tau * (1.0 + 1e-9) {
+            break;
+        }
+        tau = next;
     }
-    tau.max(1e-6)
+    tau
 }
 
 impl Timing {

@@ -154,24 +154,29 @@ impl Layout {
     }
 }
 
-/// |p'(s)| of the tool tip.
-fn tip_rate(piece: &Piece, tips: &Tips, s: f64) -> f64 {
+/// |p'(s)| of the tool tip in spline interval `k`; with kinematics by a
+/// central difference along the joint tangent, |fk(q + e q') - fk(q - e q')| / 2e
+/// (the chain rule p' = J q', exact to O(e^2)). `buf` holds 2 x joints.
+fn tip_rate(piece: &Piece, tips: &Tips, s: f64, k: usize, buf: &mut [f64]) -> f64 {
     match (tips, &piece.tips) {
         (_, Some(sp)) => {
-            let k = sp.interval(s);
+            let kt = sp.interval(s);
             (0..3)
-                .map(|c| sp.jet_in(k, c, s).d1.powi(2))
+                .map(|c| sp.jet_in(kt, c, s).d1.powi(2))
                 .sum::<f64>()
                 .sqrt()
         }
         (Tips::Kinematics(fk), None) => {
-            let knots = piece.joints.knots();
-            let (lo, hi) = (knots[0], knots[knots.len() - 1]);
-            let eps = 1e-6 * (hi - lo);
-            let (a, b) = ((s - eps).max(lo), (s + eps).min(hi));
-            let pa = fk(&piece.joints.values_at(a)).tip;
-            let pb = fk(&piece.joints.values_at(b)).tip;
-            crate::path::dist(pa, pb) / (b - a)
+            let sp = &piece.joints;
+            let n = sp.dim();
+            let eps = 1e-6;
+            let (qa, qb) = buf.split_at_mut(n);
+            for j in 0..n {
+                let jet = sp.jet_in(k, j, s);
+                qa[j] = jet.value - eps * jet.d1;
+                qb[j] = jet.value + eps * jet.d1;
+            }
+            crate::path::dist(fk(qa).tip, fk(qb).tip) / (2.0 * eps)
         }
         _ => 0.0,
     }
@@ -197,6 +202,7 @@ fn build_grid(
     let mut d1 = Vec::with_capacity(s.len() * n);
     let mut d2 = Vec::with_capacity(s.len() * n);
     let mut xmax = Vec::with_capacity(s.len());
+    let mut buf = vec![0.0; 2 * n];
     let last_interval = sp.knots().len() - 2;
     let mut knot_of = vec![None; s.len()];
     for (kn, &i) in knot_index.iter().enumerate() {
@@ -223,7 +229,7 @@ fn build_grid(
             .filter_map(cap)
             .fold(f64::INFINITY, f64::min);
         if feed.is_finite() {
-            let rate = tip_rate(piece, tips, si);
+            let rate = tip_rate(piece, tips, si, hi, &mut buf);
             if rate > 0.0 {
                 bound = bound.min((feed * scale / rate).powi(2));
             }
@@ -249,11 +255,7 @@ fn push_acc_rows(g: &Grid, limits: &Limits, scale: f64, i: usize, delta: f64, ro
         // q'' x_i + q' u at point i, with x_i = x + 2 delta u.
         let bb = b + 2.0 * delta * a;
         rows.push(Row { a, b: bb, c });
-        rows.push(Row {
-            a: -a,
-            b: -bb,
-            c,
-        });
+        rows.push(Row { a: -a, b: -bb, c });
     }
 }
 
@@ -330,7 +332,8 @@ fn solve(g: &Grid, limits: &Limits, scale: f64) -> (Vec<f64>, Vec<f64>) {
 }
 
 /// Grid intervals inside which the planned motion (x linear in s, u
-/// constant) breaks a true limit at a quarter, the middle or three quarters.
+/// constant) breaks a true limit at its middle (the ends hold by
+/// construction; the velocity and acceleration are smooth in between).
 fn between_points(
     piece: &Piece,
     tips: &Tips,
@@ -343,7 +346,8 @@ fn between_points(
     let sp = &piece.joints;
     let n = sp.dim();
     let slack = 1.0 + 1e-9;
-    let over = |i: usize, w: f64| {
+    let mut buf = vec![0.0; 2 * n];
+    let mut over = |i: usize, w: f64| {
         let k = layout.interval[i];
         let s = layout.s[i] + w * (layout.s[i + 1] - layout.s[i]);
         let xs = (x[i] + 2.0 * u[i] * (s - layout.s[i])).max(0.0);
@@ -355,11 +359,9 @@ fn between_points(
         joint_over
             || segments[piece.first + k]
                 .tip_speed_cap
-                .is_some_and(|cap| tip_rate(piece, tips, s) * xs.sqrt() > cap * slack)
+                .is_some_and(|cap| tip_rate(piece, tips, s, k, &mut buf) * xs.sqrt() > cap * slack)
     };
-    (0..layout.s.len() - 1)
-        .filter(|&i| [0.25, 0.5, 0.75].into_iter().any(|w| over(i, w)))
-        .collect()
+    (0..layout.s.len() - 1).filter(|&i| over(i, 0.5)).collect()
 }
 
 fn profile(piece: &Piece, g: Grid, x: Vec<f64>, u: Vec<f64>, t0: f64) -> Result<PieceProfile> {

@@ -45,9 +45,9 @@ fn bang_bang(l: f64, v: f64, a: f64) -> f64 {
 fn a_single_joint_moves_in_the_bang_bang_time() {
     let param = Parameter::ScaledJointChord;
     for (l, v, a) in [
-        (100.0, 50.0, 200.0),  // trapezoid
-        (10.0, 50.0, 200.0),   // triangle (v^2 / a = 12.5 > 10)
-        (2.0, 3.0, 1.5),       // rotary-like, triangle
+        (100.0, 50.0, 200.0),   // trapezoid
+        (10.0, 50.0, 200.0),    // triangle (v^2 / a = 12.5 > 10)
+        (2.0, 3.0, 1.5),        // rotary-like, triangle
         (300.0, 500.0, 2000.0), // a mill rapid, trapezoid
     ] {
         let q = vec![vec![0.0], vec![l]];
@@ -63,10 +63,16 @@ fn a_single_joint_moves_in_the_bang_bang_time() {
         assert!(t <= exact * 1.005, "{l} {v} {a}: {t} vs {exact}");
         let plan = plan(&p, &limits, &Options::default(), None).unwrap();
         let r = &plan.report.kinds[&SegmentKind::Link];
-        assert!(r.max_velocity_ratio <= 1.0 && r.max_acceleration_ratio <= 1.0, "{r:?}");
+        assert!(
+            r.max_velocity_ratio <= 1.0 && r.max_acceleration_ratio <= 1.0,
+            "{r:?}"
+        );
         // The trajectory sent is that long too.
         let sent = plan.trajectory.duration();
-        assert!(sent >= exact * (1.0 - 1e-9) && sent <= exact * 1.01, "{sent} vs {exact}");
+        assert!(
+            sent >= exact * (1.0 - 1e-9) && sent <= exact * 1.01,
+            "{sent} vs {exact}"
+        );
         // A trapezoid reaches its top speed, held between the ramps.
         if l >= v * v / a {
             assert!(r.max_velocity_ratio > 0.995, "{r:?}");
@@ -110,7 +116,10 @@ fn a_feed_capped_line_takes_length_over_feed_plus_its_ramps() {
         let t = parameterise(&p, &limits, &Options::default())
             .unwrap()
             .duration();
-        assert!(t >= exact * (1.0 - 1e-9) && t <= exact * 1.004, "{t} vs {exact}");
+        assert!(
+            t >= exact * (1.0 - 1e-9) && t <= exact * 1.004,
+            "{t} vs {exact}"
+        );
     }
     let p = path(&q, &segs, Tips::Kinematics(&gantry), &param);
     let follow = Follow {
@@ -123,7 +132,10 @@ fn a_feed_capped_line_takes_length_over_feed_plus_its_ramps() {
     };
     let pl = plan(&p, &limits, &Options::default(), Some(follow)).unwrap();
     let r = &pl.report.kinds[&SegmentKind::Cut];
-    assert!(r.max_tip_speed_ratio <= 1.0 && r.max_tip_speed_ratio > 0.995, "{r:?}");
+    assert!(
+        r.max_tip_speed_ratio <= 1.0 && r.max_tip_speed_ratio > 0.995,
+        "{r:?}"
+    );
     assert!(r.max_tip_deviation < 1e-6, "{r:?}");
     assert!(r.max_acceleration_ratio <= 1.0, "{r:?}");
     assert!((pl.trajectory.duration() - exact).abs() < 0.005 * exact);
@@ -154,16 +166,25 @@ fn a_circle_is_taken_at_the_speed_its_centripetal_limit_allows() {
     let grid = timing.grid();
     let speed_at = |k: usize| {
         let s = timing.s[k];
-        let g = grid.iter().min_by(|x, y| (x.s - s).abs().total_cmp(&(y.s - s).abs())).unwrap();
+        let g = grid
+            .iter()
+            .min_by(|x, y| (x.s - s).abs().total_cmp(&(y.s - s).abs()))
+            .unwrap();
         let ds = timing.s[k + 1] - timing.s[k - 1];
         let dq = ((q[k + 1][0] - q[k - 1][0]).powi(2) + (q[k + 1][1] - q[k - 1][1]).powi(2)).sqrt();
         g.s_dot * dq / ds
     };
     for k in [180, 270, 360] {
         let v = speed_at(k);
-        assert!(v <= want * 1.001 && v >= want * 0.995, "waypoint {k}: {v} vs {want}");
+        assert!(
+            v <= want * 1.001 && v >= want * 0.995,
+            "waypoint {k}: {v} vs {want}"
+        );
     }
     let pl = plan(&p, &limits, &Options::default(), None).unwrap();
     let rep = &pl.report.kinds[&SegmentKind::Cut];
-    assert!(rep.max_acceleration_ratio <= 1.0 && rep.max_acceleration_ratio > 0.99, "{rep:?}");
+    assert!(
+        rep.max_acceleration_ratio <= 1.0 && rep.max_acceleration_ratio > 0.99,
+        "{rep:?}"
+    );
 }
