@@ -1,5 +1,6 @@
 //! Jerk limiting by a moving average of the path parameter in time (the FIR
-//! feed-profile filter of CNC interpolators, docs/methods.md, "Jerk").
+//! feed-profile filter of CNC interpolators, docs/methods.md,
+//! "Time-optimal path parameterisation").
 //!
 //! TOPP-RA's profile s*(t) switches s_ddot abruptly. Its moving average
 //! s_f(t) = (1/tau) * integral of s* over [t - tau, t] stays on the same
