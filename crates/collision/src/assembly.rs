@@ -342,6 +342,18 @@ impl ToolAssembly {
         best
     }
 
+    /// The inside branches -d_k of `part`'s signed distance at `x`, one per
+    /// boundary element, to second order (see [`Profile::inside_piece`]).
+    pub fn inside_jets(&self, pose: &Pose, part: ToolPart, x: &Vector3<f64>, out: &mut Vec<SdfJet>) {
+        let (rz, e_r) = pose.meridian(x);
+        let profile = &self.profiles[part.index()];
+        out.clear();
+        for k in 0..profile.piece_count() {
+            let n = profile.inside_piece(k, rz);
+            out.push(SdfJet::from_meridian(&n, rz, &e_r, &pose.axis));
+        }
+    }
+
     /// Signed distance with its gradient and Hessian in 3-D, for the exact
     /// refinement (see [`SdfJet`]).
     pub fn jet(&self, pose: &Pose, part: ToolPart, x: &Vector3<f64>) -> SdfJet {

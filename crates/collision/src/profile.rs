@@ -300,6 +300,41 @@ impl Profile {
     }
 }
 
+impl Profile {
+    /// Number of boundary elements.
+    pub fn piece_count(&self) -> usize {
+        self.pieces.len()
+    }
+
+    /// The inside branch of the signed distance for element `k` alone:
+    /// -d_k(p), d_k the distance to the element, with its gradient and
+    /// meridian curvature. Inside the region the signed distance is the
+    /// largest of these over the elements, a maximum of smooth pieces whose
+    /// kinks (the medial axis) the refinement follows.
+    pub fn inside_piece(&self, k: usize, p: Rz) -> Nearest {
+        let (foot, outward, arc_centre, vertex) = piece_foot(&self.pieces[k], p);
+        let d = norm(sub(p, foot));
+        let normal = if d > 1e-12 * self.reach.max(1e-300) {
+            [(foot[0] - p[0]) / d, (foot[1] - p[1]) / d]
+        } else {
+            outward
+        };
+        let curvature = match (arc_centre, vertex) {
+            // -d_k = |p - c| - radius inside the circle.
+            (Some(c), _) => 1.0 / norm(sub(p, c)).max(1e-300),
+            // -d_k = -|p - vertex|: concave.
+            (None, true) => -1.0 / d.max(1e-300),
+            (None, false) => 0.0,
+        };
+        Nearest {
+            distance: -d,
+            foot,
+            normal,
+            curvature,
+        }
+    }
+}
+
 /// The two ends of an element, in the chain's direction.
 fn ends(e: &Element) -> (Rz, Rz) {
     match *e {

@@ -160,12 +160,18 @@ trait Visitor {
     fn sample(&mut self, part: usize, index: usize, value: f64, lb: f64) -> bool;
 }
 
-/// Distance from (r, z) to the rectangle [0, r_max] x [z0, z1]: a lower
-/// bound of a part's signed distance (the part lies in the rectangle).
+/// A lower bound of a part's signed distance from the rectangle [0, r_max] x
+/// [z0, z1] that holds the part: outside, the distance to the rectangle;
+/// inside, minus the distance to its nearest side other than the axis (the
+/// axis is inside the solid, not on its surface).
 #[inline]
-fn rect_distance(rz: Rz, r_max: f64, (z0, z1): (f64, f64)) -> f64 {
-    let dr = (rz[0] - r_max).max(0.0);
-    let dz = (z0 - rz[1]).max(rz[1] - z1).max(0.0);
+fn rect_bound(rz: Rz, r_max: f64, (z0, z1): (f64, f64)) -> f64 {
+    let dr = rz[0] - r_max;
+    let dz = (z0 - rz[1]).max(rz[1] - z1);
+    if dr <= 0.0 && dz <= 0.0 {
+        return dr.max(dz);
+    }
+    let (dr, dz) = (dr.max(0.0), dz.max(0.0));
     (dr * dr + dz * dz).sqrt()
 }
 
@@ -202,7 +208,7 @@ impl Workpiece {
                 bits &= bits - 1;
                 let p = &profiles[i];
                 let thr = visitor.threshold(i);
-                let lb_rect = rect_distance(rz, p.r_max(), p.z_range()) - node.radius;
+                let lb_rect = rect_bound(rz, p.r_max(), p.z_range()) - node.radius;
                 let lb = if lb_rect >= thr {
                     lb_rect
                 } else {
@@ -319,6 +325,7 @@ impl Workpiece {
             lower: limits.iter().map(|l| l + opts.search_margin).collect(),
             pruned: vec![f64::INFINITY; limits.len()],
             candidates: vec![Vec::new(); limits.len()],
+            pool: vec![Vec::new(); limits.len()],
             samples: &self.samples,
         };
         self.traverse(tool, pose, opts.cutter_all_faces, all_parts(tool), &mut v);
@@ -346,15 +353,31 @@ impl Workpiece {
             best_sample: None,
             pruned_bound: v.pruned[i],
         };
-        let mut cands = v.candidates[i].clone();
-        cands.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        if let Some(&(value, index)) = cands.first() {
-            report.best_sample = Some((value, index));
-        }
-        for &(_, index) in &cands {
-            let s = &self.samples[index];
+        let mut starts = v.candidates[i].clone();
+        starts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        report.best_sample = starts.first().copied();
+        // Then other basins: the best pooled samples that could still hide a
+        // lower value (bound below the best refined distance so far) and lie
+        // clear of every start and refined point.
+        let mut seen: Vec<Vector3<f64>> = Vec::new();
+        let mut k = 0;
+        while k < starts.len() || (starts.len() < REFINEMENTS && k == starts.len()) {
+            if k == starts.len() {
+                let next = v.pool[i].iter().find(|&&(value, index)| {
+                    let s = &self.samples[index];
+                    value - s.cover < report.distance
+                        && seen.iter().all(|q| (q - s.point).norm() > 2.0 * s.cover)
+                });
+                match next {
+                    Some(&c) => starts.push(c),
+                    None => break,
+                }
+            }
+            let s = &self.samples[starts[k].1];
             let face = s.face as usize;
             let r = refine(self.faces[face].as_ref(), tool, pose, part, (s.u, s.v), s.cover);
+            seen.push(s.point);
+            seen.push(r.point);
             if r.distance < report.distance {
                 report.distance = r.distance;
                 report.contact = Some(Contact {
@@ -364,6 +387,7 @@ impl Workpiece {
                     point: r.point,
                 });
             }
+            k += 1;
         }
         report.lower_bound = report.lower_bound.min(report.distance);
         report
@@ -373,6 +397,13 @@ impl Workpiece {
 /// Faces whose best samples are refined, per part and query.
 pub const CANDIDATE_FACES: usize = 4;
 
+/// Best samples kept per part for refinements from further basins.
+pub const POOL: usize = 16;
+
+/// Refinements per part and query at most (the best sample of each
+/// candidate face first, then the pool's further basins).
+pub const REFINEMENTS: usize = 6;
+
 /// The full query's visitor: per part the best sample of each of up to
 /// [`CANDIDATE_FACES`] faces, and the least bound met.
 struct Best<'a> {
@@ -381,6 +412,8 @@ struct Best<'a> {
     lower: Vec<f64>,
     pruned: Vec<f64>,
     candidates: Vec<Vec<(f64, usize)>>,
+    /// The best [`POOL`] samples by value (any face), sorted.
+    pool: Vec<Vec<(f64, usize)>>,
     samples: &'a [crate::sampling::Sample],
 }
 
@@ -397,6 +430,12 @@ impl Visitor for Best<'_> {
     fn sample(&mut self, part: usize, index: usize, value: f64, lb: f64) -> bool {
         self.lower[part] = self.lower[part].min(lb);
         self.best[part] = self.best[part].min(value);
+        let pool = &mut self.pool[part];
+        if pool.len() < POOL || value < pool[pool.len() - 1].0 {
+            let at = pool.partition_point(|&(v, k)| v < value || (v == value && k < index));
+            pool.insert(at, (value, index));
+            pool.truncate(POOL);
+        }
         let face = self.samples[index].face;
         let c = &mut self.candidates[part];
         let samples = self.samples;

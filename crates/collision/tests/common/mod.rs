@@ -55,3 +55,90 @@ pub fn tools() -> Vec<ToolAssembly> {
     .map(|c| ToolAssembly::new(c, holder.clone()).unwrap())
     .collect()
 }
+
+use std::f64::consts::{PI, TAU};
+use std::sync::Arc;
+use toolpath_collision::shapes::{Cylinder, Plane, Sphere, Torus, Trimmed, Wave};
+use toolpath_collision::Face;
+
+/// An orthonormal pair across `n`.
+pub fn across(n: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let e1 = toolpath_collision::assembly::any_perpendicular(n);
+    (e1, n.cross(&e1))
+}
+
+/// A random scene of `count` faces within about 60 mm of the origin: tilted
+/// planes, cylinders, spheres, tori and wavy floors, some trimmed by discs
+/// or with holes.
+pub fn random_scene(rng: &mut Rng, count: usize) -> Vec<Arc<dyn Face>> {
+    (0..count).map(|_| random_face(rng)).collect()
+}
+
+fn random_face(rng: &mut Rng) -> Arc<dyn Face> {
+    let centre = Vector3::new(rng.range(-40.0, 40.0), rng.range(-40.0, 40.0), rng.range(-20.0, 20.0));
+    let kind = rng.next_u64() % 6;
+    let trimmed = rng.range(0.0, 1.0) < 0.4;
+    let face: Arc<dyn Face> = match kind {
+        0 => {
+            let (e_u, e_v) = across(&rng.unit());
+            let plane = Plane { origin: centre, e_u, e_v, u: [-30.0, 30.0], v: [-20.0, 20.0] };
+            if trimmed {
+                // A disc with a hole.
+                Arc::new(Trimmed {
+                    face: plane,
+                    keep: Box::new(|u, v| {
+                        let r2 = u * u + v * v;
+                        r2 <= 400.0 && r2 >= 25.0
+                    }),
+                })
+            } else {
+                Arc::new(plane)
+            }
+        }
+        1 => {
+            let (x, y) = across(&rng.unit());
+            let axis = x.cross(&y);
+            Arc::new(Cylinder {
+                base: centre,
+                x,
+                y,
+                axis,
+                radius: rng.range(3.0, 20.0),
+                theta: [0.0, rng.range(1.0, TAU)],
+                height: [-15.0, 15.0],
+            })
+        }
+        2 => Arc::new(Sphere {
+            centre,
+            radius: rng.range(3.0, 20.0),
+            theta: [0.0, TAU],
+            phi: [-0.5 * PI, rng.range(-0.3, 0.5 * PI)],
+        }),
+        3 => Arc::new(Torus {
+            centre,
+            major: rng.range(8.0, 20.0),
+            minor: rng.range(1.0, 6.0),
+            theta: [0.0, rng.range(1.0, TAU)],
+            phi: [0.0, TAU],
+        }),
+        _ => {
+            let wave = Wave {
+                base: centre.z,
+                amplitude: rng.range(0.5, 5.0),
+                wavelength: rng.range(4.0, 15.0),
+                u: [centre.x - 30.0, centre.x + 30.0],
+                v: [centre.y - 30.0, centre.y + 30.0],
+            };
+            if trimmed {
+                let (cx, cy) = (centre.x, centre.y);
+                Arc::new(Trimmed {
+                    face: wave,
+                    keep: Box::new(move |u, v| (u - cx).hypot(v - cy) <= 25.0),
+                })
+            } else {
+                Arc::new(wave)
+            }
+        }
+    };
+    face
+}
