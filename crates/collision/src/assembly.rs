@@ -344,7 +344,13 @@ impl ToolAssembly {
 
     /// The inside branches -d_k of `part`'s signed distance at `x`, one per
     /// boundary element, to second order (see [`Profile::inside_piece`]).
-    pub fn inside_jets(&self, pose: &Pose, part: ToolPart, x: &Vector3<f64>, out: &mut Vec<SdfJet>) {
+    pub fn inside_jets(
+        &self,
+        pose: &Pose,
+        part: ToolPart,
+        x: &Vector3<f64>,
+        out: &mut Vec<SdfJet>,
+    ) {
         let (rz, e_r) = pose.meridian(x);
         let profile = &self.profiles[part.index()];
         out.clear();

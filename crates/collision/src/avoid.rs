@@ -63,7 +63,8 @@ struct Frame {
 
 impl Frame {
     fn axis(&self, alpha: f64, phi: f64) -> Vector3<f64> {
-        (self.a0 * alpha.cos() + (self.l * phi.cos() + self.t * phi.sin()) * alpha.sin()).normalize()
+        (self.a0 * alpha.cos() + (self.l * phi.cos() + self.t * phi.sin()) * alpha.sin())
+            .normalize()
     }
 }
 
@@ -82,7 +83,11 @@ fn frame(search: &AxisSearch) -> Result<Frame> {
         ));
     }
     let l = l / ln;
-    Ok(Frame { a0, l, t: a0.cross(&l) })
+    Ok(Frame {
+        a0,
+        l,
+        t: a0.cross(&l),
+    })
 }
 
 /// The rays' order within a ring: +l, -l, +t, -t, then the rest from the
@@ -119,10 +124,13 @@ pub fn find_clear_axis(
             format!("must lie in [0, pi], got {}", search.max_angle),
         ));
     }
-    if search.directions < 4 || search.directions % 4 != 0 {
+    if search.directions < 4 || !search.directions.is_multiple_of(4) {
         return Err(Error::invalid(
             "search.directions",
-            format!("must be a positive multiple of 4, got {}", search.directions),
+            format!(
+                "must be a positive multiple of 4, got {}",
+                search.directions
+            ),
         ));
     }
     let rays = ray_order(search.directions);

@@ -66,7 +66,10 @@ impl Bvh {
             }
             let mid = (hi - lo) / 2;
             slice.select_nth_unstable_by(mid, |&i, &j| {
-                let (a, b) = (samples[i as usize].point[axis], samples[j as usize].point[axis]);
+                let (a, b) = (
+                    samples[i as usize].point[axis],
+                    samples[j as usize].point[axis],
+                );
                 a.total_cmp(&b).then(i.cmp(&j))
             });
             let left = bvh.nodes.len();
@@ -163,7 +166,10 @@ mod tests {
                 stack.push((node.first as usize + 1, path));
             }
         }
-        assert!(seen.iter().all(|&c| c == 1), "every sample in exactly one leaf");
+        assert!(
+            seen.iter().all(|&c| c == 1),
+            "every sample in exactly one leaf"
+        );
         assert!(bvh.depth <= 12, "median splits: depth {}", bvh.depth);
     }
 }

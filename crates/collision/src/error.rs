@@ -48,10 +48,16 @@ impl std::error::Error for Error {}
 /// `value` must be finite and positive.
 pub(crate) fn positive(field: &str, value: f64) -> Result<()> {
     if !value.is_finite() {
-        return Err(Error::invalid(field, format!("{value} is not a finite number")));
+        return Err(Error::invalid(
+            field,
+            format!("{value} is not a finite number"),
+        ));
     }
     if value <= 0.0 {
-        return Err(Error::invalid(field, format!("must be positive, got {value}")));
+        return Err(Error::invalid(
+            field,
+            format!("must be positive, got {value}"),
+        ));
     }
     Ok(())
 }
@@ -59,10 +65,16 @@ pub(crate) fn positive(field: &str, value: f64) -> Result<()> {
 /// `value` must be finite and not negative.
 pub(crate) fn non_negative(field: &str, value: f64) -> Result<()> {
     if !value.is_finite() {
-        return Err(Error::invalid(field, format!("{value} is not a finite number")));
+        return Err(Error::invalid(
+            field,
+            format!("{value} is not a finite number"),
+        ));
     }
     if value < 0.0 {
-        return Err(Error::invalid(field, format!("must not be negative, got {value}")));
+        return Err(Error::invalid(
+            field,
+            format!("must not be negative, got {value}"),
+        ));
     }
     Ok(())
 }

@@ -135,7 +135,10 @@ impl Profile {
                     let sweep = to - from;
                     let finite = centre[0].is_finite() && centre[1].is_finite();
                     if !finite || !radius.is_finite() || radius <= 0.0 {
-                        return Err(Error::invalid(field, "arc needs a finite centre and radius > 0"));
+                        return Err(Error::invalid(
+                            field,
+                            "arc needs a finite centre and radius > 0",
+                        ));
                     }
                     if !(sweep > 0.0 && sweep <= std::f64::consts::PI + 1e-12) {
                         return Err(Error::invalid(
@@ -198,7 +201,10 @@ impl Profile {
         if first[0].abs() > tol || last[0].abs() > tol {
             return Err(Error::invalid(
                 "",
-                format!("the chain must start and end on the axis (r = 0), got r = {} and {}", first[0], last[0]),
+                format!(
+                    "the chain must start and end on the axis (r = 0), got r = {} and {}",
+                    first[0], last[0]
+                ),
             ));
         }
         for k in 1..self.elements.len() {
@@ -207,7 +213,10 @@ impl Profile {
             if norm(sub(prev, next)) > tol {
                 return Err(Error::invalid(
                     format!("[{k}]"),
-                    format!("starts at {next:?}, not where element {} ends ({prev:?})", k - 1),
+                    format!(
+                        "starts at {next:?}, not where element {} ends ({prev:?})",
+                        k - 1
+                    ),
                 ));
             }
         }
@@ -345,7 +354,10 @@ fn ends(e: &Element) -> (Rz, Rz) {
             from,
             to,
         } => (
-            [centre[0] + radius * from.cos(), centre[1] + radius * from.sin()],
+            [
+                centre[0] + radius * from.cos(),
+                centre[1] + radius * from.sin(),
+            ],
             [centre[0] + radius * to.cos(), centre[1] + radius * to.sin()],
         ),
     }

@@ -71,14 +71,18 @@ pub struct PartReport {
     pub part: ToolPart,
     /// The limit the part was judged against.
     pub limit: f64,
-    /// Least signed distance found, attained at `contact` and refined on the
-    /// face (exact near contact); +inf when no face came within
-    /// limit + search margin of the sampled bound.
+    /// Least signed distance found, attained at `contact`: refined on the
+    /// face (exact near contact) where a sample's cover ball could hold a
+    /// value below limit + search margin, else the best sample's value;
+    /// +inf when the hierarchy pruned every sample.
     pub distance: f64,
     /// Certified lower bound of the signed distance over the eligible faces,
     /// at most `distance`.
     pub lower_bound: f64,
     pub contact: Option<Contact>,
+    /// Whether `distance` comes from a refinement on the face (else it is a
+    /// sample's value, certified above limit + search margin anyway).
+    pub refined: bool,
     /// The least value over the samples before refinement, with the
     /// sample's index in [`Workpiece::samples`].
     pub best_sample: Option<(f64, usize)>,
@@ -245,7 +249,10 @@ impl Workpiece {
     ) -> bool {
         let profiles = tool.profiles();
         let first = node.first as usize;
-        for (k, s) in self.samples[first..first + node.count as usize].iter().enumerate() {
+        for (k, s) in self.samples[first..first + node.count as usize]
+            .iter()
+            .enumerate()
+        {
             let (rz, _) = pose.meridian(&s.point);
             let mut bits = active;
             if !cutter_all_faces && self.machined[s.face as usize] {
@@ -277,7 +284,13 @@ impl Workpiece {
             }
         }
         let limits = limits(tool, opts);
-        self.traverse(tool, pose, opts.cutter_all_faces, all_parts(tool), &mut Clear(&limits))
+        self.traverse(
+            tool,
+            pose,
+            opts.cutter_all_faces,
+            all_parts(tool),
+            &mut Clear(&limits),
+        )
     }
 
     /// Certified margin: the least over the parts of (lower bound - limit),
@@ -350,22 +363,38 @@ impl Workpiece {
             distance: f64::INFINITY,
             lower_bound: v.lower[i],
             contact: None,
+            refined: false,
             best_sample: None,
             pruned_bound: v.pruned[i],
         };
         let mut starts = v.candidates[i].clone();
         starts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         report.best_sample = starts.first().copied();
+        if let Some(&(value, index)) = starts.first() {
+            // The best sample, attained; refined below only where a sample's
+            // ball could hold a value under the threshold.
+            let s = &self.samples[index];
+            report.distance = value;
+            report.contact = Some(Contact {
+                face: s.face as usize,
+                u: s.u,
+                v: s.v,
+                point: s.point,
+            });
+        }
+        let thr = v.thresholds[i];
+        starts.retain(|&(value, index)| value - self.samples[index].cover < thr);
         // Then other basins: the best pooled samples that could still hide a
         // lower value (bound below the best refined distance so far) and lie
         // clear of every start and refined point.
         let mut seen: Vec<Vector3<f64>> = Vec::new();
         let mut k = 0;
-        while k < starts.len() || (starts.len() < REFINEMENTS && k == starts.len()) {
+        let refine_more = !starts.is_empty();
+        while k < starts.len() || (refine_more && starts.len() < REFINEMENTS && k == starts.len()) {
             if k == starts.len() {
                 let next = v.pool[i].iter().find(|&&(value, index)| {
                     let s = &self.samples[index];
-                    value - s.cover < report.distance
+                    value - s.cover < report.distance.min(thr)
                         && seen.iter().all(|q| (q - s.point).norm() > 2.0 * s.cover)
                 });
                 match next {
@@ -375,9 +404,17 @@ impl Workpiece {
             }
             let s = &self.samples[starts[k].1];
             let face = s.face as usize;
-            let r = refine(self.faces[face].as_ref(), tool, pose, part, (s.u, s.v), s.cover);
+            let r = refine(
+                self.faces[face].as_ref(),
+                tool,
+                pose,
+                part,
+                (s.u, s.v),
+                s.cover,
+            );
             seen.push(s.point);
             seen.push(r.point);
+            report.refined = true;
             if r.distance < report.distance {
                 report.distance = r.distance;
                 report.contact = Some(Contact {

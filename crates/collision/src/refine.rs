@@ -242,7 +242,11 @@ fn bounded_step(
             // One dimension left: Newton if convex, else a metric-scaled
             // gradient step.
             let (hh, mm, gg) = (h[(other, other)], m[(other, other)], g[other]);
-            let step = if hh > 0.0 { -gg / hh } else { -gg / mm.max(1e-300) };
+            let step = if hh > 0.0 {
+                -gg / hh
+            } else {
+                -gg / mm.max(1e-300)
+            };
             if !out(other, step) {
                 r[other] = step;
             }
@@ -344,7 +348,15 @@ fn kkt_step(
     let bounds = [(at.u, pb.dom.0), (at.v, pb.dom.1)];
     for _ in 0..3 {
         let mut kkt = Matrix3::new(
-            hl[(0, 0)], hl[(0, 1)], dg[0], hl[(1, 0)], hl[(1, 1)], dg[1], dg[0], dg[1], 0.0,
+            hl[(0, 0)],
+            hl[(0, 1)],
+            dg[0],
+            hl[(1, 0)],
+            hl[(1, 1)],
+            dg[1],
+            dg[0],
+            dg[1],
+            0.0,
         );
         let mut b = rhs;
         for k in 0..2 {
@@ -427,7 +439,11 @@ fn trim_walk(pb: &Problem, mut at: At, mut h: f64) -> At {
         };
         let jet = pb.tool.jet(pb.pose, pb.part, &d.p);
         let (g, _) = model(&d, &jet);
-        let dir = if g.dot(&tangent) > 0.0 { -tangent } else { tangent };
+        let dir = if g.dot(&tangent) > 0.0 {
+            -tangent
+        } else {
+            tangent
+        };
         let q = Vector2::new(at.u, at.v) + dir * h;
         match project_to_trim(pb, q, inward * h).and_then(|b| pb.better(&at, b[0], b[1])) {
             Some(c) => {

@@ -80,7 +80,10 @@ impl SamplingOptions {
         if !(self.curvature_safety >= 1.0 && self.curvature_safety.is_finite()) {
             return Err(Error::invalid(
                 "curvature_safety",
-                format!("must be finite and at least 1, got {}", self.curvature_safety),
+                format!(
+                    "must be finite and at least 1, got {}",
+                    self.curvature_safety
+                ),
             ));
         }
         if self.max_samples_per_face == 0 {
@@ -252,11 +255,7 @@ fn geometric_split(
     });
     let k = opts.curvature_safety;
     let (a, b) = (cell.a, cell.b);
-    let (muu, muv, mvv) = (
-        k * c.suu.norm(),
-        k * c.suv.norm(),
-        k * c.svv.norm(),
-    );
+    let (muu, muv, mvv) = (k * c.suu.norm(), k * c.suv.norm(), k * c.svv.norm());
     let chord_u = 0.5 * (muu * a * a + muv * a * b);
     let chord_v = 0.5 * (mvv * b * b + muv * a * b);
     let split_u = cell.depth_u < MAX_DEPTH
@@ -275,8 +274,16 @@ fn push_children(stack: &mut Vec<Cell>, cell: Cell, split_u: bool, split_v: bool
     );
     for i in (0..nu).rev() {
         for j in (0..nv).rev() {
-            let ou = if split_u { (2.0 * i as f64 - 1.0) * a } else { 0.0 };
-            let ov = if split_v { (2.0 * j as f64 - 1.0) * b } else { 0.0 };
+            let ou = if split_u {
+                (2.0 * i as f64 - 1.0) * a
+            } else {
+                0.0
+            };
+            let ov = if split_v {
+                (2.0 * j as f64 - 1.0) * b
+            } else {
+                0.0
+            };
             stack.push(Cell {
                 uc: cell.uc + ou,
                 vc: cell.vc + ov,

@@ -272,15 +272,15 @@ mod tests {
         let sph = Sphere {
             centre: Vector3::new(-1.0, 0.5, 2.0),
             radius: 4.0,
-            theta: [0.0, 6.28],
+            theta: [0.0, 6.2],
             phi: [-1.5, 1.5],
         };
         let tor = Torus {
             centre: Vector3::zeros(),
             major: 10.0,
             minor: 3.0,
-            theta: [0.0, 6.28],
-            phi: [0.0, 6.28],
+            theta: [0.0, 6.2],
+            phi: [0.0, 6.2],
         };
         let wave = Wave {
             base: 1.0,

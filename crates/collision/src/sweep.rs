@@ -41,7 +41,11 @@ impl Motion {
 
     /// Angle between the two axes, radians.
     pub fn angle(&self) -> f64 {
-        self.from.axis.cross(&self.to.axis).norm().atan2(self.from.axis.dot(&self.to.axis))
+        self.from
+            .axis
+            .cross(&self.to.axis)
+            .norm()
+            .atan2(self.from.axis.dot(&self.to.axis))
     }
 
     /// The pose at `s` in [0, 1]: tip linear, axis slerped.
@@ -52,7 +56,8 @@ impl Motion {
             (self.from.axis * (1.0 - s) + self.to.axis * s).normalize()
         } else {
             let k = 1.0 / theta.sin();
-            (self.from.axis * (((1.0 - s) * theta).sin() * k) + self.to.axis * ((s * theta).sin() * k))
+            (self.from.axis * (((1.0 - s) * theta).sin() * k)
+                + self.to.axis * ((s * theta).sin() * k))
                 .normalize()
         };
         Pose { tip, axis }
@@ -111,7 +116,10 @@ pub fn check_motion(
         if poses > opts.max_poses {
             return Err(Error::invalid(
                 "options.max_poses",
-                format!("the motion needs more than {} pose checks at a tolerance of {tol} mm", opts.max_poses),
+                format!(
+                    "the motion needs more than {} pose checks at a tolerance of {tol} mm",
+                    opts.max_poses
+                ),
             ));
         }
         let pose = motion.pose_at(s);
@@ -120,7 +128,17 @@ pub fn check_motion(
         if margin < 0.0 {
             let report = work.query(tool, &pose, &query);
             if report.collides() {
-                return Ok(first_collision(work, tool, motion, &query, (last_clear, s), report, d, tol, poses));
+                return Ok(first_collision(
+                    work,
+                    tool,
+                    motion,
+                    &query,
+                    (last_clear, s),
+                    report,
+                    d,
+                    tol,
+                    poses,
+                ));
             }
             margin = trusted_margin(&report).min(cap);
         }
@@ -140,7 +158,7 @@ fn trusted_margin(report: &PoseReport) -> f64 {
         .parts
         .iter()
         .map(|p| {
-            let d = if p.contact.is_some() { p.distance } else { p.lower_bound };
+            let d = if p.refined { p.distance } else { p.lower_bound };
             d.min(p.pruned_bound) - p.limit
         })
         .fold(f64::INFINITY, f64::min)

@@ -49,7 +49,9 @@ impl Workpiece {
             if !ok {
                 return Err(Error::invalid(
                     format!("faces[{i}].domain"),
-                    format!("([{u0}, {u1}], [{v0}, {v1}]) is not a rectangle with u0 < u1, v0 < v1"),
+                    format!(
+                        "([{u0}, {u1}], [{v0}, {v1}]) is not a rectangle with u0 < u1, v0 < v1"
+                    ),
                 ));
             }
         }
@@ -59,8 +61,14 @@ impl Workpiece {
         let results = map_indexed(tasks, options.threads, |t| {
             let (fi, cell) = (t / per_face, t % per_face);
             let mut out = Vec::new();
-            sample_root_cell(faces[fi].as_ref(), fi as u32, (cell / n, cell % n), &options, &mut out)
-                .map(|()| out)
+            sample_root_cell(
+                faces[fi].as_ref(),
+                fi as u32,
+                (cell / n, cell % n),
+                &options,
+                &mut out,
+            )
+            .map(|()| out)
         });
         let mut samples = Vec::new();
         let mut samples_per_face = vec![0usize; faces.len()];
@@ -102,7 +110,10 @@ impl Workpiece {
             if i >= self.faces.len() {
                 return Err(Error::invalid(
                     format!("machined[{k}]"),
-                    format!("face {i} does not exist (the part has {} faces)", self.faces.len()),
+                    format!(
+                        "face {i} does not exist (the part has {} faces)",
+                        self.faces.len()
+                    ),
                 ));
             }
             flags[i] = true;

@@ -19,7 +19,10 @@ const CLEARANCE: f64 = 1.0;
 fn tool() -> ToolAssembly {
     ToolAssembly::new(
         Cutter::ball(R, 15.0),
-        vec![HolderSegment::cylinder(20.0, 3.0), HolderSegment::cylinder(40.0, 10.0)],
+        vec![
+            HolderSegment::cylinder(20.0, 3.0),
+            HolderSegment::cylinder(40.0, 10.0),
+        ],
     )
     .unwrap()
 }
@@ -63,11 +66,16 @@ fn search() -> AxisSearch {
 /// the rim's furthest point towards the wall is WALL - 4 + R sin b - 35 sin b
 /// + 10 cos b (the shank's rims and the cutter stay further).
 fn least_tilt() -> f64 {
-    let gap = |b: f64| WALL - 4.0 + R * b.sin() - 35.0 * b.sin() + 10.0 * b.cos() - (WALL - CLEARANCE);
+    let gap =
+        |b: f64| WALL - 4.0 + R * b.sin() - 35.0 * b.sin() + 10.0 * b.cos() - (WALL - CLEARANCE);
     let (mut lo, mut hi) = (0.0, FRAC_PI_2);
     for _ in 0..100 {
         let mid = 0.5 * (lo + hi);
-        if gap(mid) > 0.0 { lo = mid } else { hi = mid }
+        if gap(mid) > 0.0 {
+            lo = mid
+        } else {
+            hi = mid
+        }
     }
     hi
 }
@@ -77,7 +85,15 @@ fn run(normal: Vector3<f64>, admissible: impl Fn(&Vector3<f64>) -> bool) -> Opti
     let cc = normal * (WALL - 4.0);
     let centre = cc + Vector3::z() * R;
     let opts = QueryOptions::new(0.01, CLEARANCE);
-    find_clear_axis(&w, &tool(), &opts, &search(), |a| Some(centre - a * R), admissible).unwrap()
+    find_clear_axis(
+        &w,
+        &tool(),
+        &opts,
+        &search(),
+        |a| Some(centre - a * R),
+        admissible,
+    )
+    .unwrap()
 }
 
 #[test]
@@ -86,15 +102,27 @@ fn tilts_away_from_a_wall_by_the_least_angle() {
     assert!(want > 0.1 && want < 0.3, "the scene needs a tilt: {want}");
     // Wall on +x: away from it is -x = a0 x l, pure tilt (+t).
     let found = run(Vector3::x(), |_| true).expect("a clear axis");
-    assert!((found.azimuth - FRAC_PI_2).abs() < 1e-12, "azimuth {}", found.azimuth);
-    assert!(found.angle >= want - 1e-9 && found.angle <= want + 1e-5 + 1e-9, "{} vs {want}", found.angle);
+    assert!(
+        (found.azimuth - FRAC_PI_2).abs() < 1e-12,
+        "azimuth {}",
+        found.azimuth
+    );
+    assert!(
+        found.angle >= want - 1e-9 && found.angle <= want + 1e-5 + 1e-9,
+        "{} vs {want}",
+        found.angle
+    );
     assert!((found.tilt - found.angle).abs() < 1e-12 && found.lead.abs() < 1e-12);
     // The contact point is kept: the ball's centre is where it was.
     let centre = Vector3::new(WALL - 4.0, 0.0, R);
     assert!((found.pose.tip + found.pose.axis * R - centre).norm() < 1e-12);
     // Wall on +y (ahead along the lead direction): lean back, pure lead (-l).
     let back = run(Vector3::y(), |_| true).expect("a clear axis");
-    assert!((back.azimuth - PI).abs() < 1e-12, "azimuth {}", back.azimuth);
+    assert!(
+        (back.azimuth - PI).abs() < 1e-12,
+        "azimuth {}",
+        back.azimuth
+    );
     assert!((back.angle - found.angle).abs() < 1e-9);
     assert!((back.lead + back.angle).abs() < 1e-12);
 }

@@ -10,7 +10,12 @@ use toolpath_collision::{Face, Pose, QueryOptions, SamplingOptions, ToolPart, Wo
 const GRID: usize = 240;
 
 /// Least signed distance of `part` over a GRID x GRID grid of each face.
-fn dense_least(w: &Workpiece, tool: &toolpath_collision::ToolAssembly, pose: &Pose, part: ToolPart) -> f64 {
+fn dense_least(
+    w: &Workpiece,
+    tool: &toolpath_collision::ToolAssembly,
+    pose: &Pose,
+    part: ToolPart,
+) -> f64 {
     let mut best = f64::INFINITY;
     for f in 0..w.face_count() {
         let face: &dyn Face = w.face(f);
@@ -34,7 +39,10 @@ fn certified_bounds_stay_below_the_true_distance() {
     let tools = tools();
     let (mut near, mut deep, mut poses) = (0, 0, 0);
     // TOOLPATH_COLLISION_SCENES=20 for a longer run (240 poses; passes).
-    let scenes: usize = std::env::var("TOOLPATH_COLLISION_SCENES").ok().and_then(|s| s.parse().ok()).unwrap_or(4);
+    let scenes: usize = std::env::var("TOOLPATH_COLLISION_SCENES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(4);
     for _ in 0..scenes {
         let faces = random_scene(&mut rng, 5);
         let mut opts = SamplingOptions::for_cutter_radius(rng.range(4.0, 12.0));
@@ -70,24 +78,53 @@ fn certified_bounds_stay_below_the_true_distance() {
             for p in &report.parts {
                 let dense = dense_least(&w, tool, &pose, p.part);
                 least = least.min(dense);
-                assert!(p.lower_bound <= dense, "{:?}: bound {} above {dense}", p.part, p.lower_bound);
-                assert!(p.lower_bound >= dense - cover - 0.5, "{:?}: bound {} too loose", p.part, p.lower_bound);
+                assert!(
+                    p.lower_bound <= dense,
+                    "{:?}: bound {} above {dense}",
+                    p.part,
+                    p.lower_bound
+                );
+                assert!(
+                    p.lower_bound >= dense - cover - 0.5,
+                    "{:?}: bound {} too loose",
+                    p.part,
+                    p.lower_bound
+                );
                 if dense.abs() < 1.0 {
                     // Near contact the refined distance is exact (the dense
                     // grid's least value is attained, so never below it).
                     near += 1;
-                    assert!(p.distance <= dense + 1e-6, "{:?}: refined {} above {dense}", p.part, p.distance);
+                    assert!(
+                        p.distance <= dense + 1e-6,
+                        "{:?}: refined {} above {dense}",
+                        p.part,
+                        p.distance
+                    );
                 } else if dense <= -1.0 {
                     // Deep inside, a kink of the distance on a face's edge may
                     // leave part of the depth: at least 90 % is found.
                     deep += 1;
-                    assert!(p.distance <= 0.9 * dense, "{:?}: refined {} against {dense}", p.part, p.distance);
+                    assert!(
+                        p.distance <= 0.9 * dense,
+                        "{:?}: refined {} against {dense}",
+                        p.part,
+                        p.distance
+                    );
                 }
             }
             poses += 1;
-            assert!(margin <= least, "margin {margin} above the least distance {least}");
-            assert!(margin >= least - cover - 0.5, "margin {margin} too loose against {least}");
+            assert!(
+                margin <= least,
+                "margin {margin} above the least distance {least}"
+            );
+            assert!(
+                margin >= least - cover - 0.5,
+                "margin {margin} too loose against {least}"
+            );
         }
     }
-    assert!(poses == 12 * scenes && near > 15 && deep > 15, "near contact: {near}, deep: {deep}");
+    assert!(
+        poses == 12 * scenes && near > 15 && deep > 15,
+        "near contact: {near}, deep: {deep}"
+    );
 }

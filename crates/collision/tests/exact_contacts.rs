@@ -45,16 +45,29 @@ fn bare(c: Cutter) -> ToolAssembly {
 
 #[test]
 fn cutters_pushed_into_a_plane_by_a_known_depth() {
-    let w = part(vec![Arc::new(horizontal_rectangle(0.0, [-60.0, 60.0], [-60.0, 60.0]))]);
+    let w = part(vec![Arc::new(horizontal_rectangle(
+        0.0,
+        [-60.0, 60.0],
+        [-60.0, 60.0],
+    ))]);
     let mut rng = Rng::new(3);
     for _ in 0..40 {
         let d = rng.range(0.01, 1.2);
         let (x, y) = (rng.range(-30.0, 30.0), rng.range(-30.0, 30.0));
         // Vertical flat end and torus: the bottom is d deep (d < corner and side).
         for c in [Cutter::flat_end(5.0, 20.0), Cutter::torus(5.0, 1.5, 20.0)] {
-            let r = w.query(&bare(c), &pose(Vector3::new(x, y, -d), Vector3::z()), &measure());
+            let r = w.query(
+                &bare(c),
+                &pose(Vector3::new(x, y, -d), Vector3::z()),
+                &measure(),
+            );
             let cut = r.cutter();
-            assert!((cut.distance + d).abs() < 1e-9, "{c:?}: {} vs {}", cut.distance, -d);
+            assert!(
+                (cut.distance + d).abs() < 1e-9,
+                "{c:?}: {} vs {}",
+                cut.distance,
+                -d
+            );
             assert!(cut.collides() && (cut.penetration() - d).abs() < 1e-9);
             assert!(cut.lower_bound <= cut.distance);
             assert_eq!(cut.contact.unwrap().face, 0);
@@ -65,8 +78,16 @@ fn cutters_pushed_into_a_plane_by_a_known_depth() {
         let centre = Vector3::new(x, y, 4.0 - d);
         let r = w.query(&ball, &pose(centre - a * 4.0, a), &measure());
         let c = r.cutter().contact.unwrap();
-        assert!((r.cutter().distance + d).abs() < 1e-9, "{} vs {}", r.cutter().distance, -d);
-        assert!((c.point - Vector3::new(x, y, 0.0)).norm() < 1e-4, "deepest under the centre");
+        assert!(
+            (r.cutter().distance + d).abs() < 1e-9,
+            "{} vs {}",
+            r.cutter().distance,
+            -d
+        );
+        assert!(
+            (c.point - Vector3::new(x, y, 0.0)).norm() < 1e-4,
+            "deepest under the centre"
+        );
     }
 }
 
@@ -92,13 +113,26 @@ fn cutter_side_pushed_into_a_post_and_a_bore() {
         // Outside the post, axes parallel: the deepest point faces the axis.
         let tip = dir * (rc + big_r - d) + Vector3::new(0.0, 0.0, rng.range(0.0, 10.0));
         let r = w.query(&tool, &pose(tip, Vector3::z()), &measure());
-        assert!((r.cutter().distance + d).abs() < 1e-9, "post: {} vs {}", r.cutter().distance, -d);
+        assert!(
+            (r.cutter().distance + d).abs() < 1e-9,
+            "post: {} vs {}",
+            r.cutter().distance,
+            -d
+        );
         // Inside a bore of the same radius, pushed into its wall.
-        let bore = Cylinder { radius: 20.0, ..post };
+        let bore = Cylinder {
+            radius: 20.0,
+            ..post
+        };
         let wb = part(vec![Arc::new(bore)]);
         let tip = dir * (20.0 - big_r + d) + Vector3::new(0.0, 0.0, 5.0);
         let r = wb.query(&tool, &pose(tip, Vector3::z()), &measure());
-        assert!((r.cutter().distance + d).abs() < 1e-9, "bore: {} vs {}", r.cutter().distance, -d);
+        assert!(
+            (r.cutter().distance + d).abs() < 1e-9,
+            "bore: {} vs {}",
+            r.cutter().distance,
+            -d
+        );
     }
 }
 
@@ -121,22 +155,38 @@ fn ball_pushed_into_a_sphere_and_a_spherical_cavity() {
         // Outside: the ball's axis along the normal, centre at rs + R - d.
         let c = centre + n * (rs + 4.0 - d);
         let r = w.query(&ball, &pose(c - n * 4.0, n), &measure());
-        assert!((r.cutter().distance + d).abs() < 1e-9, "sphere: {} vs {}", r.cutter().distance, -d);
+        assert!(
+            (r.cutter().distance + d).abs() < 1e-9,
+            "sphere: {} vs {}",
+            r.cutter().distance,
+            -d
+        );
         let p = r.cutter().contact.unwrap().point;
         assert!((p - (centre + n * rs)).norm() < 1e-3);
         // Inside the cavity, the axis pointing back to its centre.
         let c = centre + n * (rs - 4.0 + d);
         let r = w.query(&ball, &pose(c + n * 4.0, -n), &measure());
-        assert!((r.cutter().distance + d).abs() < 1e-9, "cavity: {} vs {}", r.cutter().distance, -d);
+        assert!(
+            (r.cutter().distance + d).abs() < 1e-9,
+            "cavity: {} vs {}",
+            r.cutter().distance,
+            -d
+        );
     }
 }
 
 #[test]
 fn holder_above_a_box_at_a_known_height() {
-    let w = part(box_faces(Vector3::new(-80.0, -80.0, -30.0), Vector3::new(80.0, 80.0, 0.0)));
+    let w = part(box_faces(
+        Vector3::new(-80.0, -80.0, -30.0),
+        Vector3::new(80.0, 80.0, 0.0),
+    ));
     let tool = ToolAssembly::new(
         Cutter::torus(5.0, 1.0, 20.0),
-        vec![HolderSegment::cylinder(30.0, 4.0), HolderSegment::cone(40.0, 10.0, 15.0)],
+        vec![
+            HolderSegment::cylinder(30.0, 4.0),
+            HolderSegment::cone(40.0, 10.0, 15.0),
+        ],
     )
     .unwrap();
     let mut rng = Rng::new(13);
@@ -164,7 +214,11 @@ fn holder_above_a_box_at_a_known_height() {
         for (i, w) in want.iter().enumerate() {
             let p = r.parts[i];
             assert_eq!(p.part, ToolPart::from_index(i));
-            assert!((p.distance - w).abs() < 1e-8, "part {i}, h {h} b {beta}: {} vs {w}", p.distance);
+            assert!(
+                (p.distance - w).abs() < 1e-8,
+                "part {i}, h {h} b {beta}: {} vs {w}",
+                p.distance
+            );
             assert!(p.lower_bound <= p.distance + 1e-12);
             assert!(!p.collides());
         }

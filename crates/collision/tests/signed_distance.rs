@@ -21,13 +21,19 @@ fn curves(tool: &ToolAssembly, part: ToolPart) -> Vec<Curve> {
             let r0 = r - rc;
             vec![
                 Box::new(move |t| (t * r0, 0.0)),
-                Box::new(move |t| (r0 + rc * (t * FRAC_PI_2).sin(), rc - rc * (t * FRAC_PI_2).cos())),
+                Box::new(move |t| {
+                    (
+                        r0 + rc * (t * FRAC_PI_2).sin(),
+                        rc - rc * (t * FRAC_PI_2).cos(),
+                    )
+                }),
                 Box::new(move |t| (r, rc + t * (l - rc))),
                 Box::new(move |t| ((1.0 - t) * r, l)),
             ]
         }
         ToolPart::Holder(k) => {
-            let z0 = tool.cutter().flute_length + tool.holder()[..k].iter().map(|s| s.length).sum::<f64>();
+            let z0 = tool.cutter().flute_length
+                + tool.holder()[..k].iter().map(|s| s.length).sum::<f64>();
             let s = tool.holder()[k];
             let (rb, rt, len) = (s.radius_bottom, s.radius_top, s.length);
             vec![
@@ -53,7 +59,8 @@ fn inside(tool: &ToolAssembly, part: ToolPart, pose: &Pose, x: &Vector3<f64>) ->
             (0.0..=c.flute_length).contains(&z) && r <= c.radius && corner
         }
         ToolPart::Holder(k) => {
-            let z0 = tool.cutter().flute_length + tool.holder()[..k].iter().map(|s| s.length).sum::<f64>();
+            let z0 = tool.cutter().flute_length
+                + tool.holder()[..k].iter().map(|s| s.length).sum::<f64>();
             let s = tool.holder()[k];
             (z0..=z0 + s.length).contains(&z)
                 && r <= s.radius_bottom + (s.radius_top - s.radius_bottom) * (z - z0) / s.length
@@ -114,7 +121,11 @@ fn signed_distances_match_brute_force_on_random_points() {
     for tool in tools() {
         for _ in 0..60 {
             let pose = Pose::new(
-                Vector3::new(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)),
+                Vector3::new(
+                    rng.range(-5.0, 5.0),
+                    rng.range(-5.0, 5.0),
+                    rng.range(-5.0, 5.0),
+                ),
                 rng.unit(),
             )
             .unwrap();
@@ -123,7 +134,10 @@ fn signed_distances_match_brute_force_on_random_points() {
             // Half the points anywhere round the tool, half within 0.5 mm of a part.
             let far = rng.range(0.0, 1.0) < 0.5;
             let (r, z) = if far {
-                (rng.range(0.0, 25.0), rng.range(-8.0, tool.total_length() + 8.0))
+                (
+                    rng.range(0.0, 25.0),
+                    rng.range(-8.0, tool.total_length() + 8.0),
+                )
             } else {
                 let part = parts(&tool)[(rng.next_u64() % tool.part_count() as u64) as usize];
                 let c = curves(&tool, part);
@@ -135,10 +149,17 @@ fn signed_distances_match_brute_force_on_random_points() {
             let mut nearest = (ToolPart::Cutter, f64::INFINITY);
             for part in parts(&tool) {
                 let d = brute_distance(&tool, part, &pose, &x);
-                let want = if inside(&tool, part, &pose, &x) { -d } else { d };
+                let want = if inside(&tool, part, &pose, &x) {
+                    -d
+                } else {
+                    d
+                };
                 let got = tool.signed_distance(&pose, part, &x);
                 worst = worst.max((got - want).abs());
-                assert!((got - want).abs() < 1e-7, "{part:?} at r {r} z {z}: {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 1e-7,
+                    "{part:?} at r {r} z {z}: {got} vs {want}"
+                );
                 if want < nearest.1 {
                     nearest = (part, want);
                 }
@@ -161,7 +182,11 @@ fn jet_matches_differences_of_the_distance() {
     for tool in tools() {
         for _ in 0..300 {
             let pose = Pose::new(Vector3::zeros(), rng.unit()).unwrap();
-            let x = Vector3::new(rng.range(-15.0, 15.0), rng.range(-15.0, 15.0), rng.range(-15.0, 80.0));
+            let x = Vector3::new(
+                rng.range(-15.0, 15.0),
+                rng.range(-15.0, 15.0),
+                rng.range(-15.0, 80.0),
+            );
             for part in parts(&tool) {
                 let f = |y: &Vector3<f64>| tool.signed_distance(&pose, part, y);
                 let jet = tool.jet(&pose, part, &x);
@@ -185,8 +210,16 @@ fn jet_matches_differences_of_the_distance() {
                 }
                 checked += 1;
                 assert!((jet.value - f(&x)).abs() < 1e-12);
-                assert!((jet.gradient - grad).norm() < 1e-6, "{part:?} {x:?}: {:?} vs {grad:?}", jet.gradient);
-                assert!((jet.hessian - hess).norm() < 1e-3 * (1.0 + hess.norm()), "{part:?} {x:?}: {} vs {hess}", jet.hessian);
+                assert!(
+                    (jet.gradient - grad).norm() < 1e-6,
+                    "{part:?} {x:?}: {:?} vs {grad:?}",
+                    jet.gradient
+                );
+                assert!(
+                    (jet.hessian - hess).norm() < 1e-3 * (1.0 + hess.norm()),
+                    "{part:?} {x:?}: {} vs {hess}",
+                    jet.hessian
+                );
             }
         }
     }

@@ -24,7 +24,11 @@ impl Rng {
     }
     pub fn unit(&mut self) -> Vector3<f64> {
         loop {
-            let v = Vector3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
+            let v = Vector3::new(
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            );
             let n = v.norm();
             if n > 0.1 && n <= 1.0 {
                 return v / n;
@@ -75,20 +79,30 @@ pub fn random_scene(rng: &mut Rng, count: usize) -> Vec<Arc<dyn Face>> {
 }
 
 fn random_face(rng: &mut Rng) -> Arc<dyn Face> {
-    let centre = Vector3::new(rng.range(-40.0, 40.0), rng.range(-40.0, 40.0), rng.range(-20.0, 20.0));
+    let centre = Vector3::new(
+        rng.range(-40.0, 40.0),
+        rng.range(-40.0, 40.0),
+        rng.range(-20.0, 20.0),
+    );
     let kind = rng.next_u64() % 6;
     let trimmed = rng.range(0.0, 1.0) < 0.4;
     let face: Arc<dyn Face> = match kind {
         0 => {
             let (e_u, e_v) = across(&rng.unit());
-            let plane = Plane { origin: centre, e_u, e_v, u: [-30.0, 30.0], v: [-20.0, 20.0] };
+            let plane = Plane {
+                origin: centre,
+                e_u,
+                e_v,
+                u: [-30.0, 30.0],
+                v: [-20.0, 20.0],
+            };
             if trimmed {
                 // A disc with a hole.
                 Arc::new(Trimmed {
                     face: plane,
                     keep: Box::new(|u, v| {
                         let r2 = u * u + v * v;
-                        r2 <= 400.0 && r2 >= 25.0
+                        (25.0..=400.0).contains(&r2)
                     }),
                 })
             } else {
