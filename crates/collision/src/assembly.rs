@@ -185,7 +185,8 @@ impl ToolPart {
 }
 
 /// Where the tool is: the tip (cl, the lowest point of the axis) and the
-/// unit axis from the tip towards the spindle.
+/// unit axis from the tip towards the spindle. The queries take the axis as
+/// unit; [`Pose::new`] normalises it and refuses non-finite input.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pose {
     pub tip: Vector3<f64>,

@@ -116,6 +116,7 @@ pub fn find_clear_axis(
     tip_for_axis: impl Fn(&Vector3<f64>) -> Option<Vector3<f64>>,
     admissible: impl Fn(&Vector3<f64>) -> bool,
 ) -> Result<Option<ClearAxis>> {
+    opts.validate().map_err(|e| e.within("opts"))?;
     let f = frame(search).map_err(|e| e.within("search"))?;
     positive("search.step", search.step)?;
     if !(search.max_angle >= 0.0 && search.max_angle <= std::f64::consts::PI) {

@@ -47,6 +47,23 @@ impl QueryOptions {
         }
     }
 
+    /// Refuses non-finite limits and a negative or non-finite search margin
+    /// (the queries themselves do not check, being the hot path).
+    pub fn validate(&self) -> crate::Result<()> {
+        for (field, v) in [
+            ("cutter_limit", self.cutter_limit),
+            ("holder_limit", self.holder_limit),
+        ] {
+            if !v.is_finite() {
+                return Err(crate::Error::invalid(
+                    field,
+                    format!("{v} is not a finite number"),
+                ));
+            }
+        }
+        crate::error::non_negative("search_margin", self.search_margin)
+    }
+
     /// The limit of a part.
     pub fn limit(&self, part: ToolPart) -> f64 {
         match part {

@@ -106,6 +106,9 @@ pub fn check_motion(
     opts: &SweepOptions,
 ) -> Result<SweepOutcome> {
     positive("options.tolerance", opts.tolerance)?;
+    opts.query
+        .validate()
+        .map_err(|e| e.within("options.query"))?;
     let d = motion.rate_bound(tool, &opts.query);
     let tol = opts.tolerance;
     let mut query = opts.query;
