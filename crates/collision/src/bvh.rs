@@ -6,8 +6,9 @@
 //! over the whole node: the one pruning rule of every query.
 //!
 //! Built top down: the samples' points are split at the median along the
-//! longest side of their box (ties broken by index, so the tree is the same
-//! bytes for the same samples), down to leaves of at most [`LEAF_SIZE`].
+//! longest side of their box (ties broken by face and parameters, so the tree
+//! is the same bytes for the same samples), down to leaves of at most
+//! [`LEAF_SIZE`].
 
 use crate::sampling::Sample;
 use nalgebra::Vector3;
@@ -42,19 +43,20 @@ pub struct Bvh {
 }
 
 impl Bvh {
-    /// Builds over `samples`, reordering them into leaf order.
+    /// Builds over `samples`, reordering them into leaf order (in place:
+    /// each split partitions its range of the slice, so the build reads
+    /// memory in order).
     pub fn build(samples: &mut [Sample]) -> Self {
         let mut bvh = Self::default();
         if samples.is_empty() {
             return bvh;
         }
-        let mut order: Vec<u32> = (0..samples.len() as u32).collect();
         bvh.nodes.push(placeholder());
         let mut work = vec![(0usize, 0usize, samples.len(), 1usize)];
         while let Some((node, lo, hi, level)) = work.pop() {
             bvh.depth = bvh.depth.max(level);
-            let slice = &mut order[lo..hi];
-            let (centre, radius, axis) = bound(samples, slice);
+            let slice = &mut samples[lo..hi];
+            let (centre, radius, axis) = bound(slice);
             if hi - lo <= LEAF_SIZE {
                 bvh.nodes[node] = Node {
                     centre,
@@ -65,12 +67,14 @@ impl Bvh {
                 continue;
             }
             let mid = (hi - lo) / 2;
-            slice.select_nth_unstable_by(mid, |&i, &j| {
-                let (a, b) = (
-                    samples[i as usize].point[axis],
-                    samples[j as usize].point[axis],
-                );
-                a.total_cmp(&b).then(i.cmp(&j))
+            // A total order (coordinate, then face and parameters), so the
+            // partition is the same for the same samples.
+            slice.select_nth_unstable_by(mid, |a, b| {
+                a.point[axis]
+                    .total_cmp(&b.point[axis])
+                    .then(a.face.cmp(&b.face))
+                    .then(a.u.total_cmp(&b.u))
+                    .then(a.v.total_cmp(&b.v))
             });
             let left = bvh.nodes.len();
             bvh.nodes.push(placeholder());
@@ -84,8 +88,6 @@ impl Bvh {
             work.push((left + 1, lo + mid, hi, level + 1));
             work.push((left, lo, lo + mid, level + 1));
         }
-        let reordered: Vec<Sample> = order.iter().map(|&i| samples[i as usize]).collect();
-        samples.copy_from_slice(&reordered);
         bvh
     }
 }
@@ -99,23 +101,19 @@ fn placeholder() -> Node {
     }
 }
 
-/// The sphere holding the cover balls of `idx` (centred on their points'
-/// box), and the box's longest axis.
-fn bound(samples: &[Sample], idx: &[u32]) -> (Vector3<f64>, f64, usize) {
+/// The sphere holding the cover balls of `samples` (centred on their
+/// points' box), and the box's longest axis.
+fn bound(samples: &[Sample]) -> (Vector3<f64>, f64, usize) {
     let mut lo = Vector3::repeat(f64::INFINITY);
     let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-    for &i in idx {
-        let p = samples[i as usize].point;
-        lo = lo.inf(&p);
-        hi = hi.sup(&p);
+    for s in samples {
+        lo = lo.inf(&s.point);
+        hi = hi.sup(&s.point);
     }
     let centre = (lo + hi) * 0.5;
-    let radius = idx
+    let radius = samples
         .iter()
-        .map(|&i| {
-            let s = &samples[i as usize];
-            (s.point - centre).norm() + s.cover
-        })
+        .map(|s| (s.point - centre).norm() + s.cover)
         .fold(0.0, f64::max);
     let ext = hi - lo;
     let axis = if ext.x >= ext.y && ext.x >= ext.z {
