@@ -40,3 +40,15 @@ pub use query::{Contact, PartReport, PoseReport, QueryOptions};
 pub use sampling::{Sample, SamplingOptions};
 pub use sweep::{check_motion, Motion, SweepOptions, SweepOutcome};
 pub use workpiece::Workpiece;
+
+#[cfg(test)]
+mod tests {
+    /// Planners check poses in parallel: the part and the tool are shared.
+    #[test]
+    fn part_and_tool_are_shared_across_threads() {
+        fn shared<T: Send + Sync>() {}
+        shared::<crate::Workpiece>();
+        shared::<crate::ToolAssembly>();
+        shared::<crate::PoseReport>();
+    }
+}
