@@ -908,11 +908,8 @@ mod tests {
             .chain(std::iter::once(&[kept[kept.len() - 1], n][..]))
         {
             let chord = Site::Segment(pts[w[0]], pts[w[1] % n]);
-            for k in w[0] + 1..w[1] {
-                assert!(
-                    chord.distance(pts[k]) <= SIMPLIFY_TOLERANCE_UNITS,
-                    "vertex {k}"
-                );
+            for (k, p) in pts.iter().enumerate().take(w[1]).skip(w[0] + 1) {
+                assert!(chord.distance(*p) <= SIMPLIFY_TOLERANCE_UNITS, "vertex {k}");
             }
         }
         let dp = douglas_peucker_kept(&pts, SIMPLIFY_TOLERANCE_UNITS);
