@@ -256,14 +256,16 @@ pub const DEFAULT_FEED_RATE: f64 = 1000.0;
 
 /// Depth below the surface a finishing cut may reach before it counts as a
 /// gouge, mm, for jobs without a tolerance band: the limit the strip-width
-/// planners are accepted with (tests/wing_mould.rs); the simulator finds
-/// 0.0009 to 0.0024 mm on wing_mould.
+/// planners are accepted with (tests/wing_mould.rs, tests/flat_end_suite.rs;
+/// their plans' simulated gouges are in docs/results.md, "Flat-end strategy
+/// suite").
 pub const DEFAULT_GOUGE_TOLERANCE: f64 = 0.005;
 
 /// Largest lead angle and side tilt, degrees: the tool axis within 45
 /// degrees of the surface normal. Beyond it a flat end or torus cuts with
 /// its side rather than its end, which the strip-width and MPEC models do
-/// not describe (a lead of 89 degrees gouges about 0.5 mm on a plain bowl).
+/// not describe: their widths and error curves would then miss the cut of
+/// the cutter's side.
 pub const MAX_TILT_DEG: f64 = 45.0;
 
 /// Diameters a `tool_catalogue` may list, mm: from micro end mills to the

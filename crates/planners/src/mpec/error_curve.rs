@@ -836,8 +836,9 @@ pub fn solve_conventional(
 /// error curve is that of one pose, from the characteristic points of a
 /// part seen as unchanged along the feed; where the part twists and turns
 /// under a small tool the swept tool goes a little lower between poses
-/// (step_multi_face, torus R8 r2: 0.0515 mm against a band of 0.05 without
-/// it).
+/// than the one pose's curve shows, by less than this share on the faces
+/// tested (docs/methods.md, "Where MPEC does not apply"; tests/step_import.rs,
+/// `mpec_plans_each_step_sample_face_within_its_band`).
 pub const CONVENTIONAL_MARGIN: f64 = 0.1;
 
 fn solve_at(

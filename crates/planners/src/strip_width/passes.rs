@@ -294,8 +294,8 @@ const WALK_STEP: f64 = 0.75;
 /// instead of integrating again from the start. A walk to `dist` is thus
 /// the walk to that end plus sub-steps of at most [`WALK_STEP`] over the
 /// rest; it differs from a fresh [`walk_on_surface`] by the midpoint rule's
-/// integration error only (its steps are not the same): about 1e-4 mm on
-/// the wing mould, as much as either walk's own error.
+/// integration error only (its steps are not the same), as much as either
+/// walk's own error (`continued_walks_match_fine_walks`).
 #[derive(Clone, Debug)]
 pub struct Walker {
     /// Sub-step ends of the walks so far, by distance from the start: the

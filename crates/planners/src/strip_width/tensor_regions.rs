@@ -108,8 +108,9 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
     let coarse = setup.settings.coarsened(ESTIMATE_COARSENING);
     let kinds = &setup.kinds;
     // The plans the baselines make are always built exactly, so the kept
-    // plan is never longer than either however the estimates err (they
-    // scatter by up to about 15 % with the point step): they are built at
+    // plan is never longer than either however the estimates err (Lee
+    // offsetting reacts to its sampling; docs/methods.md, "Candidate plans
+    // of tensor_regions"): they are built at
     // once, not estimated, next to the estimates of the other candidates
     // (every candidate at the coarse settings, its length on the face,
     // clipped to the trim like the exact plans). Exact builds first: they

@@ -14,7 +14,9 @@
 //!   across the feed is its osculating circle (curvature kappa_cross), and the
 //!   residual is measured along the circle's normal; the half-width is the arc
 //!   length on the surface up to where the residual reaches the scallop h.
-//!   The quadratic estimate W2 is not used: it is 6-27 % too wide.
+//!   The quadratic estimate W2 is not used: it is wider than the real strip
+//!   (docs/methods.md, "Strip width of a tilted flat end";
+//!   `plane_width_matches_the_closed_form`).
 
 use nalgebra::{Vector2, Vector3};
 use toolpath_formats::Job;

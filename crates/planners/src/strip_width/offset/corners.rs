@@ -13,8 +13,12 @@ use toolpath_kernel::geometry::NurbsSurface;
 pub(super) const SPIKE_MIN_TURN_DEG: f64 = 30.0;
 
 /// Length of a corner spike in shifts of the corner that would close the
-/// gap outside it by the discs' geometry, d (1 - s) / (2 s): with it,
-/// tensor_regions on `wing_mould` stays within h by the simulator (0.0462 mm).
+/// gap outside it by the discs' geometry, d (1 - s) / (2 s): a spike cuts
+/// only a band h / sin(lead) wide on its way out, so it runs well past the
+/// point the shift reaches (docs/methods.md, "Corner spikes"). The
+/// partition of `wing_mould`, whose region boundaries meet passes at
+/// corners, holds h with it (tests/wing_mould.rs,
+/// `wing_mould_three_strategies_against_the_simulator`).
 pub(super) const SPIKE_SHARE: f64 = 4.0;
 
 /// Longest corner spike, in cutter radii. The shift grows without bound as
@@ -32,8 +36,8 @@ pub(super) const SPIKE_MAX_RADII: f64 = 2.0;
 /// bisector). Legs along the bisector would not do: a tilted flat bottom
 /// moving sideways cuts only a band h / sin(lead) wide behind its contact
 /// line. 0.8 R reaches the material beside chevrons of about 105 deg
-/// (0.0496 mm by the simulator on the second surface of
-/// `tests/wing_mould.rs`).
+/// (the second surface of tests/wing_mould.rs,
+/// `second_freeform_surface_is_cut_without_gouge_or_gaps`).
 pub(super) const SPIKE_SWEEP_RADII: f64 = 0.8;
 
 /// A corner spike: unit direction out of the corner and length, mm.

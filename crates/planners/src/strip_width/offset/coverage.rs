@@ -222,11 +222,12 @@ impl Coverage {
     /// [`Self::covered`] by any pass, and where that fails, with the
     /// half-width on `p`'s side of each strip within reach: a strip is
     /// symmetric (the mean half-width) only to the quick test, but the twist
-    /// of the surface makes one side wider than the other (by up to about 10 %
-    /// on wing_mould), and a point beyond the mean but within its side's width
-    /// is cut. The side's width is the smaller at the segment's two contacts.
-    /// On the narrow side the quick test still counts up to the mean, as
-    /// before: the 0.9 h spacing and the simulator's repair passes hold h.
+    /// of the surface makes one side wider than the other
+    /// (`sided_coverage_counts_the_wider_side_only`), and a point beyond the
+    /// mean but within its side's width is cut. The side's width is the
+    /// smaller at the segment's two contacts. On the narrow side the quick
+    /// test counts up to the mean: the 0.9 h spacing and the simulator's
+    /// repair passes hold h there (docs/methods.md, "Iso-scallop offsetting").
     pub(super) fn covered_sided(
         &self,
         surface: &NurbsSurface,
@@ -314,8 +315,8 @@ pub(super) type StripPoint = (Point3<f64>, f64, Option<StripContact>);
 const SIDED_REACH: f64 = 1.5;
 
 /// A multiply-rotate hash of a grid cell's key: the grid is only looked up,
-/// never iterated, so the hash decides speed, not results (SipHash, or a
-/// B-tree's key comparisons, were a few per cent of a cover).
+/// never iterated, so the hash decides speed, not results, and a cheap one
+/// suffices (SipHash guards against hostile keys, which these are not).
 #[derive(Default)]
 pub(super) struct CellHasher(u64);
 

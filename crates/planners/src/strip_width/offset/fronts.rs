@@ -955,8 +955,8 @@ mod tests {
     /// 3 mm): the horizontal leg's offsets run past the corner to x = 50,
     /// the vertical leg's start below y = 3. The front left is the offset L
     /// itself, through its exact corner (47, 3) mm, with no crossing; the
-    /// advance test alone leaves the jog to x = 49.7 and back (the corner
-    /// that turned back on itself on suite seed 2 at h = 0.055).
+    /// advance test alone leaves the jog to x = 49.7 and back (a corner
+    /// that turns back on itself, as on suite seed 2 at h = 0.055).
     #[test]
     fn a_concave_corner_offsets_to_one_sharp_corner() {
         let surface = toolpath_samples::surfaces::plane();
@@ -1023,8 +1023,8 @@ mod tests {
 
     /// A pass running into machined material ends there: its extension
     /// runs a cutter radius through the earlier strips and stops, where
-    /// without them it runs its whole 4 R (the passes that crossed the
-    /// strips of a finished front by 10 mm on suite seed 2 at h = 0.055).
+    /// without them it runs its whole 4 R (across the strips of a finished
+    /// front, as on suite seed 2 at h = 0.055).
     #[test]
     fn extension_stops_a_cutter_radius_inside_machined_material() {
         let surface = toolpath_samples::surfaces::plane();
