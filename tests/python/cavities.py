@@ -194,6 +194,12 @@ class Cavity:
                 return r
         raise KeyError(face_id)
 
+    def oracle_spacing(self, coarse=2.0):
+        """Sample spacing per face for part_oracle: `coarse` mm on the block's
+        outer sides and bottom (far from any tool of a cavity job), the
+        oracle's default elsewhere."""
+        return {i: coarse for i in self.groups["outside"]}
+
     def tessellation(self, deflection=0.01, angular=0.1):
         """The solid meshed by BRepMesh within `deflection` mm (and `angular`
         rad): vertices (n, 3), triangles (m, 3) with outward winding, and the
