@@ -331,8 +331,18 @@ def build_solid(spec):
     return part, floor
 
 
+def quiet_occ():
+    """Open CASCADE's messages at Fail level only: the STEP writer and reader
+    print transfer statistics on stdout otherwise."""
+    from OCP.Message import Message, Message_Gravity
+
+    for printer in Message.DefaultMessenger_s().Printers():
+        printer.SetTraceLevel(Message_Gravity.Message_Fail)
+
+
 def write_step(shape, path):
     """STEP AP214 in mm, pcurves written (the importer uses them)."""
+    quiet_occ()
     Interface_Static.SetCVal_s("write.step.schema", "AP214IS")
     Interface_Static.SetCVal_s("write.step.unit", "MM")
     Interface_Static.SetIVal_s("write.surfacecurve.mode", 1)

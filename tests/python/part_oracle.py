@@ -358,6 +358,7 @@ def tool_from_job(job_tool, holder=None, flute_length=None):
 
 # -- results ------------------------------------------------------------------
 
+NOISE_MM = 1e-9  # numerical noise of a clearance at contact
 LINK_MAX_STEP_MM = 1.0  # a link's tip moves at most this between samples
 LINK_MAX_STEP_DEG = 1.0  # and its axis turns at most this
 
@@ -447,14 +448,19 @@ class CcOnFaces:
 @dataclass
 class ResultCheck:
     """Every pose of a result checked: `poses` (PoseCheck per cutting pose),
-    `where` (pass, point), `cc_on_face`, and `links` (a list per link of
-    PoseCheck-like dicts) or `links_skipped` (why none were checked)."""
+    `where` (pass, point), `cc_on_face`, and `links` (per link, per pose,
+    a SegmentCheck by segment name) or `links_skipped` (why none were
+    checked). A cutter cuts where it is deeper than `tolerance` into a face
+    (0.01 mm: a figure within numerical noise of contact is no cut); a
+    holder segment collides where its clearance is below `holder_clearance`
+    (numerical noise of 1e-9 mm allowed)."""
 
     poses: list
     where: np.ndarray
     cc_on_face: np.ndarray
     tool: object
     tolerance: float
+    holder_clearance: float = 0.0
     links: list | None = None
     links_skipped: str | None = None
     link_faults: list = field(default_factory=list)
@@ -491,7 +497,7 @@ class ResultCheck:
             vals = np.array([p.holder[seg.name].value for p in self.poses])
             holder[seg.name] = {
                 "min_clearance_mm": float(vals.min()) if len(vals) else None,
-                "collision_poses": int((vals < 0).sum()),
+                "collision_poses": int((vals < self.holder_clearance - NOISE_MM).sum()),
                 "buried_poses": int(sum(p.holder[seg.name].buried for p in self.poses)),
             }
         out["holder"] = holder
@@ -503,13 +509,14 @@ class ResultCheck:
             return {"skipped": self.links_skipped}
         flat = [c for link in self.links for c in link]
         out = {"links": len(self.links), "poses": len(flat), "sampling_faults": len(self.link_faults)}
-        for name in ["cutter"] + [s.name for s in self.tool.holder]:
-            vals = np.array([c[name].value for c in flat])
-            out[name] = {"min_clearance_mm": float(vals.min()) if len(vals) else None, "collision_poses": int((vals < 0).sum())}
+        for seg in self.tool.segments:
+            vals = np.array([c[seg.name].value for c in flat])
+            limit = -self.tolerance if seg.is_cutter else self.holder_clearance - NOISE_MM
+            out[seg.name] = {"min_clearance_mm": float(vals.min()) if len(vals) else None, "collision_poses": int((vals < limit).sum())}
         return out
 
 
-def check_result(oracle, result, tool, machined_faces, check_faces=None, tolerance=0.01, progress=None):
+def check_result(oracle, result, tool, machined_faces, check_faces=None, tolerance=0.01, holder_clearance=0.0, progress=None):
     """Checks every cutting pose and every link pose of a `toolpath plan`
     result against the part. `tool` is a ToolAssembly; `machined_faces` the
     job's faces; check faces default to all others."""
@@ -521,7 +528,7 @@ def check_result(oracle, result, tool, machined_faces, check_faces=None, toleran
         cc_on.append(on_face(ccs[j]))
         if progress and j % 500 == 0:
             progress(j, len(tips))
-    out = ResultCheck(poses, where, np.array(cc_on, bool), tool, tolerance)
+    out = ResultCheck(poses, where, np.array(cc_on, bool), tool, tolerance, holder_clearance)
     try:
         links = result_links(result)
     except LinksMissing as e:
