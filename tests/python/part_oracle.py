@@ -52,6 +52,7 @@ DEFAULT_SPACING = 0.5  # mm between face samples
 DEFAULT_BAND = 1.0  # mm: clearances below it are exact
 CELL_SIZE = 3.0  # mm, the coarse cells
 MAX_SEEDS = 3  # refinement starts per face and pose
+MATERIAL_FROM_MM = 0.01  # a cut this deep gets its material depth measured
 SEED_SEPARATION = 4.0  # spacings between refinement starts
 
 
@@ -69,6 +70,17 @@ class SegmentCheck:
 
 
 @dataclass
+class MaterialDepth:
+    """How far a posed segment reaches into the material: the largest
+    distance below the part's surface of the segment's boundary points
+    inside the solid (`depth`, mm, 0 if none; within rho, as the nearest
+    sample's distance), and the face nearest to that point."""
+
+    depth: float
+    face: int | None
+
+
+@dataclass
 class PoseCheck:
     """A pose's checks: the cutter against the machined faces (`gouge`) and
     against the check faces (`check`), and each holder segment against all
@@ -77,6 +89,7 @@ class PoseCheck:
     gouge: SegmentCheck
     check: SegmentCheck
     holder: dict = field(default_factory=dict)
+    material: MaterialDepth | None = None  # the cutter's, where it cuts
 
     @property
     def gouge_mm(self):
@@ -152,13 +165,20 @@ class PartOracle:
         return self._check(seg, tip, axis, *self._evaluate(seg, tip, axis), face_ids)
 
     def _check(self, seg, tip, axis, idx, vals, far, face_ids=None):
+        near_any = len(idx) > 0
         if face_ids is not None:
             allowed = np.zeros(len(self.face_ids), bool)
             allowed[[self._index[f] for f in face_ids]] = True
             keep = allowed[self.samples.face[idx]]
             idx, vals = idx[keep], vals[keep]
         if len(idx) == 0:
-            return self._far_or_buried(seg, tip, axis, far)
+            if near_any:
+                # Other faces come near; these are all beyond the band.
+                return SegmentCheck(far - self.rho, None, False)
+            got = self._far_or_buried(seg, tip, axis, far)
+            if got.buried and face_ids is not None and got.face not in set(face_ids):
+                return SegmentCheck(far - self.rho, None, False)
+            return got
         faces = self.samples.face[idx]
         rho = self.samples.rho[idx]
         # Each face's best sample, best first: refine while a face may still
@@ -224,9 +244,12 @@ class PartOracle:
         """The smallest sd of the segment over face k near its best samples:
         never above the best sample's value (samples are points of the face).
         Nelder-Mead runs on the surface within the face's (u, v) box and its
-        end point is classified; only an end off the face (the optimum lies
-        on the trim, or the surface goes on lower beyond it) runs again with
-        every step classified (IntTools_FClass2d is the costly call)."""
+        end point is classified (IntTools_FClass2d is the costly call, not
+        made at every step). An end off the face means the surface goes on
+        lower beyond the trim: the face's lowest values are then on its
+        boundary, refined along the face's best two edges; only if that finds
+        nothing below the start, Nelder-Mead runs again with every step
+        classified."""
         ctx = self.samples.faces[k]
         tip_t, axis_t = tuple(tip), tuple(axis)
         sd = seg.sd_function(tip, axis)
@@ -247,6 +270,7 @@ class PartOracle:
             p = value(u, v)
             return sd(p.X(), p.Y(), p.Z())
 
+        edges_done = False
         for s in self._seeds(idx, vals):
             e = int(self.samples.edge[s])
             if e >= 0:
@@ -254,9 +278,30 @@ class PartOracle:
                 continue
             u, v = (float(x) for x in self.samples.uv[s])
             f, ru, rv = nelder_mead_2d(in_box, u, v, ctx.steps, ctx.spacing)
-            if not ctx.inside(ru, rv):
-                f, ru, rv = nelder_mead_2d(on_face, u, v, ctx.steps, ctx.spacing)
-            best = min(best, f)
+            if ctx.inside(ru, rv):
+                best = min(best, f)
+                continue
+            start = float(vals[np.flatnonzero(idx == s)[0]])
+            if not edges_done:
+                best = min(best, self._refine_best_edges(seg, tip_t, axis_t, idx, vals))
+                edges_done = True
+            if best >= start:
+                best = min(best, nelder_mead_2d(on_face, u, v, ctx.steps, ctx.spacing)[0])
+        return best
+
+    def _refine_best_edges(self, seg, tip, axis, idx, vals, count=2):
+        """`_refine_edge` from the best sample of each of the `count` best
+        edges among the samples idx."""
+        on_edge = np.flatnonzero(self.samples.edge[idx] >= 0)
+        best, seen = math.inf, set()
+        for j in on_edge[np.argsort(vals[on_edge], kind="stable")]:
+            e = int(self.samples.edge[idx[j]])
+            if e in seen:
+                continue
+            seen.add(e)
+            best = min(best, self._refine_edge(seg, tip, axis, e, float(self.samples.t[idx[j]])))
+            if len(seen) == count:
+                break
         return best
 
     def _refine_edge(self, seg, tip, axis, e, t):
@@ -284,7 +329,30 @@ class PartOracle:
         gouge = self._check(tool.cutter, tip, axis, *near, machined) if machined else SegmentCheck(math.inf, None, False)
         check = self._check(tool.cutter, tip, axis, *near, checks) if checks else SegmentCheck(math.inf, None, False)
         holder = {s.name: self.check_segment(s, tip, axis) for s in tool.holder}
-        return PoseCheck(gouge, check, holder)
+        material = None
+        if min(gouge.value, check.value) < -MATERIAL_FROM_MM:
+            material = self.material_depth(tool.cutter, tip, axis)
+        return PoseCheck(gouge, check, holder, material)
+
+    def material_depth(self, seg, tip, axis, step=1.0):
+        """`MaterialDepth` of a posed segment: its boundary sampled every
+        `step` mm (segment.boundary_points); a point is inside where it lies
+        behind its nearest sample's outward normal by more than half its
+        distance, else the solid classifier decides. Points within their
+        nearest sample's covering radius are left out (no deeper than it)."""
+        axis = np.asarray(axis, float) / np.linalg.norm(axis)
+        pts = seg.boundary_points(tip, axis, step)
+        dist, k = self.sample_tree.query(pts)
+        deep = dist > self.samples.rho[k]
+        pts, dist, k = pts[deep], dist[deep], k[deep]
+        off = np.einsum("ij,ij->i", pts - self.samples.points[k], self.samples.normals[k])
+        inside = off < -0.5 * dist
+        for j in np.flatnonzero(np.abs(off) <= 0.5 * dist):
+            inside[j] = self.inside(pts[j])
+        if not inside.any():
+            return MaterialDepth(0.0, None)
+        j = int(np.flatnonzero(inside)[np.argmax(dist[inside])])
+        return MaterialDepth(float(dist[j]), self.face_ids[int(self.samples.face[k[j]])])
 
     def extrema_clearance(self, seg, tip, axis, shape=None):
         """BRepExtrema_DistShapeShape between the posed segment's primitive
@@ -492,11 +560,19 @@ class ResultCheck:
             if p.check_depth_mm > tol:
                 cut_faces[str(p.check.face)] = cut_faces.get(str(p.check.face), 0) + 1
         out["check_cut_by_face"] = dict(sorted(cut_faces.items()))
+        mat = np.array([p.material.depth if p.material else 0.0 for p in self.poses])
+        out["max_material_depth_mm"] = float(mat.max()) if len(mat) else 0.0
+        out["material_depth_over_1mm"] = int((mat > 1.0).sum())
+        if len(mat) and mat.max() > 0:
+            j = int(mat.argmax())
+            out["deepest_material"] = {"pass": int(self.where[j][0]), "point": int(self.where[j][1]), "face": self.poses[j].material.face, "depth_mm": float(mat[j])}
         holder = {}
         for seg in self.tool.holder:
             vals = np.array([p.holder[seg.name].value for p in self.poses])
+            j = int(vals.argmin()) if len(vals) else None
             holder[seg.name] = {
-                "min_clearance_mm": float(vals.min()) if len(vals) else None,
+                "min_clearance_mm": float(vals[j]) if len(vals) else None,
+                "min_clearance_exact": bool(self.poses[j].holder[seg.name].exact) if len(vals) else None,
                 "collision_poses": int((vals < self.holder_clearance - NOISE_MM).sum()),
                 "buried_poses": int(sum(p.holder[seg.name].buried for p in self.poses)),
             }

@@ -3,7 +3,7 @@ every pose against the exact part with part_oracle; lists what
 `toolpath import --list` makes of every face of the part.
 
     python3 tests/python/probe_cavity_floor.py [--seed N | --reference] [--depth D]
-        [--strategy S] [--radius R] [--scallop H] [--out DIR] [--json FILE]
+        [--strategy S] [--radius R] [--scallop H] [--lead-deg L] [--out DIR] [--json FILE]
 
 Prints the figures as JSON: the part, the STEP surface entities written, the
 import listing (faces refused and why), the plan's exit and figures, the
@@ -87,6 +87,7 @@ def main(argv=None):
     ap.add_argument("--corner-radius", type=float, default=2.0)
     ap.add_argument("--flute-length", type=float, default=30.0)
     ap.add_argument("--scallop", type=float, default=0.05)
+    ap.add_argument("--lead-deg", type=float, default=5.0, help="the milling samples' lead angle")
     ap.add_argument("--spacing", type=float, default=0.5)
     ap.add_argument("--out", type=Path)
     ap.add_argument("--json", type=Path)
@@ -116,6 +117,7 @@ def main(argv=None):
         "strategy": a.strategy,
         "tool": dict(tool, length=a.flute_length),
         "scallop": a.scallop,
+        "lead_angle_deg": a.lead_deg,
     }
     p = plan(job, work)
     report["plan"] = {k: v for k, v in p.items() if k != "result"}

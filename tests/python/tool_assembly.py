@@ -101,6 +101,42 @@ class Segment:
 
         return sd
 
+    def boundary_points(self, tip, axis, step):
+        """Points of the posed segment's boundary at most about `step` mm
+        apart: rings on its bottom disc, corner arc, side and top disc, and
+        its axis."""
+        prof = self._profile(step)
+        a = np.asarray(axis, float) / np.linalg.norm(axis)
+        e1 = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(a, e1)
+        out = [np.asarray(tip, float) + np.outer(np.linspace(self.z0, self.z1, max(2, math.ceil((self.z1 - self.z0) / step) + 1)), a)]
+        for r, z in prof:
+            n = max(1, math.ceil(2.0 * math.pi * r / step))
+            t = 2.0 * math.pi * np.arange(n) / n
+            out.append(np.asarray(tip, float) + z * a + r * (np.outer(np.cos(t), e1) + np.outer(np.sin(t), e2)))
+        return np.concatenate(out)
+
+    def _profile(self, step):
+        """(radius, height) of the rings of `boundary_points`."""
+        pts = []
+        if self.is_cutter:
+            r, rc = self.radius_bottom, self.corner_radius
+            c = r - rc
+            pts += [(c * i / max(1, math.ceil(c / step)), self.z0) for i in range(1, max(1, math.ceil(c / step)) + 1)] if c > 0 else []
+            m = max(1, math.ceil(0.5 * math.pi * rc / step)) if rc > 0 else 0
+            pts += [(c + rc * math.sin(0.5 * math.pi * i / m), self.z0 + rc - rc * math.cos(0.5 * math.pi * i / m)) for i in range(1, m + 1)]
+            zs = np.linspace(self.z0 + rc, self.z1, max(2, math.ceil((self.z1 - self.z0 - rc) / step) + 1))
+            pts += [(r, float(z)) for z in zs]
+            pts += [(r * i / max(1, math.ceil(r / step)), self.z1) for i in range(1, max(1, math.ceil(r / step)))]
+            return pts
+        rb, rt = self.radius_bottom, self.radius_top
+        n = max(2, math.ceil(math.hypot(rt - rb, self.z1 - self.z0) / step) + 1)
+        pts += [(rb * i / max(1, math.ceil(rb / step)), self.z0) for i in range(1, max(1, math.ceil(rb / step)) + 1)]
+        pts += [(rb + (rt - rb) * i / (n - 1), self.z0 + (self.z1 - self.z0) * i / (n - 1)) for i in range(1, n)]
+        pts += [(rt * i / max(1, math.ceil(rt / step)), self.z1) for i in range(1, max(1, math.ceil(rt / step)))]
+        return pts
+
     def solids(self, tip, axis):
         """The segment as Open CASCADE primitive solids whose union it is
         (for BRepExtrema): a cutter is a cylinder with a lower hemisphere
