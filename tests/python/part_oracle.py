@@ -226,18 +226,24 @@ class PartOracle:
         """The samples of a face where a refinement starts, best first: the
         best sample, then the best of those farther than SEED_SEPARATION
         spacings from every seed so far, among those within rho of the best,
-        at most MAX_SEEDS."""
+        at most MAX_SEEDS; and the best grid sample among them if all those
+        are edge samples."""
         k = int(self.samples.face[idx[0]])
         best = float(vals.min())
         cand = np.flatnonzero(vals <= best + float(self.samples.rho[idx[0]]))
         cand = cand[np.argsort(vals[cand], kind="stable")]
         pts = self.samples.points[idx[cand]]
         sep2 = (SEED_SEPARATION * self.samples.faces[k].spacing) ** 2
+        interior = cand[self.samples.edge[idx[cand]] < 0]
         seeds = []
         while len(cand) and len(seeds) < MAX_SEEDS:
             seeds.append(int(idx[cand[0]]))
             far = np.einsum("ij,ij->i", pts - pts[0], pts - pts[0]) > sep2
             cand, pts = cand[far], pts[far]
+        # Edge samples lie twice as dense as the grid and often win; the
+        # face's best grid sample starts a 2-D search all the same.
+        if len(interior) and all(self.samples.edge[s] >= 0 for s in seeds):
+            seeds.append(int(idx[interior[0]]))
         return seeds
 
     def _refine(self, seg, tip, axis, k, idx, vals):
@@ -278,6 +284,14 @@ class PartOracle:
                 continue
             u, v = (float(x) for x in self.samples.uv[s])
             f, ru, rv = nelder_mead_2d(in_box, u, v, ctx.steps, ctx.spacing)
+            # Nelder-Mead can stall in a narrow valley of a stretched (u, v)
+            # map: one restart from its end with a fresh simplex.
+            f, ru, rv = min((f, ru, rv), nelder_mead_2d(in_box, ru, rv, (0.1 * ctx.steps[0], 0.1 * ctx.steps[1]), 0.1 * ctx.spacing))
+            if f < 0.0:
+                # Inside the segment sd is the distance to its nearest side:
+                # its largest depth is often on a ridge, where a shrunken
+                # simplex stalls; restart with a full-size one.
+                f, ru, rv = min((f, ru, rv), nelder_mead_2d(in_box, ru, rv, ctx.steps, ctx.spacing))
             if ctx.inside(ru, rv):
                 best = min(best, f)
                 continue
