@@ -83,7 +83,7 @@ class CavitySpec:
     opening: str = "wide"  # "wide" or "tight"
 
     @staticmethod
-    def from_seed(seed: int, opening: str | None = None) -> "CavitySpec":
+    def from_seed(seed: int, opening: str | None = None) -> CavitySpec:
         """Sizes drawn from `random.Random(seed)`: depth 20-60, draft 0-10 deg,
         floor fillets 3-10, corner fillets above them, a tight (28-45 mm wide)
         or wide opening (two thirds of the block)."""
@@ -127,7 +127,7 @@ class CavitySpec:
         )
 
     @staticmethod
-    def reference(depth=35.0) -> "CavitySpec":
+    def reference(depth=35.0) -> CavitySpec:
         """The mould cavity of the planning reports: a 160 x 120 x 60 mm
         block, a 120 x 80 mm opening, 35 mm deep (the deeper variant: 40),
         7 deg draft, 6 mm floor fillets, 10 mm corner fillets, a 3 mm floor."""
@@ -303,7 +303,9 @@ def build_solid(spec):
     z_bottom = spec.height - spec.depth - spec.floor_amplitude - spec.floor_fillet - 5.0
     prism = _frustum(spec, z_bottom, spec.height + 5.0)
     floor = floor_surface(spec)
-    above = BRepPrimAPI_MakeHalfSpace(BRepBuilderAPI_MakeFace(floor, 1e-6).Face(), gp_Pnt(spec.length / 2, spec.width / 2, spec.height)).Solid()
+    above = BRepPrimAPI_MakeHalfSpace(
+        BRepBuilderAPI_MakeFace(floor, 1e-6).Face(), gp_Pnt(spec.length / 2, spec.width / 2, spec.height)
+    ).Solid()
     tool = BRepAlgoAPI_Common(prism, above).Shape()
     corners = BRepFilletAPI_MakeFillet(tool)
     for e in edges_of(tool):
@@ -387,7 +389,7 @@ def step_records(path):
     text = Path(path).read_text()
     data = text[text.index("DATA;") + 5 :]
     out = {}
-    for m in re.finditer(r"#(\d+)\s*=\s*(.*?);\s*(?=#\d+\s*=|ENDSEC)", data, re.S):
+    for m in re.finditer(r"#(\d+)\s*=\s*(.*?);\s*(?=#\d+\s*=|ENDSEC)", data, re.DOTALL):
         body = " ".join(m.group(2).split())
         if body.startswith("("):
             names = re.findall(r"([A-Z_][A-Z0-9_]*)\s*\(", body[1:])

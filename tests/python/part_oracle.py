@@ -4,32 +4,38 @@ machined (gouge) and through every other face (the check faces), and the
 clearance of every shank and holder segment to the part, per pose of the
 result's passes and of its links. It shares nothing with the planner.
 
-Measure. For a posed tool segment T (tool_assembly.py: its exact signed
+Measures. For a posed tool segment T (tool_assembly.py: its exact signed
 distance sd_T, closed form) and a face F of the part, the oracle finds
 m(T, F) = min over the points p of F of sd_T(p): positive, the clearance
-between T and F; negative, -m is how deep F lies inside T, the depth by which
-the tool enters the part through F (a wall entered 0.5 mm deep reads -0.5).
-A segment wholly inside the material (no face crossing it) is found by
-classifying its axis's middle point (BRepClass3d_SolidClassifier) and reads
-minus that point's depth below the part's surface (a lower bound).
+between T and F; negative, -m is how deep F lies inside T (a cutter whose
+side is pushed 0.5 mm into a wall reads -0.5; a corner cut reads less than
+the cutter's reach below the face, at most the segment's inner radius).
+Where the cutter cuts, `material_depth` also measures how far it reaches
+below the part's surface: the largest distance to the nearest face sample
+of the cutter's boundary points inside the solid (within the covering
+radius; this is the figure that exceeds the cutter's radius when a run-in
+plunges into a wall). A segment wholly inside the material (no face near
+it) is found by classifying its axis's middle point and reads minus that
+point's depth below the surface (`buried`).
 
 Search. sd_T is 1-Lipschitz, so samples of the faces (face_samples.py,
-covering radius rho) bound it: the smallest sample value s gives
-s - rho <= m <= s. Samples are grouped into cells of a few mm; per pose a
-KD-tree (scipy cKDTree) over the cells' centres finds the cells near the
-segment, a cell is opened only when its centre's value minus its radius is
-below the band (`exact_band`), and faces whose samples come within the band
-are refined exactly: the smallest sd_T over the exact surface S(u, v)
-(Nelder-Mead in (u, v) from the best samples, a point counting only where
-IntTools_FClass2d puts it on the face) and over the exact edge curves
-(bounded Brent from the best edge samples). Faces are refined in order of
-their sample value and skipped once s - rho cannot beat the best refined
-value. Within the band a figure is exact (to the optimiser's tolerance,
-about 1e-6 mm); beyond it the reported clearance is the lower bound s - rho.
-BRepExtrema_DistShapeShape between the segment's primitive solids and the part
-(`extrema_clearance`) gives the same positive clearances independently, and is
-what the self-tests compare against; it takes tens of milliseconds a call,
-too slow for every pose.
+covering radius rho per face) bound it: the smallest sample value s of a
+face gives s - rho <= m <= s. Samples are grouped into cells of a few mm;
+per pose a KD-tree (scipy cKDTree) over the cells' centres finds the cells
+near the segment, a cell is opened only when its centre's value minus its
+radius is below band + rho, and faces whose samples may come below the band
+(`exact_band`) are refined: the smallest sd_T over the exact surface
+S(u, v) (Nelder-Mead in (u, v) from the best samples, restarted once, its
+end kept where IntTools_FClass2d puts it on the face) and over the exact
+edge curves (bounded Brent from the best edge samples). Faces are refined in
+order of their sample value and skipped once s - rho cannot beat the best
+refined value. Within the band a figure is exact to the optimiser's
+tolerance (about 1e-4 mm; the self-tests hold it to 1e-3 mm against
+constructions, BRepExtrema and a brute force over a fine tessellation);
+beyond the band the reported clearance is the lower bound s - rho
+(`exact` false). BRepExtrema_DistShapeShape between the segment's primitive
+solids and the part (`extrema_clearance`) gives positive clearances
+independently; at tens of milliseconds a call it is too slow for every pose.
 """
 
 from __future__ import annotations
@@ -455,7 +461,12 @@ def result_poses(result):
             axes.append(q["axis"])
             ccs.append(q.get("cc", q["cl"]))
             where.append((k, m))
-    return np.array(tips, float).reshape(-1, 3), np.array(axes, float).reshape(-1, 3), np.array(ccs, float).reshape(-1, 3), np.array(where, np.int64).reshape(-1, 2)
+    return (
+        np.array(tips, float).reshape(-1, 3),
+        np.array(axes, float).reshape(-1, 3),
+        np.array(ccs, float).reshape(-1, 3),
+        np.array(where, np.int64).reshape(-1, 2),
+    )
 
 
 class LinksMissing(LookupError):
@@ -568,7 +579,12 @@ class ResultCheck:
         }
         if len(depth) and depth.max() > 0:
             j = int(depth.argmax())
-            out["deepest"] = {"pass": int(self.where[j][0]), "point": int(self.where[j][1]), "face": self.poses[j].check.face, "depth_mm": float(depth[j])}
+            out["deepest"] = {
+                "pass": int(self.where[j][0]),
+                "point": int(self.where[j][1]),
+                "face": self.poses[j].check.face,
+                "depth_mm": float(depth[j]),
+            }
         cut_faces = {}
         for p in self.poses:
             if p.check_depth_mm > tol:
@@ -579,7 +595,12 @@ class ResultCheck:
         out["material_depth_over_1mm"] = int((mat > 1.0).sum())
         if len(mat) and mat.max() > 0:
             j = int(mat.argmax())
-            out["deepest_material"] = {"pass": int(self.where[j][0]), "point": int(self.where[j][1]), "face": self.poses[j].material.face, "depth_mm": float(mat[j])}
+            out["deepest_material"] = {
+                "pass": int(self.where[j][0]),
+                "point": int(self.where[j][1]),
+                "face": self.poses[j].material.face,
+                "depth_mm": float(mat[j]),
+            }
         holder = {}
         for seg in self.tool.holder:
             vals = np.array([p.holder[seg.name].value for p in self.poses])

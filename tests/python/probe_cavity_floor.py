@@ -25,10 +25,10 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from cavities import CavitySpec, build_cavity, face_area, surface_survey  # noqa: E402
-from part_oracle import PartOracle, check_result  # noqa: E402
-from tool_assembly import ToolAssembly  # noqa: E402
-from toolpath_bin import toolpath_bin  # noqa: E402
+from cavities import CavitySpec, build_cavity, face_area, surface_survey
+from part_oracle import PartOracle, check_result
+from tool_assembly import ToolAssembly
+from toolpath_bin import toolpath_bin
 
 HOLDER = [{"length": 40, "radius": 5}, {"length": 60, "radius": 16}]
 
@@ -105,7 +105,9 @@ def main(argv=None):
     report["import_list"] = {str(k): v for k, v in listing.items()}
     report["import_errors"] = {str(k): v for k, v in face_import_errors(cav.step_path, sorted(cav.faces)).items()}
     report["area_check"] = {
-        str(fid): {"toolpath": row.get("area_mm2"), "occ": face_area(cav.faces[fid])} for fid, row in listing.items() if isinstance(fid, int) and "area_mm2" in row
+        str(fid): {"toolpath": row.get("area_mm2"), "occ": face_area(cav.faces[fid])}
+        for fid, row in listing.items()
+        if isinstance(fid, int) and "area_mm2" in row
     }
     floor = cav.groups["floor"]
     tool = {"kind": a.kind, "radius": a.radius}

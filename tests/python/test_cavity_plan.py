@@ -49,7 +49,10 @@ def test_the_importer_lists_the_faces_the_oracle_names(seed, reference, tmp_path
     rows = listing(cav.step_path)
     assert sorted(rows) == sorted(cav.faces)
     for fid, (kind, area, rest) in rows.items():
-        assert kind == cav.face_types[fid] or (kind == "RATIONAL_B_SPLINE_SURFACE" and cav.face_types[fid].endswith("B_SPLINE_SURFACE")), (fid, kind)
+        assert kind == cav.face_types[fid] or (kind == "RATIONAL_B_SPLINE_SURFACE" and cav.face_types[fid].endswith("B_SPLINE_SURFACE")), (
+            fid,
+            kind,
+        )
         if area == "-":
             assert "not importable" in rest and f"#{fid}" in rest or "#" in rest, (fid, rest)
             continue
@@ -68,7 +71,9 @@ def test_a_planned_floor_keeps_the_cutter_out_of_its_neighbours(reference, tmp_p
         "lead_angle_deg": 5.0,
     }
     (tmp_path / "job.json").write_text(json.dumps(job))
-    r = subprocess.run([toolpath_bin(), "plan", str(tmp_path / "job.json"), "-o", str(tmp_path / "result.json")], capture_output=True, text=True)
+    r = subprocess.run(
+        [toolpath_bin(), "plan", str(tmp_path / "job.json"), "-o", str(tmp_path / "result.json")], capture_output=True, text=True
+    )
     assert r.returncode == 0, r.stderr
     result = json.loads((tmp_path / "result.json").read_text())
     oracle = PartOracle(reference.solid, reference.faces, spacing=1.0, face_spacing=reference.oracle_spacing(3.0))

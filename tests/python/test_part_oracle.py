@@ -15,7 +15,7 @@ from OCP.BRepClass3d import BRepClass3d_SolidClassifier
 from OCP.BRepExtrema import BRepExtrema_DistShapeShape
 from OCP.BRepFilletAPI import BRepFilletAPI_MakeFillet
 from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
-from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt, gp_Pnt2d
+from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
 from OCP.TopAbs import TopAbs_IN
 
 from cavities import CavitySpec, build_cavity, edges_of
@@ -443,5 +443,8 @@ def test_face_classification_of_the_family(tmp_path):
             assert abs(tilt - cav.spec.draft_deg) < 1e-6, (seed, fid, tilt, cav.spec.draft_deg)
         ad = BRepAdaptor_Surface(cav.faces[g["floor"][0]])
         for s, t in ((0.5, 0.5), (0.4, 0.6)):
-            p = ad.Value(ad.FirstUParameter() + s * (ad.LastUParameter() - ad.FirstUParameter()), ad.FirstVParameter() + t * (ad.LastVParameter() - ad.FirstVParameter()))
+            p = ad.Value(
+                ad.FirstUParameter() + s * (ad.LastUParameter() - ad.FirstUParameter()),
+                ad.FirstVParameter() + t * (ad.LastVParameter() - ad.FirstVParameter()),
+            )
             assert abs(p.Z() - float(cav.spec.floor_height(p.X(), p.Y()))) < 0.05

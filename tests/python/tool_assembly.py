@@ -125,7 +125,9 @@ class Segment:
             c = r - rc
             pts += [(c * i / max(1, math.ceil(c / step)), self.z0) for i in range(1, max(1, math.ceil(c / step)) + 1)] if c > 0 else []
             m = max(1, math.ceil(0.5 * math.pi * rc / step)) if rc > 0 else 0
-            pts += [(c + rc * math.sin(0.5 * math.pi * i / m), self.z0 + rc - rc * math.cos(0.5 * math.pi * i / m)) for i in range(1, m + 1)]
+            pts += [
+                (c + rc * math.sin(0.5 * math.pi * i / m), self.z0 + rc - rc * math.cos(0.5 * math.pi * i / m)) for i in range(1, m + 1)
+            ]
             zs = np.linspace(self.z0 + rc, self.z1, max(2, math.ceil((self.z1 - self.z0 - rc) / step) + 1))
             pts += [(r, float(z)) for z in zs]
             pts += [(r * i / max(1, math.ceil(r / step)), self.z1) for i in range(1, max(1, math.ceil(r / step)))]
