@@ -313,7 +313,7 @@ impl Machine {
         self.fit(&mut q, None).ok()?;
         if let Some(r) = reference {
             for j in 0..self.dof() {
-                if self.kinds[j].is_rotary() && self.limits[j].travel() >= TURN {
+                if self.wraps(j) {
                     q[j] = unwrap_near(q[j], r[j]);
                 }
             }

@@ -383,6 +383,15 @@ impl Machine {
         self.solver.name()
     }
 
+    /// Whether joint `j` is rotary with a travel of more than a turn: its
+    /// values along a pass are unwrapped (steps taken modulo a turn) and the
+    /// pass fitted into the travel by whole turns. A rotary joint of a turn
+    /// or less has one value in its travel per angle, and a pass cannot cross
+    /// the ends of the travel.
+    pub(crate) fn wraps(&self, j: usize) -> bool {
+        self.kinds[j].is_rotary() && self.limits[j].travel() > crate::angles::TURN + 1e-9
+    }
+
     pub(crate) fn check_joints(&self, q: &[f64]) -> Result<()> {
         if q.len() != self.dof() {
             return Err(Error::Input(format!(

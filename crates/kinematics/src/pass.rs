@@ -125,7 +125,7 @@ impl Machine {
         for j in 0..self.dof() {
             let l = &self.limits[j];
             if self.kinds[j].is_rotary() {
-                c.q[j] = if l.travel() < crate::angles::TURN {
+                c.q[j] = if !self.wraps(j) {
                     representative_in(c.q[j], l.lower, l.upper, hold[j])
                         .unwrap_or_else(|| unwrap_near(c.q[j], hold[j]))
                 } else {
@@ -326,7 +326,7 @@ impl Machine {
     /// joint whose travel is a turn or more (its values are unwrapped along a
     /// pass), the plain difference otherwise.
     pub(crate) fn joint_delta(&self, j: usize, a: f64, b: f64) -> f64 {
-        if self.kinds[j].is_rotary() && self.limits[j].travel() >= crate::angles::TURN {
+        if self.wraps(j) {
             wrap(b - a)
         } else {
             b - a
@@ -406,6 +406,7 @@ impl Machine {
             }
             rows.push(q);
         }
+        self.fit_pass(pass, &mut rows)?;
         Ok(rows)
     }
 

@@ -161,13 +161,16 @@ mod tests {
         assert!((tool_axis_of(&tcp) - Vector3::z()).norm() < 1e-12);
         let t = Target::Frame(tcp);
         assert!((t.tool_axis().into_inner() - Vector3::z()).norm() < 1e-12);
-        assert_eq!(
-            pose_error(
-                &tcp,
-                &Target::axis([1.0, 2.0, 3.0], [0.0, 0.0, 5.0]).unwrap()
-            ),
-            (0.0, 0.0)
+        let (d, a) = pose_error(
+            &tcp,
+            &Target::axis([1.0, 2.0, 3.0], [0.0, 0.0, 5.0]).unwrap(),
         );
+        assert!(d == 0.0 && a < 1e-15);
+        let (_, a) = pose_error(
+            &tcp,
+            &Target::axis([1.0, 2.0, 3.0], [1.0, 0.0, 1.0]).unwrap(),
+        );
+        assert!((a - std::f64::consts::FRAC_PI_4).abs() < 1e-12);
     }
 
     #[test]

@@ -140,7 +140,7 @@ impl Machine {
 
     pub(crate) fn limit_error(&self, j: usize, value: f64) -> Error {
         let l = &self.limits[j];
-        let v = if self.kinds[j].is_rotary() && l.upper - l.lower < crate::angles::TURN {
+        let v = if self.kinds[j].is_rotary() && !self.wraps(j) {
             crate::angles::wrap(value)
         } else {
             value
@@ -229,7 +229,7 @@ impl Machine {
             if !(l.lower.is_finite() && l.upper.is_finite()) {
                 continue;
             }
-            if self.kinds[j].is_rotary() && l.upper - l.lower >= crate::angles::TURN {
+            if self.wraps(j) {
                 continue;
             }
             let margin = if self.kinds[j].is_rotary() {
