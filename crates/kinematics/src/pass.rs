@@ -119,18 +119,20 @@ impl Machine {
     }
 
     /// Unwraps a candidate's rotaries next to `hold` (inside the travel when
-    /// a representative is); whether it then lies within all limits.
+    /// a representative is); whether its joints that cannot be shifted by
+    /// whole turns (linear ones, rotaries of a turn or less) are within limits.
     fn unwrap_candidate(&self, c: &mut Candidate, hold: &[f64]) -> bool {
         let mut inside = true;
         for j in 0..self.dof() {
             let l = &self.limits[j];
+            if self.wraps(j) {
+                c.q[j] = unwrap_near(c.q[j], hold[j]);
+                continue;
+            }
             if self.kinds[j].is_rotary() {
-                c.q[j] = if !self.wraps(j) {
-                    representative_in(c.q[j], l.lower, l.upper, hold[j])
-                        .unwrap_or_else(|| unwrap_near(c.q[j], hold[j]))
-                } else {
-                    unwrap_near(c.q[j], hold[j])
-                };
+                // Out of the travel whatever the turn: left as solved, in (-pi, pi].
+                c.q[j] = representative_in(c.q[j], l.lower, l.upper, hold[j])
+                    .unwrap_or_else(|| wrap(c.q[j]));
             }
             inside &= l.contains(c.q[j], 1e-9);
         }
@@ -249,9 +251,14 @@ impl Machine {
             let hold = last.clone().unwrap_or_else(|| hint.clone());
             let mut rows = self.track(at, pass, &hold, last.is_none())?;
             let raw_last = rows.last().cloned();
-            if let Err(e) = self.fit_pass(at, &mut rows) {
-                rows = self.flipped(at, pass, &rows).ok_or(e)?;
+            if !self.turns_fit(&rows) && c_two_rotaries(self) {
+                if let Some(flipped) = self.flipped(pass, &rows) {
+                    if self.turns_fit(&flipped) {
+                        rows = flipped;
+                    }
+                }
             }
+            self.fit_pass(at, &mut rows)?;
             if raw_last.is_some() {
                 last = raw_last;
             }
@@ -260,27 +267,59 @@ impl Machine {
         Ok(out)
     }
 
-    /// The pass on its other branch: its first pose with two solutions takes
-    /// the one not taken, the rest follow it; `None` if that does not fit either.
-    fn flipped(&self, pass: usize, targets: &[Target], rows: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
-        for (k, t) in targets.iter().enumerate() {
-            let cands = self.cartesian_candidates(t, &rows[k]).ok()?;
-            let mut cands: Vec<Candidate> = cands
-                .into_iter()
-                .filter_map(|c| self.finish(c, t))
-                .collect();
-            if cands.len() < 2 {
-                continue;
-            }
-            for c in cands.iter_mut() {
-                self.unwrap_candidate(c, &rows[k]);
-            }
-            let taken = |c: &Candidate| numeric::same_joints(self, &c.q, &rows[k]);
-            let other = cands.into_iter().find(|c| !taken(c))?;
-            let mut flipped = self.track(pass, targets, &other.q, false).ok()?;
-            return self.fit_pass(pass, &mut flipped).ok().map(|_| flipped);
+    /// Whether every rotary joint of more than a turn fits its travel by a
+    /// whole-turn shift over the pass.
+    fn turns_fit(&self, rows: &[Vec<f64>]) -> bool {
+        (0..self.dof())
+            .filter(|&j| self.wraps(j) && self.limits[j].travel().is_finite())
+            .all(|j| {
+                let l = self.limits[j];
+                turn_shift(rows.iter().map(|r| r[j]), l.lower, l.upper).is_some()
+            })
+    }
+
+    /// The finished candidates of pose `t`, unwrapped next to `hold`.
+    fn finished(&self, t: &Target, hold: &[f64]) -> Vec<Candidate> {
+        let Ok(cands) = self.cartesian_candidates(t, hold) else {
+            return Vec::new();
+        };
+        let mut out: Vec<Candidate> = cands
+            .into_iter()
+            .filter_map(|c| self.finish(c, t))
+            .collect();
+        for c in out.iter_mut() {
+            self.unwrap_candidate(c, hold);
         }
-        None
+        out
+    }
+
+    /// The pass on its other branch, point by point: where a pose has two
+    /// solutions the one not taken in `rows`, where it has one (the free
+    /// angle) the held joint keeps the other branch's value; `None` when no
+    /// pose of the pass has two solutions or one is not reached.
+    fn flipped(&self, targets: &[Target], rows: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
+        let other = |k: usize, near: &[f64]| -> Option<Vec<f64>> {
+            let cands = self.finished(&targets[k], &rows[k]);
+            if cands.len() < 2 {
+                return None;
+            }
+            let mut c = cands
+                .into_iter()
+                .find(|c| !numeric::same_joints(self, &c.q, &rows[k]))?;
+            self.unwrap_candidate(&mut c, near);
+            Some(c.q)
+        };
+        let anchor = (0..targets.len()).find_map(|k| other(k, &rows[k]))?;
+        let mut out: Vec<Vec<f64>> = Vec::with_capacity(rows.len());
+        for k in 0..targets.len() {
+            let near = out.last().cloned().unwrap_or_else(|| anchor.clone());
+            let q = match other(k, &near) {
+                Some(q) => q,
+                None => self.finished(&targets[k], &near).into_iter().next()?.q,
+            };
+            out.push(q);
+        }
+        Some(out)
     }
 
     /// Shifts each rotary joint of a pass by whole turns into its travel,
@@ -467,4 +506,12 @@ impl Machine {
         v.sort_by(|a, b| b.total_cmp(a));
         v.get(need - 1).copied().unwrap_or(0.0) / max
     }
+}
+
+/// Whether the machine is a Cartesian one with two rotaries: its other
+/// branch (the tilt negated, the turn half a turn on) is taken for a whole
+/// pass when only that fits the turn axis's travel. A three-rotary wrist's
+/// other branch is a wrist flip, never taken.
+fn c_two_rotaries(m: &Machine) -> bool {
+    matches!(&m.solver, Solver::Cartesian(c) if c.rotary.len() == 2)
 }

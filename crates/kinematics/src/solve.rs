@@ -82,6 +82,16 @@ pub fn turned(tip: &Point3<f64>, r0: &UnitQuaternion<f64>, psi: f64) -> Isometry
 }
 
 impl Machine {
+    /// The OPW parameters of a 6R spherical-wrist arm carrying the tool or
+    /// the part (the other side without joints), if it is one.
+    pub fn opw_parameters(&self) -> Option<crate::opw::OpwParameters> {
+        match (self.tool.dof(), self.part.dof()) {
+            (6, 0) => crate::opw::OpwParameters::of_chain(&self.tool, &self.tcp),
+            (0, 6) => crate::opw::OpwParameters::of_chain(&self.part, &self.workpiece),
+            _ => None,
+        }
+    }
+
     /// The closed form's solutions of a TCP frame (Cartesian with three
     /// rotaries, or an arm); `hold` = the joints a free angle keeps.
     pub(crate) fn frame_candidates(

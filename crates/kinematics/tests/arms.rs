@@ -53,6 +53,38 @@ fn the_structures_are_recognised() {
 }
 
 #[test]
+fn the_published_opw_parameters_are_read_off_the_urdf() {
+    for (name, p) in [("kr6", KR6_R700), ("irb2400", IRB2400)] {
+        let m = machine(&opw_urdf(name, &p, PI), "base_link", "tool0");
+        let o = m
+            .opw_parameters()
+            .unwrap_or_else(|| panic!("{name}: not recognised as OPW"));
+        let got = [o.a1, o.a2, o.b, o.c1, o.c2, o.c3, o.c4];
+        let want = [p.a1, p.a2, p.b, p.c1, p.c2, p.c3, p.c4].map(|x| x * 1000.0);
+        assert!(
+            got.iter().zip(&want).all(|(a, b)| (a - b).abs() < 1e-9),
+            "{name}: {got:?} vs {want:?}"
+        );
+        assert!(
+            o.offsets
+                .iter()
+                .zip(&p.offsets)
+                .all(|(a, b)| (a - b).abs() < 1e-12),
+            "{name}: {:?}",
+            o.offsets
+        );
+        assert_eq!(o.signs, p.signs, "{name}");
+        // The UR arms are not OPW (their wrist is not spherical).
+    }
+    let ur = machine(
+        &dh_urdf("ur5", UR5_D, UR5_A, UR_ALPHA, 2.0 * PI),
+        "base_link",
+        "tool0",
+    );
+    assert!(ur.opw_parameters().is_none());
+}
+
+#[test]
 fn random_joints_round_trip_through_every_closed_form_solution() {
     for (name, m) in arms() {
         let mut r = Rng::new(10);
