@@ -172,11 +172,13 @@ impl Machine {
     }
 
     /// Of the candidates, the one nearest to `hold` in the rotaries (sum of
-    /// absolute differences), solutions inside the limits first.
+    /// absolute differences); on a three-rotary machine solutions inside the
+    /// limits first (a two-rotary machine changes branch only for a whole pass).
     fn nearest(&self, mut c: Vec<Candidate>, hold: &[f64]) -> Candidate {
+        let two = c_two_rotaries(self);
         let inside: Vec<bool> = c
             .iter_mut()
-            .map(|x| self.unwrap_candidate(x, hold))
+            .map(|x| self.unwrap_candidate(x, hold) || two)
             .collect();
         let d = |x: &Candidate| -> f64 {
             (0..self.dof())
@@ -251,20 +253,37 @@ impl Machine {
             let hold = last.clone().unwrap_or_else(|| hint.clone());
             let mut rows = self.track(at, pass, &hold, last.is_none())?;
             let raw_last = rows.last().cloned();
-            if !self.turns_fit(&rows) && c_two_rotaries(self) {
-                if let Some(flipped) = self.flipped(pass, &rows) {
-                    if self.turns_fit(&flipped) {
-                        rows = flipped;
-                    }
-                }
+            if let Err(e) = self.fit_pass(at, &mut rows) {
+                rows = self.fit_other_branch(at, pass, &rows).ok_or(e)??;
             }
-            self.fit_pass(at, &mut rows)?;
             if raw_last.is_some() {
                 last = raw_last;
             }
             out.push(rows);
         }
         Ok(out)
+    }
+
+    /// A pass that does not fit on its branch, on the other one (two-rotary
+    /// machines only): `Some(Ok)` if it fits there; `Some(Err)` with the
+    /// other branch's reason when only there the turn axis fits its travel;
+    /// `None` to keep the first branch's reason.
+    fn fit_other_branch(
+        &self,
+        pass: usize,
+        targets: &[Target],
+        rows: &[Vec<f64>],
+    ) -> Option<Result<Vec<Vec<f64>>>> {
+        if !c_two_rotaries(self) {
+            return None;
+        }
+        let mut flipped = self.flipped(targets, rows)?;
+        let turns = self.turns_fit(&flipped) && !self.turns_fit(rows);
+        match self.fit_pass(pass, &mut flipped) {
+            Ok(()) => Some(Ok(flipped)),
+            Err(e) if turns => Some(Err(e)),
+            Err(_) => None,
+        }
     }
 
     /// Whether every rotary joint of more than a turn fits its travel by a
