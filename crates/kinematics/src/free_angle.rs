@@ -26,6 +26,25 @@ const PSI_WEIGHT: f64 = 0.01;
 const START_WEIGHT: f64 = 0.01;
 /// Linear joint steps count as rotary ones of this many mm per rad.
 const MM_PER_RAD: f64 = 100.0;
+/// Branch labels are below this (three bits: shoulder, elbow, wrist).
+const CONFIGS: usize = 8;
+
+/// How a joint's step is measured: (modulo a turn, scale, largest step).
+type StepKind = (bool, f64, f64);
+
+/// Squared joint step (linear scaled), or `None` over a step limit.
+fn step_cost(kinds: &[StepKind], a: &[f64], b: &[f64]) -> Option<f64> {
+    let mut c = 0.0;
+    for (j, &(wraps, scale, max)) in kinds.iter().enumerate() {
+        let raw = b[j] - a[j];
+        let d = if wraps { crate::angles::wrap(raw) } else { raw } / scale;
+        if d.abs() > max {
+            return None;
+        }
+        c += d * d;
+    }
+    Some(c)
+}
 
 /// The poses of a pass as frames at grid angle `k`.
 struct Frames {
@@ -134,29 +153,6 @@ impl Machine {
         out
     }
 
-    /// Squared joint step (linear scaled), or `None` over a step limit.
-    fn step_cost(&self, a: &[f64], b: &[f64]) -> Option<f64> {
-        let mut c = 0.0;
-        for j in 0..a.len() {
-            let (d, max) = if self.kinds[j].is_rotary() {
-                (
-                    self.joint_delta(j, a[j], b[j]),
-                    self.options.max_rotary_step,
-                )
-            } else {
-                (
-                    (b[j] - a[j]) / MM_PER_RAD,
-                    self.options.max_linear_step / MM_PER_RAD,
-                )
-            };
-            if d.abs() > max {
-                return None;
-            }
-            c += d * d;
-        }
-        Some(c)
-    }
-
     /// Squared distance between two joint vectors (linear scaled).
     fn distance2(&self, a: &[f64], b: &[f64]) -> f64 {
         (0..a.len())
@@ -197,6 +193,15 @@ impl Machine {
     ) -> Result<(u8, Vec<usize>)> {
         let zero = vec![0.0; self.dof()];
         let dk = (frames.n_psi as f64 * self.options.max_psi_step / TURN).floor() as i64;
+        let kinds: Vec<StepKind> = (0..self.dof())
+            .map(|j| {
+                if self.kinds[j].is_rotary() {
+                    (self.wraps(j), 1.0, self.options.max_rotary_step)
+                } else {
+                    (false, MM_PER_RAD, self.options.max_linear_step / MM_PER_RAD)
+                }
+            })
+            .collect();
         let mut layers: Vec<Vec<(usize, u8)>> = Vec::with_capacity(n);
         let mut back: Vec<Vec<usize>> = Vec::with_capacity(n);
         let mut prev: Vec<State> = Vec::new();
@@ -211,21 +216,27 @@ impl Machine {
             let mut c2 = vec![f64::INFINITY; cur.len()];
             let mut b2 = vec![usize::MAX; cur.len()];
             let mut smallest_jump: Option<(f64, usize, usize)> = None;
+            // The previous point's states by (configuration, grid angle).
+            let mut index = vec![usize::MAX; CONFIGS * frames.n_psi];
+            for (p, st) in prev.iter().enumerate() {
+                index[usize::from(st.config) * frames.n_psi + st.k] = p;
+            }
             for (s, st) in cur.iter().enumerate() {
                 if i == 0 {
                     c2[s] = st.penalty
                         + START_WEIGHT * start.map_or(0.0, |q0| self.distance2(q0, &st.q));
                     continue;
                 }
-                for (p, pst) in prev.iter().enumerate() {
-                    let circ = (st.k as i64 - pst.k as i64).rem_euclid(frames.n_psi as i64);
-                    let dpsi = circ.min(frames.n_psi as i64 - circ);
-                    if pst.config != st.config || dpsi > dk || !cost[p].is_finite() {
+                let n_psi = frames.n_psi as i64;
+                for d in -dk.min(n_psi / 2)..=dk.min((n_psi - 1) / 2) {
+                    let k = (st.k as i64 + d).rem_euclid(n_psi) as usize;
+                    let p = index[usize::from(st.config) * frames.n_psi + k];
+                    if p == usize::MAX || !cost[p].is_finite() {
                         continue;
                     }
-                    match self.step_cost(&pst.q, &st.q) {
+                    match step_cost(&kinds, &prev[p].q, &st.q) {
                         Some(sc) => {
-                            let dp = frames.psi(dpsi as f64) - frames.psi(0.0);
+                            let dp = frames.psi(d.unsigned_abs() as f64) - frames.psi(0.0);
                             let total = cost[p] + sc + PSI_WEIGHT * dp * dp + st.penalty;
                             if total < c2[s] {
                                 (c2[s], b2[s]) = (total, p);

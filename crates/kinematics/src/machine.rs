@@ -229,7 +229,7 @@ fn apply_override(l: &mut JointLimits, o: &LimitOverride, kind: JointKind) -> Re
     }
     l.velocity = o.velocity.or(l.velocity);
     l.acceleration = o.acceleration.or(l.acceleration);
-    if !(l.lower < l.upper) {
+    if l.lower.partial_cmp(&l.upper) != Some(std::cmp::Ordering::Less) {
         return Err(Error::Input(format!(
             "limit override of joint {:?} leaves no travel ({} .. {})",
             o.joint, l.lower, l.upper

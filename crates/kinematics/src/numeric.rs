@@ -59,6 +59,23 @@ fn residual(
     (r, jw, t)
 }
 
+/// Extra damping of a joint near a limit (0 beyond the last tenth of its
+/// travel, growing as the inverse square towards the limit), so that a
+/// redundant arm moves its other joints instead of pressing on the stop.
+fn limit_weight(m: &Machine, j: usize, x: f64) -> f64 {
+    let l = &m.limits[j];
+    let zone = 0.1 * l.travel();
+    if !zone.is_finite() {
+        return 0.0;
+    }
+    let d = (x - l.lower).min(l.upper - x).max(zone * 1e-3);
+    if d >= zone {
+        0.0
+    } else {
+        (zone / d).powi(2) - 1.0
+    }
+}
+
 fn clamp_to_limits(m: &Machine, q: &mut [f64]) {
     for (x, l) in q.iter_mut().zip(&m.limits) {
         *x = x.clamp(l.lower, l.upper);
@@ -115,7 +132,7 @@ fn lm(
         while lambda < 1e12 {
             let mut damped = a.clone();
             for k in 0..n {
-                damped[(k, k)] += lambda * (a[(k, k)] + 1e-6);
+                damped[(k, k)] += lambda * (a[(k, k)] + 1e-6) * (1.0 + limit_weight(m, k, q[k]));
             }
             let Some(step) = damped.cholesky().map(|c| c.solve(&g)) else {
                 lambda *= 10.0;

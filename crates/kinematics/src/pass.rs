@@ -123,16 +123,16 @@ impl Machine {
     /// whole turns (linear ones, rotaries of a turn or less) are within limits.
     fn unwrap_candidate(&self, c: &mut Candidate, hold: &[f64]) -> bool {
         let mut inside = true;
-        for j in 0..self.dof() {
+        for (j, h) in hold.iter().enumerate().take(self.dof()) {
             let l = &self.limits[j];
             if self.wraps(j) {
-                c.q[j] = unwrap_near(c.q[j], hold[j]);
+                c.q[j] = unwrap_near(c.q[j], *h);
                 continue;
             }
             if self.kinds[j].is_rotary() {
                 // Out of the travel whatever the turn: left as solved, in (-pi, pi].
-                c.q[j] = representative_in(c.q[j], l.lower, l.upper, hold[j])
-                    .unwrap_or_else(|| wrap(c.q[j]));
+                c.q[j] =
+                    representative_in(c.q[j], l.lower, l.upper, *h).unwrap_or_else(|| wrap(c.q[j]));
             }
             inside &= l.contains(c.q[j], 1e-9);
         }
@@ -330,11 +330,11 @@ impl Machine {
         };
         let anchor = (0..targets.len()).find_map(|k| other(k, &rows[k]))?;
         let mut out: Vec<Vec<f64>> = Vec::with_capacity(rows.len());
-        for k in 0..targets.len() {
+        for (k, t) in targets.iter().enumerate() {
             let near = out.last().cloned().unwrap_or_else(|| anchor.clone());
             let q = match other(k, &near) {
                 Some(q) => q,
-                None => self.finished(&targets[k], &near).into_iter().next()?.q,
+                None => self.finished(t, &near).into_iter().next()?.q,
             };
             out.push(q);
         }
@@ -371,8 +371,8 @@ impl Machine {
             }
         }
         for (k, r) in rows.iter().enumerate() {
-            for j in 0..self.dof() {
-                if !self.limits[j].contains(r[j], 1e-9) {
+            for (j, l) in self.limits.iter().enumerate() {
+                if !l.contains(r[j], 1e-9) {
                     return Err(self.limit_error(j, r[j]).placed(At { pass, point: k }));
                 }
             }
@@ -427,15 +427,11 @@ impl Machine {
         for (k, t) in targets.iter().enumerate() {
             let at = At { pass, point: k };
             let seed = rows.last().map(|r| r.as_slice()).or(start);
+            let from = (k > 0).then(|| &targets[k - 1]);
             let mut q = match seed {
-                Some(s) => {
-                    let (q, ok) = numeric::solve_from(self, t, s, self.options.max_iterations);
-                    if ok {
-                        Some(q)
-                    } else {
-                        self.nearest_numeric(t, s)
-                    }
-                }
+                Some(s) => self
+                    .continue_numeric(at, from, t, s)
+                    .or_else(|| self.nearest_numeric(t, s)),
                 None => self.best_numeric(t),
             }
             .ok_or_else(|| Error::Unreachable {
@@ -466,6 +462,37 @@ impl Machine {
         }
         self.fit_pass(pass, &mut rows)?;
         Ok(rows)
+    }
+
+    /// The pose `t` solved from the joints `s` of the pose `from`: directly,
+    /// or when that fails or jumps, through 2, 4, ... 16 poses in between
+    /// (the solver follows the path instead of leaping to another branch).
+    fn continue_numeric(
+        &self,
+        at: At,
+        from: Option<&Target>,
+        t: &Target,
+        s: &[f64],
+    ) -> Option<Vec<f64>> {
+        let iters = self.options.max_iterations;
+        let (q, ok) = numeric::solve_from(self, t, s, iters);
+        if ok && self.check_step(at, s, &q).is_ok() {
+            return Some(q);
+        }
+        let from = from?;
+        for m in [2, 4, 8, 16] {
+            let mut x = s.to_vec();
+            let reached = (1..=m).all(|i| {
+                let (q, ok) =
+                    numeric::solve_from(self, &between(from, t, i as f64 / m as f64), &x, iters);
+                x = q;
+                ok
+            });
+            if reached && self.check_step(at, s, &x).is_ok() {
+                return Some(x);
+            }
+        }
+        None
     }
 
     fn nearest_numeric(&self, t: &Target, s: &[f64]) -> Option<Vec<f64>> {
@@ -533,4 +560,24 @@ impl Machine {
 /// other branch is a wrist flip, never taken.
 fn c_two_rotaries(m: &Machine) -> bool {
     matches!(&m.solver, Solver::Cartesian(c) if c.rotary.len() == 2)
+}
+
+/// The pose a fraction `f` of the way from `a` to `b` (position linear,
+/// rotation or axis along the shortest arc).
+fn between(a: &Target, b: &Target, f: f64) -> Target {
+    let tip = a.tip().coords.lerp(&b.tip().coords, f);
+    match (a, b) {
+        (Target::Frame(x), Target::Frame(y)) => Target::Frame(nalgebra::Isometry3::from_parts(
+            tip.into(),
+            x.rotation.slerp(&y.rotation, f),
+        )),
+        _ => {
+            let (u, v) = (a.tool_axis(), b.tool_axis());
+            let axis = u.slerp(&v, f);
+            Target::Axis {
+                tip: tip.into(),
+                axis,
+            }
+        }
+    }
 }

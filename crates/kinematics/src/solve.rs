@@ -27,7 +27,7 @@ pub struct Candidate {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Solver {
     Cartesian(CartesianSolver),
-    Arm(ArmSolver),
+    Arm(Box<ArmSolver>),
     Numeric,
 }
 
@@ -41,7 +41,7 @@ impl Solver {
         }
         if let Some(a) = ArmSolver::detect(m) {
             if arm_self_check(m, &a) {
-                return Solver::Arm(a);
+                return Solver::Arm(Box::new(a));
             }
         }
         Solver::Numeric

@@ -256,7 +256,9 @@ fn chain_joint(j: &UrdfJoint, kind: JointKind, origin: Isometry3<f64>) -> Result
         )));
     }
     let limits = j.limits;
-    if kind != JointKind::Continuous && !(limits.lower < limits.upper) {
+    if kind != JointKind::Continuous
+        && limits.lower.partial_cmp(&limits.upper) != Some(std::cmp::Ordering::Less)
+    {
         return Err(Error::Model(format!(
             "joint {:?} is {} but its <limit> gives no travel (lower {} >= upper {}, URDF units); give lower < upper",
             j.name,

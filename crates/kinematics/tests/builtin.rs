@@ -201,6 +201,9 @@ mod reference {
     }
 }
 
+/// Wheel centre, wheel axis, contact normal.
+type WheelPose = ([f64; 3], [f64; 3], [f64; 3]);
+
 fn limits_of(m: &Machine) -> Vec<(f64, f64, bool)> {
     m.limits()
         .iter()
@@ -246,6 +249,7 @@ fn compare(
         }
         (Err(e), Some((p, k, j))) => {
             let at = e.at().unwrap();
+            assert_eq!(at.pass, p, "{e}");
             if e.joint().is_some() {
                 assert_eq!(e.joint(), Some(m.joint_names()[j].as_str()), "{e}");
             }
@@ -412,7 +416,7 @@ fn belt6_as_urdf_gives_the_built_in_joints() {
         let lim_b = (m.limits()[4].lower, m.limits()[4].upper);
         let mut rng = Rng::new(21);
         for _ in 0..30 {
-            let mut passes: Vec<Vec<([f64; 3], [f64; 3], [f64; 3])>> = Vec::new();
+            let mut passes: Vec<Vec<WheelPose>> = Vec::new();
             for _ in 0..3 {
                 let (e0, de) = (
                     [

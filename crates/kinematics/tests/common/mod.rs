@@ -243,7 +243,7 @@ pub fn random_joints(m: &Machine, r: &mut Rng, margin: f64) -> Vec<f64> {
             let (lo, hi) = if l.lower.is_finite() {
                 (l.lower, l.upper)
             } else {
-                (-3.14, 3.14)
+                (-std::f64::consts::PI, std::f64::consts::PI)
             };
             let w = (hi - lo) * margin;
             r.range(lo + w, hi - w)
