@@ -239,3 +239,58 @@ fn a_robot_holding_the_part_sees_the_fixed_tool_through_the_inverse_flange() {
     let (dp, da) = distance(&m.forward(&q).unwrap(), &expect);
     assert!(dp < 1e-9 && da < 1e-12);
 }
+
+#[test]
+fn configured_limits_complete_and_override_the_urdf() {
+    let model = UrdfModel::parse(&repo_file("launch_configs/urdf/trunnion5.urdf")).unwrap();
+    let mut def = MachineDef {
+        part_link: "table".into(),
+        ..MachineDef::holds_tool(
+            "base_link",
+            "tool0",
+            Isometry3::identity(),
+            Isometry3::identity(),
+        )
+    };
+    def.limits = vec![
+        toolpath_kinematics::LimitOverride {
+            joint: "X".into(),
+            velocity: Some(250.0),
+            acceleration: Some(1500.0),
+            ..Default::default()
+        },
+        toolpath_kinematics::LimitOverride {
+            joint: "C".into(),
+            lower: Some(-4.0),
+            upper: Some(4.0),
+            ..Default::default()
+        },
+    ];
+    let m = Machine::from_urdf(&model, &def).unwrap();
+    let l = m.limits();
+    // X: the URDF's travel (-400..400 mm) kept, its 500 mm/s replaced, acceleration added.
+    assert_eq!(
+        (l[0].lower, l[0].upper, l[0].velocity, l[0].acceleration),
+        (-400.0, 400.0, Some(250.0), Some(1500.0))
+    );
+    // Y untouched: URDF 1.0 has no acceleration.
+    assert_eq!((l[1].velocity, l[1].acceleration), (Some(500.0), None));
+    // C was continuous (unlimited); a configured range limits it.
+    assert_eq!((l[4].lower, l[4].upper), (-4.0, 4.0));
+    def.limits[0].joint = "W".into();
+    let e = Machine::from_urdf(&model, &def).unwrap_err().to_string();
+    assert!(
+        e.contains("joint \"W\", which is not one of the machine's joints (X, Y, Z, A, C)"),
+        "{e}"
+    );
+    def.limits[0].joint = "X".into();
+    def.limits[0].velocity = Some(-1.0);
+    let e = Machine::from_urdf(&model, &def).unwrap_err().to_string();
+    assert!(
+        e.contains("velocity = -1 is not a positive finite number"),
+        "{e}"
+    );
+    def.joint_order = Some(vec!["A".into(), "C".into(), "X".into(), "Y".into()]);
+    let e = Machine::from_urdf(&model, &def).unwrap_err().to_string();
+    assert!(e.contains("must name joint \"Z\" exactly once"), "{e}");
+}
