@@ -16,7 +16,7 @@ use std::sync::OnceLock;
 /// above the recording; the CLI package is above everything.
 fn rank(name: &str) -> Option<u32> {
     Some(match name {
-        "toolpath_kernel" | "toolpath_motion" | "toolpath_collision" => 0,
+        "toolpath_kernel" | "toolpath_motion" | "toolpath_collision" | "toolpath_kinematics" => 0,
         "toolpath_formats" => 1,
         "toolpath_samples" => 2,
         "toolpath_planners" | "toolpath_simulation" | "toolpath_machines" => 3,
@@ -44,8 +44,9 @@ const TRANSPORT: [&str; 8] = [
 ];
 
 /// The layers that must build without `TRANSPORT`.
-const ALGORITHMS: [&str; 10] = [
+const ALGORITHMS: [&str; 11] = [
     "toolpath_kernel",
+    "toolpath_kinematics",
     "toolpath_motion",
     "toolpath_collision",
     "toolpath_formats",
