@@ -201,7 +201,7 @@ pub fn run(jobs: usize, points: usize, burst: usize, bursts: usize) -> Result<()
         start_node_with(
             domain,
             Some(&config),
-            "off,toolpath_planner::ros::node=debug",
+            "off,toolpath_node=debug",
             true,
         )
     });
@@ -629,7 +629,7 @@ mod tests {
 
     #[test]
     fn timing_lines_parse() {
-        let line = "[2026-11-22T10:00:00.000Z DEBUG toolpath_planner::ros::node] timing: job=a_1 received_to_toolpath_published_ms=12.500 planning_ms=10.250";
+        let line = "[2026-11-22T10:00:00.000Z DEBUG toolpath_node::node] timing: job=a_1 received_to_toolpath_published_ms=12.500 planning_ms=10.250";
         let (id, t) = parse_timing(line).unwrap();
         assert_eq!(id, "a_1");
         assert_eq!(t.received_to_published_ms, 12.5);

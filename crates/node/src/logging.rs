@@ -1,6 +1,6 @@
 //! The node's log: the `log` crate's records go to stderr (env_logger) and,
-//! once the ROS node exists, the node's own records (target
-//! `toolpath_planner...`) also to `/rosout` as rcl_interfaces/Log with their
+//! once the ROS node exists, the node's own records (the workspace's crates,
+//! targets `toolpath_...`) also to `/rosout` as rcl_interfaces/Log with their
 //! level, under the node's logger name (`cell_b.tp` for `/cell_b/tp`, as
 //! rclcpp names it). Levels come from the default filter, then RUST_LOG,
 //! then `--log-level` rules.
@@ -16,10 +16,12 @@ use std::sync::OnceLock;
 /// node's endpoints (target `rustdds::incompatible_qos`, a vendored patch):
 /// such a peer's data never arrives, and nothing else would say why.
 pub const DEFAULT_FILTER: &str = "warn,rustdds=off,rustdds::incompatible_qos=warn,\
-     ros2_client::distributions=error,toolpath_planner=info";
+     ros2_client::distributions=error,toolpath=info";
 
-/// The crate's log target: `--log-level LEVEL` sets it.
-const OWN_TARGET: &str = "toolpath_planner";
+/// The prefix of the workspace's log targets (every crate is `toolpath_*`,
+/// and env_logger matches a directive as a prefix of the target):
+/// `--log-level LEVEL` sets it.
+const OWN_TARGET: &str = "toolpath";
 
 struct Bridge {
     stderr: env_logger::Logger,
@@ -207,7 +209,7 @@ mod tests {
         ];
         assert_eq!(
             directives(&rules, "cell_b.tp"),
-            "toolpath_planner=DEBUG,toolpath_planner=WARN,toolpath_planner=ERROR,rustdds::rtps=INFO"
+            "toolpath=DEBUG,toolpath=WARN,toolpath=ERROR,rustdds::rtps=INFO"
         );
         assert_eq!(logger_name("/cell_b", "tp"), "cell_b.tp");
         assert_eq!(logger_name("/", "toolpath_planner"), "toolpath_planner");
