@@ -1,7 +1,7 @@
 """Message types generated at import time from the .msg files.
 
 toolpath_msgs comes from msg/msg/*.msg, the standard ROS 2 types the node
-uses from src/messages/defs/<pkg>/*.msg (the same texts the Rust crate embeds).
+uses from crates/messages/src/defs/<pkg>/*.msg (the same texts the Rust crate embeds).
 Each type becomes a Cyclone DDS IdlStruct named like rmw_cyclonedds names it
 (``pkg::msg::dds_::Type_``), final extensibility, fields in .msg order, every
 field defaulted (numbers 0, strings empty, sequences empty) as in rclpy.
@@ -48,7 +48,7 @@ def _sources():
     for f in sorted(os.listdir(own)):
         if f.endswith(".msg"):
             out["toolpath_msgs/" + f[:-4]] = os.path.join(own, f)
-    defs = os.path.join(ROOT, "src", "messages", "defs")
+    defs = os.path.join(ROOT, "crates", "messages", "src", "defs")
     for pkg in sorted(os.listdir(defs)):
         for f in sorted(os.listdir(os.path.join(defs, pkg))):
             if f.endswith(".msg"):
