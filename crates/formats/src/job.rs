@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 use toolpath_kernel::error::{Error, Result};
 use toolpath_kernel::tools::Tool;
+use toolpath_kernel::validate::{finite, positive};
 
 /// Planning strategies, named as in the job file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -276,27 +277,6 @@ pub const DEFAULT_TOOL_CATALOGUE: [f64; 22] = [
     32.0, 35.0, 40.0, 45.0, 50.0,
 ];
 
-fn finite_positive(field: &str, v: Option<f64>) -> Result<()> {
-    if let Some(x) = v {
-        if !x.is_finite() {
-            return Err(Error::invalid(field, format!("{x} is not a finite number")));
-        }
-        if x <= 0.0 {
-            return Err(Error::invalid(field, format!("must be positive, got {x}")));
-        }
-    }
-    Ok(())
-}
-
-fn finite(field: &str, v: Option<f64>) -> Result<()> {
-    match v {
-        Some(x) if !x.is_finite() => {
-            Err(Error::invalid(field, format!("{x} is not a finite number")))
-        }
-        _ => Ok(()),
-    }
-}
-
 impl JobFile {
     /// Checks every field that does not depend on the shape, with the reasons
     /// [`Job::new`] gives: a job message is refused before its shape arrives.
@@ -312,11 +292,11 @@ impl JobFile {
         if let Some(tool) = &self.tool {
             tool.validate().map_err(|e| e.within("tool"))?;
         }
-        finite_positive("scallop", self.scallop)?;
-        finite_positive("tolerance", self.tolerance)?;
-        finite_positive("feed_rate", self.feed_rate)?;
-        finite_positive("simulation_resolution", self.simulation_resolution)?;
-        finite_positive("time_limit_s", self.time_limit_s)?;
+        self.scallop.map_or(Ok(()), |x| positive("scallop", x))?;
+        self.tolerance.map_or(Ok(()), |x| positive("tolerance", x))?;
+        self.feed_rate.map_or(Ok(()), |x| positive("feed_rate", x))?;
+        self.simulation_resolution.map_or(Ok(()), |x| positive("simulation_resolution", x))?;
+        self.time_limit_s.map_or(Ok(()), |x| positive("time_limit_s", x))?;
         if let Some(t) = self.time_limit_s {
             if t > MAX_TIME_LIMIT_S {
                 return Err(Error::invalid(
@@ -325,8 +305,8 @@ impl JobFile {
                 ));
             }
         }
-        finite("lead_angle_deg", self.lead_angle_deg)?;
-        finite("side_tilt_deg", self.side_tilt_deg)?;
+        self.lead_angle_deg.map_or(Ok(()), |x| finite("lead_angle_deg", x))?;
+        self.side_tilt_deg.map_or(Ok(()), |x| finite("side_tilt_deg", x))?;
         for (name, angle) in [
             ("lead_angle_deg", self.lead_angle_deg),
             ("side_tilt_deg", self.side_tilt_deg),
@@ -360,7 +340,7 @@ impl JobFile {
                     ));
                 }
                 for (i, &d) in c.iter().enumerate() {
-                    finite_positive(&format!("tool_catalogue[{i}]"), Some(d))?;
+                    positive(&format!("tool_catalogue[{i}]"), d)?;
                     if !CATALOGUE_DIAMETERS_MM.contains(&d) {
                         return Err(Error::invalid(
                             format!("tool_catalogue[{i}]"),
@@ -389,7 +369,7 @@ impl JobFile {
                 ("feed_speed", g.feed_speed),
             ];
             for (name, v) in fields {
-                finite_positive(&format!("grinding.{name}"), Some(v))?;
+                positive(&format!("grinding.{name}"), v)?;
             }
         }
         Ok(catalogue)

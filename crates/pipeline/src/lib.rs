@@ -13,6 +13,7 @@ pub mod limits;
 
 pub use budget::{Budget, Estimate};
 pub use limits::{Limited, TimeLimit};
+pub use toolpath_formats::result::check_belongs;
 
 /// Options that do not change the toolpath.
 #[derive(Clone, Copy, Debug, Default)]
@@ -784,43 +785,6 @@ pub fn refuse_gouge(job: &Job, result: &PlanResult) -> Result<()> {
         }),
         None => Ok(()),
     }
-}
-
-/// Refuses to check `result` against `job` when it was planned for another
-/// job: another job_id or strategy, or (when the result records it) another
-/// shape.
-pub fn check_belongs(job: &Job, result: &PlanResult) -> Result<()> {
-    if result.job_id != job.job_id {
-        return Err(Error::invalid(
-            "result.job_id",
-            format!(
-                "\"{}\" is not the job's \"{}\": the result belongs to another job",
-                result.job_id, job.job_id
-            ),
-        ));
-    }
-    if result.strategy != job.strategy.name() {
-        return Err(Error::invalid(
-            "result.strategy",
-            format!(
-                "{} is not the job's {}: the result belongs to another job",
-                result.strategy,
-                job.strategy.name()
-            ),
-        ));
-    }
-    if let Some(f) = &result.shape_fingerprint {
-        let own = job.shape.fingerprint();
-        if *f != own {
-            return Err(Error::invalid(
-                "result.shape_fingerprint",
-                format!(
-                    "{f} is not the job's shape ({own}): the result was planned on another shape"
-                ),
-            ));
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]

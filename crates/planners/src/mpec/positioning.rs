@@ -406,12 +406,7 @@ impl<'a> Planner<'a> {
             ));
         }
         let delta = job.tolerance()?;
-        if !(delta.is_finite() && delta > 0.0) {
-            return Err(Error::invalid(
-                "tolerance",
-                format!("must be positive, got {delta}"),
-            ));
-        }
+        toolpath_kernel::validate::positive("tolerance", delta)?;
         if delta >= 0.5 * corner_radius {
             return Err(Error::invalid(
                 "tolerance",
