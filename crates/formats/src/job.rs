@@ -56,43 +56,93 @@ impl Strategy {
                 )
             })
     }
-    /// The machine a strategy runs on by default.
-    pub fn default_machine(self) -> Machine {
-        match self {
-            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => Machine::Belt6,
-            _ => Machine::Mill5,
-        }
-    }
-    /// Whether the strategy can plan with this tool: the strip-width
-    /// strategies take flat-end and ball cutters, mpec a torus, pocket_mat a
-    /// flat end, the belt strategies a belt.
-    pub fn accepts(self, tool: &Tool) -> bool {
+    /// The method family the strategy belongs to.
+    pub fn family(self) -> Family {
         match self {
             Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric => {
-                matches!(tool, Tool::FlatEnd { .. } | Tool::Ball { .. })
+                Family::StripWidth
             }
-            Strategy::Mpec => matches!(tool, Tool::Torus { .. }),
-            Strategy::PocketMat => matches!(tool, Tool::FlatEnd { .. }),
-            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => {
-                matches!(tool, Tool::Belt { .. })
-            }
+            Strategy::Mpec => Family::Mpec,
+            Strategy::PocketMat => Family::Pocket,
+            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => Family::Belt,
         }
+    }
+    /// The machine a strategy runs on by default ([`Family::default_machine`]).
+    pub fn default_machine(self) -> Machine {
+        self.family().default_machine()
+    }
+    /// Whether the strategy can plan with this tool ([`Family::accepts`]).
+    pub fn accepts(self, tool: &Tool) -> bool {
+        self.family().accepts(tool)
     }
 
     /// The tool kinds [`Strategy::accepts`], in words.
     pub fn tool_kinds(self) -> &'static str {
+        self.family().tool_kinds()
+    }
+
+    /// Whether the strategy machines a pocket rather than a surface.
+    pub fn needs_pocket(self) -> bool {
+        self.family() == Family::Pocket
+    }
+}
+
+/// The method families: the strategies of one family share a tool model,
+/// a machine and the way their plans are verified.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Family {
+    /// Flat-end (and ball) 5-axis finishing on the strip-width model
+    /// (`tensor_regions`, `iso_scallop`, `iso_parametric`): checked by the
+    /// scallop simulator, repaired with passes over its islands.
+    StripWidth,
+    /// Torus-cutter positioning by mid-point error control (`mpec`): checked
+    /// by the scallop simulator against the band +-delta, refined with added
+    /// passes.
+    Mpec,
+    /// 2.5-axis pockets (`pocket_mat`): the planner reports its own uncut
+    /// area.
+    Pocket,
+    /// 6-axis belt grinding (`belt_iso_parametric`, `belt_iso_planar`):
+    /// checked by the removal simulation, refined with re-stepped and added
+    /// paths.
+    Belt,
+}
+
+impl Family {
+    /// Whether the family plans with this tool: the strip-width strategies
+    /// take flat-end and ball cutters, mpec a torus, pocket_mat a flat end,
+    /// the belt strategies a belt.
+    pub fn accepts(self, tool: &Tool) -> bool {
         match self {
-            Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric => {
-                "flat-end and ball cutters"
-            }
-            Strategy::Mpec => "torus cutters",
-            Strategy::PocketMat => "flat-end cutters",
-            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => "a belt",
+            Family::StripWidth => matches!(tool, Tool::FlatEnd { .. } | Tool::Ball { .. }),
+            Family::Mpec => matches!(tool, Tool::Torus { .. }),
+            Family::Pocket => matches!(tool, Tool::FlatEnd { .. }),
+            Family::Belt => matches!(tool, Tool::Belt { .. }),
         }
     }
 
-    pub fn needs_pocket(self) -> bool {
-        self == Strategy::PocketMat
+    /// The tool kinds [`Family::accepts`], in words.
+    pub fn tool_kinds(self) -> &'static str {
+        match self {
+            Family::StripWidth => "flat-end and ball cutters",
+            Family::Mpec => "torus cutters",
+            Family::Pocket => "flat-end cutters",
+            Family::Belt => "a belt",
+        }
+    }
+
+    /// The machine the family's strategies run on by default.
+    pub fn default_machine(self) -> Machine {
+        match self {
+            Family::Belt => Machine::Belt6,
+            _ => Machine::Mill5,
+        }
+    }
+
+    /// Whether the scallop simulator checks the family's plans (milling on
+    /// a surface; pocket and belt results have checks of their own).
+    pub fn scallop_simulated(self) -> bool {
+        matches!(self, Family::StripWidth | Family::Mpec)
     }
 }
 
@@ -293,10 +343,14 @@ impl JobFile {
             tool.validate().map_err(|e| e.within("tool"))?;
         }
         self.scallop.map_or(Ok(()), |x| positive("scallop", x))?;
-        self.tolerance.map_or(Ok(()), |x| positive("tolerance", x))?;
-        self.feed_rate.map_or(Ok(()), |x| positive("feed_rate", x))?;
-        self.simulation_resolution.map_or(Ok(()), |x| positive("simulation_resolution", x))?;
-        self.time_limit_s.map_or(Ok(()), |x| positive("time_limit_s", x))?;
+        self.tolerance
+            .map_or(Ok(()), |x| positive("tolerance", x))?;
+        self.feed_rate
+            .map_or(Ok(()), |x| positive("feed_rate", x))?;
+        self.simulation_resolution
+            .map_or(Ok(()), |x| positive("simulation_resolution", x))?;
+        self.time_limit_s
+            .map_or(Ok(()), |x| positive("time_limit_s", x))?;
         if let Some(t) = self.time_limit_s {
             if t > MAX_TIME_LIMIT_S {
                 return Err(Error::invalid(
@@ -305,8 +359,10 @@ impl JobFile {
                 ));
             }
         }
-        self.lead_angle_deg.map_or(Ok(()), |x| finite("lead_angle_deg", x))?;
-        self.side_tilt_deg.map_or(Ok(()), |x| finite("side_tilt_deg", x))?;
+        self.lead_angle_deg
+            .map_or(Ok(()), |x| finite("lead_angle_deg", x))?;
+        self.side_tilt_deg
+            .map_or(Ok(()), |x| finite("side_tilt_deg", x))?;
         for (name, angle) in [
             ("lead_angle_deg", self.lead_angle_deg),
             ("side_tilt_deg", self.side_tilt_deg),
@@ -380,7 +436,7 @@ impl JobFile {
     fn checked_tool_and_machine(&self) -> Result<Machine> {
         let machine = self.machine.unwrap_or(self.strategy.default_machine());
         let Some(tool) = &self.tool else {
-            if self.strategy != Strategy::PocketMat {
+            if !self.strategy.needs_pocket() {
                 return Err(Error::invalid(
                     "tool",
                     format!(
@@ -736,8 +792,8 @@ impl Job {
     /// How deep a cut may go below the surface before it is a gouge, mm:
     /// MPEC's band (`tolerance`, its +-delta), else [`DEFAULT_GOUGE_TOLERANCE`].
     pub fn gouge_tolerance(&self) -> f64 {
-        match (self.strategy, self.tolerance) {
-            (Strategy::Mpec, Some(delta)) => delta,
+        match (self.strategy.family(), self.tolerance) {
+            (Family::Mpec, Some(delta)) => delta,
             _ => DEFAULT_GOUGE_TOLERANCE,
         }
     }

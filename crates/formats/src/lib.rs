@@ -6,7 +6,7 @@ pub mod result;
 pub mod shape;
 pub mod step;
 
-pub use job::{FeedDirection, GrindingParams, Job, JobFile, Machine, Strategy};
+pub use job::{Family, FeedDirection, GrindingParams, Job, JobFile, Machine, Strategy};
 pub use result::{Pass, PathPoint, PlanResult, Stats};
 pub use shape::{PocketFile, Shape, SurfaceFile, TrimFile};
 

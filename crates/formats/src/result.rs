@@ -1,8 +1,8 @@
 //! Result files: passes of tool positions plus per-strategy extras.
 //! Optional fields are omitted when a strategy does not produce them.
 
-use serde::{Deserialize, Serialize};
 use crate::job::Job;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use toolpath_kernel::error::{Error, Result};
 

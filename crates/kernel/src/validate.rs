@@ -78,7 +78,10 @@ mod tests {
                 reason(positive_finite("a", x)).1,
                 format!("must be a positive finite number, got {x}")
             );
-            assert_eq!(reason(non_negative("a", x)).1, "must be a finite number >= 0");
+            assert_eq!(
+                reason(non_negative("a", x)).1,
+                "must be a finite number >= 0"
+            );
         }
         for x in [0.0, -0.0, -1e-300, -5.0] {
             assert_eq!(

@@ -17,6 +17,29 @@ use toolpath_kernel::geometry::{LocalGeometry, NurbsSurface};
 /// Passes beyond this mean the step collapsed (bad geometry), not a real plan.
 const MAX_PASSES: usize = 20_000;
 
+/// The strategy `belt_iso_parametric`.
+pub struct BeltIsoParametric;
+
+impl crate::Strategy for BeltIsoParametric {
+    fn id(&self) -> toolpath_formats::Strategy {
+        toolpath_formats::Strategy::BeltIsoParametric
+    }
+    fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+        plan(job, progress)
+    }
+    fn path_levels(&self) -> Option<crate::strategy::PathLevels> {
+        Some(crate::strategy::PathLevels::CrossParameter)
+    }
+    fn plan_refined(
+        &self,
+        job: &Job,
+        progress: &dyn Progress,
+        refinement: &Refinement,
+    ) -> Result<PlanResult> {
+        plan_with(job, progress, refinement)
+    }
+}
+
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     plan_with(job, progress, &Refinement::default())
 }

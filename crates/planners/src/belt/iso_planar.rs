@@ -188,6 +188,29 @@ pub fn rigid_sinking(cells: &[LocalGeometry], normal: Vector3<f64>, width: f64) 
     worst
 }
 
+/// The strategy `belt_iso_planar`.
+pub struct BeltIsoPlanar;
+
+impl crate::Strategy for BeltIsoPlanar {
+    fn id(&self) -> toolpath_formats::Strategy {
+        toolpath_formats::Strategy::BeltIsoPlanar
+    }
+    fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+        plan(job, progress)
+    }
+    fn path_levels(&self) -> Option<crate::strategy::PathLevels> {
+        Some(crate::strategy::PathLevels::SectionPlane)
+    }
+    fn plan_refined(
+        &self,
+        job: &Job,
+        progress: &dyn Progress,
+        refinement: &Refinement,
+    ) -> Result<PlanResult> {
+        plan_with(job, progress, refinement)
+    }
+}
+
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     plan_with(job, progress, &Refinement::default())
 }
@@ -388,16 +411,59 @@ pub fn plan_paths(
     // Keep the end planes a hair inside so that they still cut the surface.
     let margin = 1e-6 * extent;
     let (lo, hi) = (lo + margin, hi - margin);
-    let start = 0.5 * (lo + hi);
-    let feed = move |g: &LocalGeometry| -> Vector3<f64> { normal.cross(&g.forms.n) };
+    let sections = Sections {
+        surface,
+        spec,
+        normal,
+        refinement,
+        options,
+        range: (lo, hi),
+        extent,
+    };
     let mut diag = contact::Diagnostics::default();
-    let mut sides: Vec<Vec<(f64, Vec<ContactPoint>)>> = Vec::new();
-    for (side, sign) in [(0usize, 1.0), (1, -1.0)] {
-        let dir = normal * sign;
-        let hint = move |_: &LocalGeometry| -> Vector3<f64> { dir };
+    let plus = sections.side(0, &mut diag, progress)?;
+    let mut minus = sections.side(1, &mut diag, progress)?;
+    // Machining order: the - side from its far end, then the + side.
+    minus.reverse();
+    minus.extend(plus);
+    if minus.iter().all(|(_, p)| p.is_empty()) {
+        return Err(Error::planning(
+            "the belt cannot reach the surface: the section planes give no contact path",
+        ));
+    }
+    Ok((minus, diag))
+}
+
+/// The section planes of one plan: normal, offsets `range` (the surface's
+/// extent along the normal, a hair inside), and the settings every plane
+/// shares.
+struct Sections<'a> {
+    surface: &'a NurbsSurface,
+    spec: &'a BeltSpec,
+    normal: Vector3<f64>,
+    refinement: &'a Refinement,
+    options: SectionOptions,
+    range: (f64, f64),
+    /// The extent along the normal before the margins, mm.
+    extent: f64,
+}
+
+impl Sections<'_> {
+    /// The paths of one side (0: towards +normal, 1: towards -normal) from
+    /// the middle plane, each with its offset, in stepping order. The middle
+    /// plane is planned on the + side only; the - side steps from it.
+    fn side(
+        &self,
+        side: usize,
+        diag: &mut contact::Diagnostics,
+        progress: &dyn Progress,
+    ) -> Result<Vec<(f64, Vec<ContactPoint>)>> {
+        let (lo, hi) = self.range;
+        let (extent, normal) = (self.extent, self.normal);
+        let sign = if side == 0 { 1.0 } else { -1.0 };
+        let start = 0.5 * (lo + hi);
         let limit = if sign > 0.0 { hi } else { lo };
         let mut paths_side = Vec::new();
-        // The start plane is planned on the + side only; the - side steps from it.
         let mut offset = start;
         let mut first = true;
         loop {
@@ -405,21 +471,7 @@ pub fn plan_paths(
             let plane = Plane::new(Point3::from(normal * offset), normal).ok_or_else(|| {
                 Error::invalid("section_normal", "must be a finite non-zero vector")
             })?;
-            let curves = section_curves(surface, &plane, &options);
-            let mut step = f64::INFINITY;
-            let mut any_curve = false;
-            let mut analysed = Vec::new();
-            let aim = BeltSpec {
-                scallop: spec.scallop * refinement.factor(offset, sign > 0.0),
-                ..*spec
-            };
-            for uvs in &curves {
-                let path =
-                    contact::analyse_path(surface, uvs, &feed, &hint, &aim, !last, &mut diag);
-                step = step.min(next_step(surface, spec, &path, dir, extent));
-                any_curve |= !path.is_empty();
-                analysed.push(path);
-            }
+            let (analysed, step, any_curve) = self.plane_paths(&plane, offset, sign, last, diag);
             if !(side == 1 && first) {
                 paths_side.extend(analysed.into_iter().map(|p| (offset, p)));
             }
@@ -448,7 +500,7 @@ pub fn plan_paths(
             if paths_side.len() >= MAX_PASSES {
                 return Err(Error::planning(format!(
                     "more than {MAX_PASSES} belt passes needed: scallop {} mm is too small for this surface",
-                    spec.scallop
+                    self.spec.scallop
                 )));
             }
             offset += sign * step;
@@ -457,17 +509,39 @@ pub fn plan_paths(
             }
             first = false;
         }
-        sides.push(paths_side);
+        Ok(paths_side)
     }
-    // Machining order: the - side from its far end, then the + side.
-    let mut minus = sides.pop().unwrap_or_default();
-    let plus = sides.pop().unwrap_or_default();
-    minus.reverse();
-    minus.extend(plus);
-    if minus.iter().all(|(_, p)| p.is_empty()) {
-        return Err(Error::planning(
-            "the belt cannot reach the surface: the section planes give no contact path",
-        ));
+
+    /// The contact paths of the section `plane` at `offset`, stepping
+    /// towards `sign` x normal (the last plane with no next step), with the
+    /// step to the next plane (infinite when no path gives one) and whether
+    /// any path has contacts.
+    fn plane_paths(
+        &self,
+        plane: &Plane,
+        offset: f64,
+        sign: f64,
+        last: bool,
+        diag: &mut contact::Diagnostics,
+    ) -> (Vec<Vec<ContactPoint>>, f64, bool) {
+        let (surface, spec, normal) = (self.surface, self.spec, self.normal);
+        let feed = move |g: &LocalGeometry| -> Vector3<f64> { normal.cross(&g.forms.n) };
+        let dir = normal * sign;
+        let hint = move |_: &LocalGeometry| -> Vector3<f64> { dir };
+        let curves = section_curves(surface, plane, &self.options);
+        let mut step = f64::INFINITY;
+        let mut any_curve = false;
+        let mut analysed = Vec::new();
+        let aim = BeltSpec {
+            scallop: spec.scallop * self.refinement.factor(offset, sign > 0.0),
+            ..*spec
+        };
+        for uvs in &curves {
+            let path = contact::analyse_path(surface, uvs, &feed, &hint, &aim, !last, diag);
+            step = step.min(next_step(surface, spec, &path, dir, self.extent));
+            any_curve |= !path.is_empty();
+            analysed.push(path);
+        }
+        (analysed, step, any_curve)
     }
-    Ok((minus, diag))
 }

@@ -12,24 +12,3 @@
 pub mod contact;
 pub mod iso_parametric;
 pub mod iso_planar;
-
-use crate::Progress;
-use toolpath_formats::{Job, PlanResult, Strategy};
-use toolpath_kernel::error::{Error, Result};
-
-/// Plans a belt job as refined by the removal simulation
-/// ([`crate::refine`]).
-pub fn plan_with(
-    job: &Job,
-    progress: &dyn Progress,
-    refinement: &crate::refine::Refinement,
-) -> Result<PlanResult> {
-    match job.strategy {
-        Strategy::BeltIsoParametric => iso_parametric::plan_with(job, progress, refinement),
-        Strategy::BeltIsoPlanar => iso_planar::plan_with(job, progress, refinement),
-        other => Err(Error::planning(format!(
-            "internal: {} is not a belt strategy",
-            other.name()
-        ))),
-    }
-}

@@ -493,6 +493,18 @@ pub fn plan_single_tool(
     })
 }
 
+/// The strategy `pocket_mat`.
+pub struct PocketMat;
+
+impl crate::Strategy for PocketMat {
+    fn id(&self) -> toolpath_formats::Strategy {
+        toolpath_formats::Strategy::PocketMat
+    }
+    fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+        plan(job, progress)
+    }
+}
+
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     let pocket = job.pocket()?;
     let plan = plan_pocket(

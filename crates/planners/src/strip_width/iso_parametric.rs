@@ -11,6 +11,18 @@ use crate::Progress;
 use toolpath_formats::{FeedDirection, Job, PlanResult};
 use toolpath_kernel::error::Result;
 
+/// The strategy `iso_parametric`.
+pub struct IsoParametric;
+
+impl crate::Strategy for IsoParametric {
+    fn id(&self) -> toolpath_formats::Strategy {
+        toolpath_formats::Strategy::IsoParametric
+    }
+    fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+        plan(job, progress)
+    }
+}
+
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     let surface = job.surface()?;
     let settings = PassSettings::from_job(job)?;

@@ -12,6 +12,18 @@ use crate::Progress;
 use toolpath_formats::{FeedDirection, Job, PlanResult};
 use toolpath_kernel::error::Result;
 
+/// The strategy `iso_scallop`.
+pub struct IsoScallop;
+
+impl crate::Strategy for IsoScallop {
+    fn id(&self) -> toolpath_formats::Strategy {
+        toolpath_formats::Strategy::IsoScallop
+    }
+    fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+        plan(job, progress)
+    }
+}
+
 pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
     let surface = job.surface()?;
     let settings = PassSettings::from_job(job)?;

@@ -436,7 +436,43 @@ pub fn partition(
         degenerate: &xyz,
         snap: 1.5 * step,
     };
-    // Nodes: degenerate points (index = point index), then boundary nodes.
+    let Separatrices {
+        mut nodes,
+        mut edges,
+        lines: separatrices_uv,
+    } = trace_separatrices(&tracer, points);
+    let ring_edges = close_boundary(surface, &mut nodes, &mut edges);
+    let separatrices = edges.len() - ring_edges;
+    let graph = FaceGraph {
+        nodes,
+        edges,
+        separatrices,
+        scale: (w, h),
+    };
+    let (regions, _) = graph.regions_without(surface, &[]);
+    Partition {
+        regions,
+        separatrices_uv,
+        graph,
+    }
+}
+
+/// The traced separatrices as graph nodes (the degenerate points, index =
+/// point index, then the places where separatrices leave the domain) and
+/// edges (one copy of a separatrix traced from both ends), with every
+/// traced line.
+struct Separatrices {
+    nodes: Vec<Vector2<f64>>,
+    edges: Vec<(usize, usize, Vec<Vector2<f64>>)>,
+    lines: Vec<Vec<Vector2<f64>>>,
+}
+
+/// Traces every separatrix of the trisectors among `points`, starting one
+/// step out along its direction.
+fn trace_separatrices(tracer: &Tracer, points: &[DegeneratePoint]) -> Separatrices {
+    let (surface, step) = (tracer.surface, tracer.step);
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let (w, h) = (u1 - u0, v1 - v0);
     let mut nodes: Vec<Vector2<f64>> = points.iter().map(|p| p.uv).collect();
     let mut edges: Vec<(usize, usize, Vec<Vector2<f64>>)> = Vec::new();
     let mut separatrices_uv = Vec::new();
@@ -483,7 +519,23 @@ pub fn partition(
             }
         }
     }
-    // Boundary cycle: corners, boundary nodes and degenerate points on the boundary.
+    Separatrices {
+        nodes,
+        edges,
+        lines: separatrices_uv,
+    }
+}
+
+/// Adds the boundary cycle to the graph: the corners, the boundary nodes
+/// and the degenerate points on the boundary, in order round the
+/// perimeter, joined by straight edges. Returns how many edges it added.
+fn close_boundary(
+    surface: &NurbsSurface,
+    nodes: &mut Vec<Vector2<f64>>,
+    edges: &mut Vec<(usize, usize, Vec<Vector2<f64>>)>,
+) -> usize {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let (w, h) = (u1 - u0, v1 - v0);
     let corners = [
         Vector2::new(u0, v0),
         Vector2::new(u1, v0),
@@ -512,19 +564,7 @@ pub fn partition(
             ring_edges += 1;
         }
     }
-    let separatrices = edges.len() - ring_edges;
-    let graph = FaceGraph {
-        nodes,
-        edges,
-        separatrices,
-        scale: (w, h),
-    };
-    let (regions, _) = graph.regions_without(surface, &[]);
-    Partition {
-        regions,
-        separatrices_uv,
-        graph,
-    }
+    ring_edges
 }
 
 fn signed_area(poly: &[Vector2<f64>]) -> f64 {
