@@ -77,7 +77,7 @@ impl Strategy {
     }
 
     /// The tool kinds [`Strategy::accepts`], in words.
-    pub fn tool_kinds(self) -> &'static str {
+    pub(crate) fn tool_kinds(self) -> &'static str {
         self.family().tool_kinds()
     }
 
@@ -122,7 +122,7 @@ impl Family {
     }
 
     /// The tool kinds [`Family::accepts`], in words.
-    pub fn tool_kinds(self) -> &'static str {
+    pub(crate) fn tool_kinds(self) -> &'static str {
         match self {
             Family::StripWidth => "flat-end and ball cutters",
             Family::Mpec => "torus cutters",
@@ -309,17 +309,17 @@ pub const DEFAULT_FEED_RATE: f64 = 1000.0;
 /// gouge, mm, for jobs without a tolerance band: the limit the strip-width
 /// planners are accepted with (tests/wing_mould.rs); the simulator finds
 /// 0.0009 to 0.0024 mm on wing_mould.
-pub const DEFAULT_GOUGE_TOLERANCE: f64 = 0.005;
+pub(crate) const DEFAULT_GOUGE_TOLERANCE: f64 = 0.005;
 
 /// Largest lead angle and side tilt, degrees: the tool axis within 45
 /// degrees of the surface normal. Beyond it a flat end or torus cuts with
 /// its side rather than its end, which the strip-width and MPEC models do
 /// not describe (a lead of 89 degrees gouges about 0.5 mm on a plain bowl).
-pub const MAX_TILT_DEG: f64 = 45.0;
+pub(crate) const MAX_TILT_DEG: f64 = 45.0;
 
 /// Diameters a `tool_catalogue` may list, mm: from micro end mills to the
 /// largest shank end mills.
-pub const CATALOGUE_DIAMETERS_MM: std::ops::RangeInclusive<f64> = 0.1..=100.0;
+pub(crate) const CATALOGUE_DIAMETERS_MM: std::ops::RangeInclusive<f64> = 0.1..=100.0;
 
 /// Standard metric end-mill diameters, mm.
 pub const DEFAULT_TOOL_CATALOGUE: [f64; 22] = [
@@ -648,7 +648,7 @@ fn face_list(surface: &serde_json::Value) -> Result<Option<Vec<u64>>> {
 /// surface names several STEP faces (`{"file": STEP path, "faces": [ID,
 /// ...]}`, docs/formats.md, "Several faces"), else the one job. Every face's
 /// job has the file's parameters and job id.
-pub fn jobs_from_file(f: JobFile, base_dir: Option<&Path>) -> Result<Vec<Job>> {
+pub(crate) fn jobs_from_file(f: JobFile, base_dir: Option<&Path>) -> Result<Vec<Job>> {
     let Some(ids) = face_list(&f.surface)? else {
         return Job::from_file(f, base_dir).map(|j| vec![j]);
     };

@@ -7,7 +7,7 @@ use crate::milling::record_repair;
 use crate::verification::{first_candidate, Verification};
 use crate::ABOVE_LIMIT;
 use std::time::Instant;
-use toolpath_formats::{Family, Job, PlanResult};
+use toolpath_formats::{Job, PlanResult};
 use toolpath_kernel::error::Result;
 use toolpath_kernel::geometry::NurbsSurface;
 use toolpath_planners::refine::{self, Mode, Refinement, Residual};
@@ -15,20 +15,21 @@ use toolpath_planners::{self as planners, Progress};
 use toolpath_simulation::removal::{simulate_job, Simulation};
 
 /// Rounds of belt refinement after the first removal simulation.
-pub const BELT_REFINE_ROUNDS: usize = 4;
+pub(crate) const BELT_REFINE_ROUNDS: usize = 4;
 /// The first rounds re-step the gaps left above h; the later ones split them.
-pub const BELT_TIGHTEN_ROUNDS: usize = 2;
+pub(crate) const BELT_TIGHTEN_ROUNDS: usize = 2;
 
 /// The belt family's verification.
 pub(crate) struct Belt;
 
 impl Verification for Belt {
-    fn family(&self) -> Family {
-        Family::Belt
-    }
-
     fn estimate(&self, job: &Job) -> Result<Estimate> {
         budget::belt(job)
+    }
+
+    /// The removal simulation needs no check before planning.
+    fn check_job(&self, _job: &Job) -> Result<()> {
+        Ok(())
     }
 
     /// The first candidate, refined ([`verify_and_refine_belt`]).
@@ -51,7 +52,7 @@ impl Verification for Belt {
 /// `repair_length_mm`; the planner's rigid-belt `max_gouge_mm` stays as
 /// planned), `within_scallop` and, where h is not held, a warning saying
 /// where. Returns the result and the seconds spent planning the added paths.
-pub fn verify_and_refine_belt(
+pub(crate) fn verify_and_refine_belt(
     job: &Job,
     result: PlanResult,
     progress: &dyn Progress,

@@ -44,7 +44,7 @@ pub(crate) fn above_limit_warning(report: &ScallopReport, h: f64, radius: f64) -
 
 /// One island of the residual map: samples above the threshold (or not
 /// reached), grouped.
-pub struct MapIsland {
+pub(crate) struct MapIsland {
     pub uv: Vec<nalgebra::Vector2<f64>>,
     pub xyz: Vec<[f64; 3]>,
 }
@@ -53,7 +53,7 @@ pub struct MapIsland {
 /// samples closer than half the tool radius are one island (a pass over
 /// one covers the other). A refined peak above h between the samples
 /// joins the island within that reach, or is an island of its own.
-pub fn islands(
+pub(crate) fn islands(
     report: &ScallopReport,
     h: f64,
     radius: f64,

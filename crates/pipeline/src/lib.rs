@@ -1,32 +1,27 @@
 //! The application layer: plan a job, verify it with the simulator, fill the
 //! common statistics. The CLI and the ROS node both call this.
 
+use limits::Limited;
 use std::time::Instant;
 use toolpath_formats::result::polyline_length;
 use toolpath_formats::{Family, Job, PlanResult, Strategy};
 use toolpath_kernel::error::{Error, Result};
 use toolpath_planners::{self as planners, Progress};
+use verification::verification;
 
 mod belt;
 pub mod budget;
 mod islands;
-pub mod limits;
+pub(crate) mod limits;
 mod milling;
 mod mpec;
 mod strip_width;
-pub mod verification;
+mod verification;
 
-pub use belt::{verify_and_refine_belt, BELT_REFINE_ROUNDS, BELT_TIGHTEN_ROUNDS};
 pub use budget::{Budget, Estimate};
-pub use islands::{islands, MapIsland};
-pub use limits::{Limited, TimeLimit};
-pub use milling::{
-    fill_scallop_stats, verify_and_repair, verify_and_repair_checked, verify_milling,
-    verify_milling_checked, MAX_VERIFIED_CANDIDATES,
-};
-pub use strip_width::REPAIR_ROUNDS;
+pub use limits::TimeLimit;
+pub use milling::{verify_and_repair, verify_milling};
 pub use toolpath_formats::result::check_belongs;
-pub use verification::{verification, Verification};
 
 /// Options that do not change the toolpath.
 #[derive(Clone, Copy, Debug, Default)]
@@ -117,7 +112,7 @@ pub fn run_faces(jobs: &[Job], progress: &dyn Progress, options: RunOptions) -> 
 
 /// Plans `job` and fills the statistics every result carries. Unless
 /// `options.skip_verify`, the plans are verified and repaired by their
-/// family's [`Verification`] (milling plans by the scallop simulator, see
+/// family's `Verification` (milling plans by the scallop simulator, see
 /// [`verify_and_repair`]; belt plans by the removal simulation); of several
 /// candidate plans (tensor_regions) the shortest after repair is kept,
 /// preferring one within the scallop height.
@@ -166,7 +161,7 @@ pub fn run(job: &Job, progress: &dyn Progress, options: RunOptions) -> Result<Pl
 }
 
 /// Path length, pass and point counts and machining time at `feed_rate` (mm/min).
-pub fn fill_path_stats(result: &mut PlanResult, feed_rate: f64) {
+pub(crate) fn fill_path_stats(result: &mut PlanResult, feed_rate: f64) {
     let length = match &result.tools {
         // Pockets: the tool-centre paths of every tool.
         Some(tools) => tools

@@ -1,6 +1,6 @@
 //! The verification the scallop-simulated families share (strip width and
 //! MPEC): each candidate simulated, repaired by its family's
-//! [`repair`](crate::Verification::repair), judged against the job's limit,
+//! [`repair`](crate::verification::Verification::repair), judged against the job's limit,
 //! and the best kept.
 
 use crate::islands::above_limit_warning;
@@ -18,9 +18,9 @@ pub(crate) fn check_resolution(job: &Job) -> Result<()> {
 }
 
 /// At most this many candidate plans are verified (shortest first).
-pub const MAX_VERIFIED_CANDIDATES: usize = 3;
+pub(crate) const MAX_VERIFIED_CANDIDATES: usize = 3;
 
-/// Verifies (and repairs, [`repair`](crate::Verification::repair)) the
+/// Verifies (and repairs, [`repair`](crate::verification::Verification::repair)) the
 /// candidates shortest first and keeps the best: within the scallop height
 /// before not, then shorter. A candidate already longer before repair than
 /// the best after repair is not verified (repair only adds passes). Returns the kept result with its
@@ -82,7 +82,7 @@ pub(crate) fn verify_candidates(
 
 /// Simulates `result`, repairs it where the job's limit (the scallop height
 /// h, else the tolerance) is not held (the
-/// [`repair`](crate::Verification::repair) of the job's family: repair
+/// [`repair`](crate::verification::Verification::repair) of the job's family: repair
 /// passes over the islands for flat ends, passes added in the gaps for
 /// MPEC, each round simulated again) and judges it (`judge`).
 /// Returns the final report and the seconds the simulations took.
@@ -95,7 +95,7 @@ pub fn verify_and_repair(
 
 /// [`verify_and_repair`], checking `progress` for a stop in the simulator
 /// and between repair rounds.
-pub fn verify_and_repair_checked(
+pub(crate) fn verify_and_repair_checked(
     job: &Job,
     result: PlanResult,
     progress: &dyn Progress,
@@ -163,7 +163,7 @@ pub fn verify_milling(job: &Job, result: &PlanResult) -> Result<ScallopReport> {
 }
 
 /// [`verify_milling`], checking `progress` for a stop about every thousand samples.
-pub fn verify_milling_checked(
+pub(crate) fn verify_milling_checked(
     job: &Job,
     result: &PlanResult,
     progress: &dyn Progress,
@@ -188,7 +188,7 @@ pub(crate) fn verify_milling_with(
 
 /// Puts the simulator's figures into the result's stats: max_scallop_mm,
 /// max_gouge_mm and, in `extra`, uncovered/machined area and the grid spacing.
-pub fn fill_scallop_stats(result: &mut PlanResult, report: &ScallopReport) {
+pub(crate) fn fill_scallop_stats(result: &mut PlanResult, report: &ScallopReport) {
     result.stats.max_scallop_mm = Some(report.max_scallop_mm);
     result.stats.max_gouge_mm = Some(report.max_gouge_mm);
     let extra = &mut result.stats.extra;

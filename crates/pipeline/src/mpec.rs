@@ -4,11 +4,10 @@
 //! round by round.
 
 use crate::budget::{self, Estimate};
-use crate::milling;
 use crate::strip_width::REPAIR_ROUNDS;
 use crate::verification::{Simulate, Verification};
 use nalgebra::Point3;
-use toolpath_formats::{Family, Job, PlanResult};
+use toolpath_formats::{Job, PlanResult};
 use toolpath_kernel::error::Result;
 use toolpath_planners::refine::{self, Mode, Refinement, Residual};
 use toolpath_planners::{self as planners, Progress};
@@ -18,25 +17,8 @@ use toolpath_simulation::scallop::{self, ScallopReport};
 pub(crate) struct Mpec;
 
 impl Verification for Mpec {
-    fn family(&self) -> Family {
-        Family::Mpec
-    }
-
     fn estimate(&self, job: &Job) -> Result<Estimate> {
         budget::mpec(job)
-    }
-
-    fn check_job(&self, job: &Job) -> Result<()> {
-        milling::check_resolution(job)
-    }
-
-    fn verify(
-        &self,
-        job: &Job,
-        candidates: Vec<PlanResult>,
-        progress: &dyn Progress,
-    ) -> Result<(PlanResult, f64)> {
-        milling::verify_candidates(job, candidates, progress)
     }
 
     /// Adds passes in the gaps holding grid samples above the band and plans

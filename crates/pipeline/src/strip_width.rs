@@ -4,40 +4,22 @@
 
 use crate::budget::{self, Estimate};
 use crate::islands::islands;
-use crate::milling;
 use crate::verification::{Simulate, Verification};
-use toolpath_formats::{Family, Job, PlanResult};
+use toolpath_formats::{Job, PlanResult};
 use toolpath_kernel::error::Result;
 use toolpath_planners::{self as planners, Progress};
 use toolpath_simulation::scallop::{self, ScallopReport};
 
 /// Rounds of repair passes after the first verification (flat ends and
 /// MPEC alike).
-pub const REPAIR_ROUNDS: usize = 3;
+pub(crate) const REPAIR_ROUNDS: usize = 3;
 
 /// The strip-width family's verification.
 pub(crate) struct StripWidth;
 
 impl Verification for StripWidth {
-    fn family(&self) -> Family {
-        Family::StripWidth
-    }
-
     fn estimate(&self, job: &Job) -> Result<Estimate> {
         budget::strip_width(job)
-    }
-
-    fn check_job(&self, job: &Job) -> Result<()> {
-        milling::check_resolution(job)
-    }
-
-    fn verify(
-        &self,
-        job: &Job,
-        candidates: Vec<PlanResult>,
-        progress: &dyn Progress,
-    ) -> Result<(PlanResult, f64)> {
-        milling::verify_candidates(job, candidates, progress)
     }
 
     /// Turns the islands above h (and the samples the tool never reached)

@@ -6,6 +6,7 @@
 //! this lives here; [`crate::run`] dispatches on [`verification`].
 
 use crate::budget::{self, Estimate};
+use crate::milling;
 use toolpath_formats::{Family, Job, PlanResult};
 use toolpath_kernel::error::{Error, Result};
 use toolpath_planners::Progress;
@@ -13,36 +14,32 @@ use toolpath_simulation::scallop::ScallopReport;
 
 /// Simulates a milling plan with the scallop simulator, refining this many
 /// grid extrema (`scallop::PEAK_STARTS` or `DEEP_PEAK_STARTS`).
-pub type Simulate<'a> = dyn FnMut(&PlanResult, usize) -> Result<ScallopReport> + 'a;
+pub(crate) type Simulate<'a> = dyn FnMut(&PlanResult, usize) -> Result<ScallopReport> + 'a;
 
 /// The pipeline's work on one family's jobs and plans.
-pub trait Verification: Sync {
-    /// The family it verifies.
-    fn family(&self) -> Family;
-
+pub(crate) trait Verification: Sync {
     /// The passes, points and memory a job will need, estimated before
     /// planning (`budget`).
     fn estimate(&self, job: &Job) -> Result<Estimate>;
 
-    /// Refuses, before planning, a job whose verification would be refused
-    /// (a simulator grid finer than it allows).
+    /// Refuses, before planning, a job whose verification would be refused:
+    /// by default a scallop-simulator grid finer than it allows.
     fn check_job(&self, job: &Job) -> Result<()> {
-        let _ = job;
-        Ok(())
+        milling::check_resolution(job)
     }
 
     /// Verifies the candidate plans (shortest first), repairs them and keeps
     /// one, with the verification's figures in its stats; returns it with the
-    /// seconds spent planning repairs. Without a simulation of its own (pocket
-    /// plans report their uncut area themselves): the first candidate.
+    /// seconds spent planning repairs. By default the scallop simulator's
+    /// verification ([`milling::verify_candidates`], repaired by
+    /// [`Verification::repair`]).
     fn verify(
         &self,
         job: &Job,
         candidates: Vec<PlanResult>,
         progress: &dyn Progress,
     ) -> Result<(PlanResult, f64)> {
-        let _ = (job, progress);
-        Ok((first_candidate(candidates)?, 0.0))
+        milling::verify_candidates(job, candidates, progress)
     }
 
     /// Repairs `result` where the scallop simulator's `report` finds it above
@@ -69,7 +66,7 @@ pub trait Verification: Sync {
 }
 
 /// The verification of a family's plans.
-pub fn verification(family: Family) -> &'static dyn Verification {
+pub(crate) fn verification(family: Family) -> &'static dyn Verification {
     match family {
         Family::StripWidth => &crate::strip_width::StripWidth,
         Family::Mpec => &crate::mpec::Mpec,
@@ -90,11 +87,20 @@ pub(crate) fn first_candidate(candidates: Vec<PlanResult>) -> Result<PlanResult>
 struct Pocket;
 
 impl Verification for Pocket {
-    fn family(&self) -> Family {
-        Family::Pocket
-    }
     fn estimate(&self, job: &Job) -> Result<Estimate> {
         budget::pocket(job)
+    }
+    fn check_job(&self, _job: &Job) -> Result<()> {
+        Ok(())
+    }
+    /// The first candidate as planned.
+    fn verify(
+        &self,
+        _job: &Job,
+        candidates: Vec<PlanResult>,
+        _progress: &dyn Progress,
+    ) -> Result<(PlanResult, f64)> {
+        Ok((first_candidate(candidates)?, 0.0))
     }
 }
 
@@ -103,16 +109,20 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_family_has_its_own_verification() {
+    fn only_the_mpec_verification_judges_a_gouge_side() {
         for family in [
             Family::StripWidth,
             Family::Mpec,
             Family::Pocket,
             Family::Belt,
         ] {
+            // Only MPEC's limit is a band with a gouge side.
             let v = verification(family);
-            assert_eq!(v.family(), family);
-            assert_eq!(v.band_has_gouge_side(), family == Family::Mpec);
+            assert_eq!(
+                v.band_has_gouge_side(),
+                family == Family::Mpec,
+                "{family:?}"
+            );
         }
     }
 }

@@ -20,17 +20,16 @@ pub mod strategy;
 pub mod strip_width;
 #[cfg(test)]
 pub mod test_surfaces;
-pub mod trim_clip;
+pub(crate) mod trim_clip;
 
 pub use strategy::{strategy, PathLevels, Strategy};
-pub use toolpath_formats::Family;
 use toolpath_formats::{Job, PlanResult};
 use toolpath_kernel::error::Result;
 pub use toolpath_kernel::progress::{CheckOnly, NoProgress, Progress};
 
 /// Cells per parameter direction for the path-length lower bound quadrature
 /// (3 x 3 Gauss points each).
-pub const LOWER_BOUND_CELLS: usize = 40;
+pub(crate) const LOWER_BOUND_CELLS: usize = 40;
 
 /// The candidate plans of a job, shortest first ([`Strategy::candidates`]),
 /// each clipped to a trimmed face ([`trim_clip`]).

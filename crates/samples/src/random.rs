@@ -20,7 +20,7 @@ use toolpath_kernel::geometry::NurbsSurface;
 use toolpath_kernel::rng::SplitMix64;
 
 /// Control-net span length, mm.
-pub const SPAN_MM: f64 = 40.0;
+pub(crate) const SPAN_MM: f64 = 40.0;
 
 /// Parameters of one random surface.
 #[derive(Clone, Copy, Debug, PartialEq)]

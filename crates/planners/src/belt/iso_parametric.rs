@@ -25,7 +25,7 @@ impl crate::Strategy for BeltIsoParametric {
         toolpath_formats::Strategy::BeltIsoParametric
     }
     fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-        plan(job, progress)
+        plan_with(job, progress, &Refinement::default())
     }
     fn path_levels(&self) -> Option<crate::strategy::PathLevels> {
         Some(crate::strategy::PathLevels::CrossParameter)
@@ -40,14 +40,10 @@ impl crate::Strategy for BeltIsoParametric {
     }
 }
 
-pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-    plan_with(job, progress, &Refinement::default())
-}
-
-/// [`plan`] as refined by the removal simulation (`crate::refine`): steps
+/// The plan as refined by the removal simulation (`crate::refine`): steps
 /// aiming below h where it found material left, more paths on the
 /// iso-curves at its added cross parameters.
-pub fn plan_with(
+pub(crate) fn plan_with(
     job: &Job,
     progress: &dyn Progress,
     refinement: &Refinement,
@@ -128,7 +124,7 @@ fn iso_curve(surface: &NurbsSurface, feed_u: bool, c: f64, spacing: f64) -> Vec<
 /// The contact paths in machining order with their cross parameters, and
 /// what was noticed on the way.
 #[allow(clippy::type_complexity)]
-pub fn plan_paths(
+pub(crate) fn plan_paths(
     surface: &NurbsSurface,
     spec: &BeltSpec,
     feed_dir: FeedDirection,

@@ -58,7 +58,7 @@ pub fn min_curvature_directions(surface: &NurbsSurface, n: usize) -> Vec<Vector3
 /// The local geometry at the centres of a grid of `n x n` cells in
 /// parameter space, row by row along u; points where it is undefined are
 /// left out.
-pub fn cell_geometry(surface: &NurbsSurface, n: usize) -> Vec<LocalGeometry> {
+pub(crate) fn cell_geometry(surface: &NurbsSurface, n: usize) -> Vec<LocalGeometry> {
     let ((u0, u1), (v0, v1)) = surface.domain();
     let mut cells = Vec::with_capacity(n * n);
     for i in 0..n {
@@ -77,7 +77,7 @@ pub fn cell_geometry(surface: &NurbsSurface, n: usize) -> Vec<LocalGeometry> {
 /// surface more than h there: kappa w^2 / 8 > h), then the other one if that
 /// is not, else the less concave one. Points where both curvatures are equal
 /// in size have no direction and are left out.
-pub fn belt_directions(cells: &[LocalGeometry], concave_limit: f64) -> Vec<Vector3<f64>> {
+pub(crate) fn belt_directions(cells: &[LocalGeometry], concave_limit: f64) -> Vec<Vector3<f64>> {
     let mut dirs = Vec::with_capacity(cells.len());
     for g in cells {
         let (kmin, kmax) = (g.k_min.abs(), g.k_max.abs());
@@ -152,7 +152,10 @@ pub fn section_normal_from_directions(dirs: &[Vector3<f64>]) -> Option<SectionNo
 /// scallop height: the mean of the least-curvature directions, unless the
 /// mean of [`belt_directions`] (which turn away from concave sections) lets
 /// the rigid belt sink in less by more than h / 2 ([`rigid_sinking`]).
-pub fn automatic_section_normal(surface: &NurbsSurface, spec: &BeltSpec) -> Option<SectionNormal> {
+pub(crate) fn automatic_section_normal(
+    surface: &NurbsSurface,
+    spec: &BeltSpec,
+) -> Option<SectionNormal> {
     let cells = cell_geometry(surface, NORMAL_SAMPLES);
     let least = section_normal_from_directions(&belt_directions(&cells, f64::INFINITY));
     let concave_limit = 8.0 * spec.scallop / (spec.width * spec.width);
@@ -173,7 +176,7 @@ pub fn automatic_section_normal(surface: &NurbsSurface, spec: &BeltSpec) -> Opti
 /// How deep a rigid belt of width `w` lying along the tangent projection of
 /// `normal` (the belt axis of the section planes with that normal) sinks into
 /// concave sections at most, kappa w^2 / 8 over the points `cells`.
-pub fn rigid_sinking(cells: &[LocalGeometry], normal: Vector3<f64>, width: f64) -> f64 {
+pub(crate) fn rigid_sinking(cells: &[LocalGeometry], normal: Vector3<f64>, width: f64) -> f64 {
     let mut worst: f64 = 0.0;
     for g in cells {
         let axis = normal - g.forms.n * normal.dot(&g.forms.n);
@@ -196,7 +199,7 @@ impl crate::Strategy for BeltIsoPlanar {
         toolpath_formats::Strategy::BeltIsoPlanar
     }
     fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-        plan(job, progress)
+        plan_with(job, progress, &Refinement::default())
     }
     fn path_levels(&self) -> Option<crate::strategy::PathLevels> {
         Some(crate::strategy::PathLevels::SectionPlane)
@@ -211,14 +214,10 @@ impl crate::Strategy for BeltIsoPlanar {
     }
 }
 
-pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-    plan_with(job, progress, &Refinement::default())
-}
-
-/// [`plan`] as refined by the removal simulation (`crate::refine`): steps
+/// The plan as refined by the removal simulation (`crate::refine`): steps
 /// aiming below h where it found material left, more paths in the section
 /// planes at its added offsets along the section normal.
-pub fn plan_with(
+pub(crate) fn plan_with(
     job: &Job,
     progress: &dyn Progress,
     refinement: &Refinement,
@@ -386,7 +385,7 @@ fn next_step(
 /// The contact paths in machining order (plane offsets increasing along the
 /// normal) with their plane offsets, and what was noticed on the way.
 #[allow(clippy::type_complexity)]
-pub fn plan_paths(
+pub(crate) fn plan_paths(
     surface: &NurbsSurface,
     spec: &BeltSpec,
     normal: Vector3<f64>,

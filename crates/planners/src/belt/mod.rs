@@ -10,5 +10,5 @@
 //!   same way.
 
 pub mod contact;
-pub mod iso_parametric;
+pub(crate) mod iso_parametric;
 pub mod iso_planar;

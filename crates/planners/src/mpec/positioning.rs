@@ -29,7 +29,7 @@ use toolpath_kernel::tools::CutterShape;
 use toolpath_kernel::tools::Tool;
 
 /// Drive-point spacing along a pass, mm (the paper: 400 points on ~600 mm).
-pub const POINT_SPACING: f64 = 1.5;
+pub(crate) const POINT_SPACING: f64 = 1.5;
 
 /// Drive points per parallel chunk of a pass (each chunk's first point is
 /// solved without a neighbour's warm start).
@@ -45,10 +45,10 @@ pub struct Frame {
 }
 
 impl Frame {
-    pub fn to_world(&self, local: [f64; 3]) -> Point3<f64> {
+    pub(crate) fn to_world(&self, local: [f64; 3]) -> Point3<f64> {
         self.p + self.e1 * local[0] + self.e2 * local[1] + self.e3 * local[2]
     }
-    pub fn dir_to_world(&self, local: [f64; 3]) -> Vector3<f64> {
+    pub(crate) fn dir_to_world(&self, local: [f64; 3]) -> Vector3<f64> {
         self.e1 * local[0] + self.e2 * local[1] + self.e3 * local[2]
     }
 }
@@ -58,7 +58,7 @@ impl Frame {
 /// at the drive point or, where the footprint's parameters were marched
 /// ([`march_footprint`]), at the nearest marched grid point (next to a pole
 /// the parameters are far from linear in the distance and one seed strays).
-pub struct ExactHeight<'a> {
+pub(crate) struct ExactHeight<'a> {
     pub surface: &'a NurbsSurface,
     pub frame: Frame,
     pub uv: Vector2<f64>,
@@ -76,7 +76,7 @@ impl LocalHeight for ExactHeight<'_> {
 
 /// Surface parameters at the [`fit_box`]'s 7 x 7 grid points.
 #[derive(Clone, Copy, Debug)]
-pub struct SeedGrid {
+pub(crate) struct SeedGrid {
     bx: (f64, f64),
     by: (f64, f64),
     uv: [Vector2<f64>; FIT_GRID * FIT_GRID],
@@ -114,7 +114,7 @@ const FIT_GRID: usize = 7;
 /// Quartic height field z = sum c_ij X^i Y^j (i + j <= 4, X = x / L, Y = y / L)
 /// fitted to exact surface points.
 #[derive(Clone, Copy, Debug)]
-pub struct FittedHeight {
+pub(crate) struct FittedHeight {
     c: [f64; FIT_TERMS],
     inv_scale: f64,
 }
@@ -227,7 +227,7 @@ fn fit_samples(
 /// Fits the quartic to a 7 x 7 grid of exact surface points covering the
 /// tool's footprint behind the drive point, reached by a linear step in
 /// (u, v). Returns the fit and its largest residual at the fitted points (mm).
-pub fn fit_height(
+pub(crate) fn fit_height(
     surface: &NurbsSurface,
     g: &LocalGeometry,
     frame: &Frame,
@@ -265,7 +265,7 @@ pub fn fit_height(
 /// linear in the distance (next to a pole or a collapsed edge) the linear
 /// step of [`fit_height`] strays, while the height field stays smooth.
 /// Returns the fit, its largest residual (mm) and the marched parameters.
-pub fn fit_height_inverted(
+pub(crate) fn fit_height_inverted(
     surface: &NurbsSurface,
     g: &LocalGeometry,
     frame: &Frame,
@@ -280,7 +280,7 @@ pub fn fit_height_inverted(
 /// and their surface parameters, each found by the frame inversion from its
 /// neighbour's parameters: rows outwards from the drive point's own y, each
 /// row's middle seeded by the last row's.
-pub fn march_footprint(
+pub(crate) fn march_footprint(
     surface: &NurbsSurface,
     g: &LocalGeometry,
     frame: &Frame,
@@ -464,7 +464,7 @@ impl<'a> Planner<'a> {
     /// Cross-parameter range of the face: the domain's, narrowed to the
     /// outer trim loop's extent on a trimmed face (no pass is planned
     /// wholly beside the face).
-    pub fn face_cross_range(&self) -> (f64, f64) {
+    pub(crate) fn face_cross_range(&self) -> (f64, f64) {
         let (_, (t0, t1)) = self.ranges();
         let Some(trim) = self.surface.trim() else {
             return (t0, t1);
@@ -565,7 +565,7 @@ impl<'a> Planner<'a> {
     }
 
     /// Positions the tool at (s, t).
-    pub fn drive_point(
+    pub(crate) fn drive_point(
         &self,
         s: f64,
         t: f64,
@@ -668,7 +668,7 @@ impl<'a> Planner<'a> {
     /// either side of its lowest point. Where a pass's strip is narrower
     /// (the tool lifted clear of a spot too tight for it), the passes are
     /// still spaced by this and the simulator reports what is left.
-    pub fn floor_half_width(&self) -> f64 {
+    pub(crate) fn floor_half_width(&self) -> f64 {
         (2.0 * self.tool.corner_radius * self.delta).sqrt()
     }
 
@@ -970,7 +970,7 @@ impl crate::Strategy for Mpec {
         toolpath_formats::Strategy::Mpec
     }
     fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-        plan(job, progress)
+        plan_refined(job, progress, &[])
     }
     fn path_levels(&self) -> Option<crate::strategy::PathLevels> {
         Some(crate::strategy::PathLevels::CrossParameter)
@@ -985,21 +985,20 @@ impl crate::Strategy for Mpec {
     }
 }
 
-/// Plans an MPEC job.
-pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-    plan_refined(job, progress, &[])
-}
-
-/// [`plan`] with more passes at the cross parameters `added` (the levels
+/// Plans an MPEC job with more passes at the cross parameters `added` (the levels
 /// of `crate::refine`), in order of the cross parameter.
-pub fn plan_refined(job: &Job, progress: &dyn Progress, added: &[f64]) -> Result<PlanResult> {
+pub(crate) fn plan_refined(
+    job: &Job,
+    progress: &dyn Progress,
+    added: &[f64],
+) -> Result<PlanResult> {
     let planner = Planner::from_job(job)?;
     plan_with(&planner, &job.job_id, progress, added)
 }
 
 /// Plans with a prepared [`Planner`] (tests use it to force exact heights),
 /// adding passes at the cross parameters `added`.
-pub fn plan_with(
+pub(crate) fn plan_with(
     planner: &Planner,
     job_id: &str,
     progress: &dyn Progress,

@@ -99,7 +99,8 @@ impl crate::Strategy for TensorRegions {
         toolpath_formats::Strategy::TensorRegions
     }
     fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-        plan(job, progress)
+        let mut all = candidates(job, progress)?;
+        Ok(all.swap_remove(SHORTEST))
     }
     fn candidates(&self, job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>> {
         candidates(job, progress)
@@ -107,12 +108,6 @@ impl crate::Strategy for TensorRegions {
     fn plans_held(&self) -> usize {
         CANDIDATE_KINDS
     }
-}
-
-/// The shortest candidate plan (see [`candidates`]).
-pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-    let mut all = candidates(job, progress)?;
-    Ok(all.swap_remove(SHORTEST))
 }
 
 /// Candidate plans built exactly: the shortest by estimate (see
@@ -136,7 +131,7 @@ const ESTIMATE_COARSENING: f64 = 4.0;
 /// job's settings; the [`EXACT_BUILDS`] shortest of the others by estimate
 /// are then built exactly too. Each result names its candidate, the exact
 /// lengths and every estimate in `plan_choice`.
-pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>> {
+pub(crate) fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>> {
     let setup = Setup::new(job, progress)?;
     let checks = CheckOnly(progress);
     // The plans the baselines make are always built exactly, so the kept
@@ -223,7 +218,7 @@ fn by_estimate(
 /// in `plan_choice` (`partitioned`, `whole_field`, `mean_feed`,
 /// `edge_offset_u`, ..., `iso_curves_v`): for looking at a candidate the
 /// estimates did not keep, or `partitioned_as_traced` (the partition before
-/// merging, never a candidate of [`plan`]). `None` when the job has no such
+/// merging, never a candidate of `TensorRegions::candidates`). `None` when the job has no such
 /// candidate (`partitioned` needs more than one region after merging,
 /// `partitioned_as_traced` before) or it has no pass.
 pub fn candidate(job: &Job, label: &str, progress: &dyn Progress) -> Result<Option<PlanResult>> {
@@ -874,6 +869,7 @@ fn initial_pass(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Strategy as _;
     use crate::{test_surfaces, NoProgress};
     use toolpath_formats::Strategy;
 
@@ -886,7 +882,7 @@ mod tests {
             5.0,
             0.05,
         );
-        let r = plan(&job, &NoProgress).unwrap();
+        let r = TensorRegions.plan(&job, &NoProgress).unwrap();
         assert!(r.warnings.iter().any(|w| w.contains("isotropic")));
         assert_eq!(r.regions.as_ref().map(|x| x.len()), Some(1));
         assert!(r.degenerate_points.as_ref().is_some_and(|d| d.is_empty()));
@@ -907,7 +903,7 @@ mod tests {
             5.0,
             0.05,
         );
-        let r = plan(&job, &NoProgress).unwrap();
+        let r = TensorRegions.plan(&job, &NoProgress).unwrap();
         assert_eq!(r.regions.as_ref().map(|x| x.len()), Some(1));
         // The optimal feed on a concave cylinder is along its axis (x)
         // (pass ends may bend where they meet the boundary).
@@ -944,7 +940,7 @@ mod tests {
         for w in all.windows(2) {
             assert!(w[0].cl_path_length() <= w[1].cl_path_length());
         }
-        let best = plan(&job, &NoProgress).unwrap();
+        let best = TensorRegions.plan(&job, &NoProgress).unwrap();
         assert_eq!(best.passes, all[0].passes);
         let choice = all[0].plan_choice.as_deref().unwrap();
         // Its three sectors merge into one (the whole field): a boundary

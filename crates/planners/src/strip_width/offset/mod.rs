@@ -98,7 +98,7 @@ pub fn boundary_start(
 /// travel direction of the first pass), to both sides. Passes are returned
 /// in machining order (outermost of one side first) with `region` set.
 /// `progress` is checked once per pass.
-pub fn cover(
+pub(crate) fn cover(
     surface: &NurbsSurface,
     s: &PassSettings,
     region: &Region,

@@ -22,9 +22,11 @@ struct Face {
 }
 
 /// The regions kept and what the search found.
-pub struct Merged {
+pub(crate) struct Merged {
     pub regions: Vec<Region>,
-    /// The separatrices left out (index as in the graph).
+    /// The separatrices left out (index as in the graph; the tests check
+    /// the search by it).
+    #[allow(dead_code)]
     pub removed: Vec<bool>,
     /// Estimated cover length of the traced partition and of the merged one, mm.
     pub traced_length: f64,
@@ -45,7 +47,7 @@ pub struct Merged {
 /// search, and trying them all at every step estimated twice the area for
 /// the same regions on 22 of 23 suite surfaces. It stops when no removal
 /// shortens the total.
-pub fn merge_regions<F>(
+pub(crate) fn merge_regions<F>(
     surface: &NurbsSurface,
     graph: &FaceGraph,
     traced: &[Region],
