@@ -27,11 +27,6 @@ impl Verification for Belt {
         budget::belt(job)
     }
 
-    /// The removal simulation needs no check before planning.
-    fn check_job(&self, _job: &Job) -> Result<()> {
-        Ok(())
-    }
-
     /// The first candidate, refined ([`verify_and_refine_belt`]).
     fn verify(
         &self,

@@ -23,23 +23,32 @@ pub(crate) trait Verification: Sync {
     fn estimate(&self, job: &Job) -> Result<Estimate>;
 
     /// Refuses, before planning, a job whose verification would be refused:
-    /// by default a scallop-simulator grid finer than it allows.
+    /// for the families the scallop simulator checks
+    /// ([`Family::scallop_simulated`]), a grid finer than it allows.
     fn check_job(&self, job: &Job) -> Result<()> {
-        milling::check_resolution(job)
+        if job.strategy.family().scallop_simulated() {
+            milling::check_resolution(job)?;
+        }
+        Ok(())
     }
 
     /// Verifies the candidate plans (shortest first), repairs them and keeps
     /// one, with the verification's figures in its stats; returns it with the
-    /// seconds spent planning repairs. By default the scallop simulator's
-    /// verification ([`milling::verify_candidates`], repaired by
-    /// [`Verification::repair`]).
+    /// seconds spent planning repairs. For the families the scallop
+    /// simulator checks, its verification ([`milling::verify_candidates`],
+    /// repaired by [`Verification::repair`]); for the others the first
+    /// candidate as planned (pocket plans report their uncut area
+    /// themselves).
     fn verify(
         &self,
         job: &Job,
         candidates: Vec<PlanResult>,
         progress: &dyn Progress,
     ) -> Result<(PlanResult, f64)> {
-        milling::verify_candidates(job, candidates, progress)
+        if job.strategy.family().scallop_simulated() {
+            return milling::verify_candidates(job, candidates, progress);
+        }
+        Ok((first_candidate(candidates)?, 0.0))
     }
 
     /// Repairs `result` where the scallop simulator's `report` finds it above
@@ -89,18 +98,6 @@ struct Pocket;
 impl Verification for Pocket {
     fn estimate(&self, job: &Job) -> Result<Estimate> {
         budget::pocket(job)
-    }
-    fn check_job(&self, _job: &Job) -> Result<()> {
-        Ok(())
-    }
-    /// The first candidate as planned.
-    fn verify(
-        &self,
-        _job: &Job,
-        candidates: Vec<PlanResult>,
-        _progress: &dyn Progress,
-    ) -> Result<(PlanResult, f64)> {
-        Ok((first_candidate(candidates)?, 0.0))
     }
 }
 

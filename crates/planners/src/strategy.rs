@@ -1,5 +1,6 @@
 //! The planning strategies behind one interface: every strategy is a unit
-//! struct in its own module implementing [`Strategy`], and [`strategy`] maps
+//! struct in its own module implementing [`Strategy`] (the two belt
+//! strategies one [`crate::belt::BeltStrategy`] each), and [`strategy`] maps
 //! a job's strategy name to it, so callers dispatch on the trait instead of
 //! matching on the job's strategy.
 
@@ -90,8 +91,8 @@ pub fn strategy(id: toolpath_formats::Strategy) -> &'static dyn Strategy {
         Id::IsoParametric => &strip_width::iso_parametric::IsoParametric,
         Id::Mpec => &mpec::positioning::Mpec,
         Id::PocketMat => &pocket::pocket_mat::PocketMat,
-        Id::BeltIsoParametric => &belt::iso_parametric::BeltIsoParametric,
-        Id::BeltIsoPlanar => &belt::iso_planar::BeltIsoPlanar,
+        Id::BeltIsoParametric => &belt::iso_parametric::BELT_ISO_PARAMETRIC,
+        Id::BeltIsoPlanar => &belt::iso_planar::BELT_ISO_PLANAR,
     }
 }
 

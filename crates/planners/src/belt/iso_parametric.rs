@@ -18,27 +18,11 @@ use toolpath_kernel::geometry::{LocalGeometry, NurbsSurface};
 const MAX_PASSES: usize = 20_000;
 
 /// The strategy `belt_iso_parametric`.
-pub struct BeltIsoParametric;
-
-impl crate::Strategy for BeltIsoParametric {
-    fn id(&self) -> toolpath_formats::Strategy {
-        toolpath_formats::Strategy::BeltIsoParametric
-    }
-    fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-        plan_with(job, progress, &Refinement::default())
-    }
-    fn path_levels(&self) -> Option<crate::strategy::PathLevels> {
-        Some(crate::strategy::PathLevels::CrossParameter)
-    }
-    fn plan_refined(
-        &self,
-        job: &Job,
-        progress: &dyn Progress,
-        refinement: &Refinement,
-    ) -> Result<PlanResult> {
-        plan_with(job, progress, refinement)
-    }
-}
+pub(crate) static BELT_ISO_PARAMETRIC: super::BeltStrategy = super::BeltStrategy {
+    id: toolpath_formats::Strategy::BeltIsoParametric,
+    levels: crate::strategy::PathLevels::CrossParameter,
+    plan_with,
+};
 
 /// The plan as refined by the removal simulation (`crate::refine`): steps
 /// aiming below h where it found material left, more paths on the

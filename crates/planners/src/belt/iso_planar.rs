@@ -192,27 +192,11 @@ pub(crate) fn rigid_sinking(cells: &[LocalGeometry], normal: Vector3<f64>, width
 }
 
 /// The strategy `belt_iso_planar`.
-pub struct BeltIsoPlanar;
-
-impl crate::Strategy for BeltIsoPlanar {
-    fn id(&self) -> toolpath_formats::Strategy {
-        toolpath_formats::Strategy::BeltIsoPlanar
-    }
-    fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-        plan_with(job, progress, &Refinement::default())
-    }
-    fn path_levels(&self) -> Option<crate::strategy::PathLevels> {
-        Some(crate::strategy::PathLevels::SectionPlane)
-    }
-    fn plan_refined(
-        &self,
-        job: &Job,
-        progress: &dyn Progress,
-        refinement: &Refinement,
-    ) -> Result<PlanResult> {
-        plan_with(job, progress, refinement)
-    }
-}
+pub(crate) static BELT_ISO_PLANAR: super::BeltStrategy = super::BeltStrategy {
+    id: toolpath_formats::Strategy::BeltIsoPlanar,
+    levels: crate::strategy::PathLevels::SectionPlane,
+    plan_with,
+};
 
 /// The plan as refined by the removal simulation (`crate::refine`): steps
 /// aiming below h where it found material left, more paths in the section
