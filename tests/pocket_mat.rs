@@ -428,13 +428,8 @@ fn compare_cli_reports_sequence_against_root_tool() {
 /// and leaves uncut only corner material the root tool cannot reach.
 #[test]
 fn random_star_pockets_plan_without_gouge() {
-    let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
-    let mut rnd = move || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = toolpath_planner::rng::Lcg64(0x9e37_79b9_7f4a_7c15);
+    let mut rnd = move || rng.unit();
     for case in 0..3 {
         let n = 12 + (rnd() * 40.0) as usize;
         let outer: Vec<P2> = (0..n)

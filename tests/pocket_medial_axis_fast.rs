@@ -265,13 +265,8 @@ proptest! {
     #[test]
     fn jagged_outline_fast_equals_exact(seed in any::<u64>(), n in 500usize..3000) {
         // Star-shaped, radius jittered by up to 10 %: no near-collinear runs.
-        let mut s = seed | 1;
-        let mut rnd = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = toolpath_planner::rng::XorShift(seed | 1);
+        let mut rnd = move || rng.unit();
         let outer: Vec<[f64; 2]> = (0..n)
             .map(|i| {
                 let t = TAU * i as f64 / n as f64;

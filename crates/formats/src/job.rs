@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 use toolpath_kernel::error::{Error, Result};
 use toolpath_kernel::tools::Tool;
+use toolpath_kernel::validate::{finite, positive};
 
 /// Planning strategies, named as in the job file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -55,43 +56,93 @@ impl Strategy {
                 )
             })
     }
-    /// The machine a strategy runs on by default.
-    pub fn default_machine(self) -> Machine {
-        match self {
-            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => Machine::Belt6,
-            _ => Machine::Mill5,
-        }
-    }
-    /// Whether the strategy can plan with this tool: the strip-width
-    /// strategies take flat-end and ball cutters, mpec a torus, pocket_mat a
-    /// flat end, the belt strategies a belt.
-    pub fn accepts(self, tool: &Tool) -> bool {
+    /// The method family the strategy belongs to.
+    pub fn family(self) -> Family {
         match self {
             Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric => {
-                matches!(tool, Tool::FlatEnd { .. } | Tool::Ball { .. })
+                Family::StripWidth
             }
-            Strategy::Mpec => matches!(tool, Tool::Torus { .. }),
-            Strategy::PocketMat => matches!(tool, Tool::FlatEnd { .. }),
-            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => {
-                matches!(tool, Tool::Belt { .. })
-            }
+            Strategy::Mpec => Family::Mpec,
+            Strategy::PocketMat => Family::Pocket,
+            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => Family::Belt,
         }
+    }
+    /// The machine a strategy runs on by default ([`Family::default_machine`]).
+    pub fn default_machine(self) -> Machine {
+        self.family().default_machine()
+    }
+    /// Whether the strategy can plan with this tool ([`Family::accepts`]).
+    pub fn accepts(self, tool: &Tool) -> bool {
+        self.family().accepts(tool)
     }
 
     /// The tool kinds [`Strategy::accepts`], in words.
-    pub fn tool_kinds(self) -> &'static str {
+    pub(crate) fn tool_kinds(self) -> &'static str {
+        self.family().tool_kinds()
+    }
+
+    /// Whether the strategy machines a pocket rather than a surface.
+    pub fn needs_pocket(self) -> bool {
+        self.family() == Family::Pocket
+    }
+}
+
+/// The method families: the strategies of one family share a tool model,
+/// a machine and the way their plans are verified.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Family {
+    /// Flat-end (and ball) 5-axis finishing on the strip-width model
+    /// (`tensor_regions`, `iso_scallop`, `iso_parametric`): checked by the
+    /// scallop simulator, repaired with passes over its islands.
+    StripWidth,
+    /// Torus-cutter positioning by mid-point error control (`mpec`): checked
+    /// by the scallop simulator against the band +-delta, refined with added
+    /// passes.
+    Mpec,
+    /// 2.5-axis pockets (`pocket_mat`): the planner reports its own uncut
+    /// area.
+    Pocket,
+    /// 6-axis belt grinding (`belt_iso_parametric`, `belt_iso_planar`):
+    /// checked by the removal simulation, refined with re-stepped and added
+    /// paths.
+    Belt,
+}
+
+impl Family {
+    /// Whether the family plans with this tool: the strip-width strategies
+    /// take flat-end and ball cutters, mpec a torus, pocket_mat a flat end,
+    /// the belt strategies a belt.
+    pub fn accepts(self, tool: &Tool) -> bool {
         match self {
-            Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric => {
-                "flat-end and ball cutters"
-            }
-            Strategy::Mpec => "torus cutters",
-            Strategy::PocketMat => "flat-end cutters",
-            Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => "a belt",
+            Family::StripWidth => matches!(tool, Tool::FlatEnd { .. } | Tool::Ball { .. }),
+            Family::Mpec => matches!(tool, Tool::Torus { .. }),
+            Family::Pocket => matches!(tool, Tool::FlatEnd { .. }),
+            Family::Belt => matches!(tool, Tool::Belt { .. }),
         }
     }
 
-    pub fn needs_pocket(self) -> bool {
-        self == Strategy::PocketMat
+    /// The tool kinds [`Family::accepts`], in words.
+    pub(crate) fn tool_kinds(self) -> &'static str {
+        match self {
+            Family::StripWidth => "flat-end and ball cutters",
+            Family::Mpec => "torus cutters",
+            Family::Pocket => "flat-end cutters",
+            Family::Belt => "a belt",
+        }
+    }
+
+    /// The machine the family's strategies run on by default.
+    pub fn default_machine(self) -> Machine {
+        match self {
+            Family::Belt => Machine::Belt6,
+            _ => Machine::Mill5,
+        }
+    }
+
+    /// Whether the scallop simulator checks the family's plans (milling on
+    /// a surface; pocket and belt results have checks of their own).
+    pub fn scallop_simulated(self) -> bool {
+        matches!(self, Family::StripWidth | Family::Mpec)
     }
 }
 
@@ -259,45 +310,24 @@ pub const DEFAULT_FEED_RATE: f64 = 1000.0;
 /// planners are accepted with (tests/wing_mould.rs, tests/flat_end_suite.rs;
 /// their plans' simulated gouges are in docs/results.md, "Flat-end strategy
 /// suite").
-pub const DEFAULT_GOUGE_TOLERANCE: f64 = 0.005;
+pub(crate) const DEFAULT_GOUGE_TOLERANCE: f64 = 0.005;
 
 /// Largest lead angle and side tilt, degrees: the tool axis within 45
 /// degrees of the surface normal. Beyond it a flat end or torus cuts with
 /// its side rather than its end, which the strip-width and MPEC models do
 /// not describe: their widths and error curves would then miss the cut of
 /// the cutter's side.
-pub const MAX_TILT_DEG: f64 = 45.0;
+pub(crate) const MAX_TILT_DEG: f64 = 45.0;
 
 /// Diameters a `tool_catalogue` may list, mm: from micro end mills to the
 /// largest shank end mills.
-pub const CATALOGUE_DIAMETERS_MM: std::ops::RangeInclusive<f64> = 0.1..=100.0;
+pub(crate) const CATALOGUE_DIAMETERS_MM: std::ops::RangeInclusive<f64> = 0.1..=100.0;
 
 /// Standard metric end-mill diameters, mm.
 pub const DEFAULT_TOOL_CATALOGUE: [f64; 22] = [
     1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 25.0, 30.0,
     32.0, 35.0, 40.0, 45.0, 50.0,
 ];
-
-fn finite_positive(field: &str, v: Option<f64>) -> Result<()> {
-    if let Some(x) = v {
-        if !x.is_finite() {
-            return Err(Error::invalid(field, format!("{x} is not a finite number")));
-        }
-        if x <= 0.0 {
-            return Err(Error::invalid(field, format!("must be positive, got {x}")));
-        }
-    }
-    Ok(())
-}
-
-fn finite(field: &str, v: Option<f64>) -> Result<()> {
-    match v {
-        Some(x) if !x.is_finite() => {
-            Err(Error::invalid(field, format!("{x} is not a finite number")))
-        }
-        _ => Ok(()),
-    }
-}
 
 impl JobFile {
     /// Checks every field that does not depend on the shape, with the reasons
@@ -314,11 +344,15 @@ impl JobFile {
         if let Some(tool) = &self.tool {
             tool.validate().map_err(|e| e.within("tool"))?;
         }
-        finite_positive("scallop", self.scallop)?;
-        finite_positive("tolerance", self.tolerance)?;
-        finite_positive("feed_rate", self.feed_rate)?;
-        finite_positive("simulation_resolution", self.simulation_resolution)?;
-        finite_positive("time_limit_s", self.time_limit_s)?;
+        self.scallop.map_or(Ok(()), |x| positive("scallop", x))?;
+        self.tolerance
+            .map_or(Ok(()), |x| positive("tolerance", x))?;
+        self.feed_rate
+            .map_or(Ok(()), |x| positive("feed_rate", x))?;
+        self.simulation_resolution
+            .map_or(Ok(()), |x| positive("simulation_resolution", x))?;
+        self.time_limit_s
+            .map_or(Ok(()), |x| positive("time_limit_s", x))?;
         if let Some(t) = self.time_limit_s {
             if t > MAX_TIME_LIMIT_S {
                 return Err(Error::invalid(
@@ -327,8 +361,10 @@ impl JobFile {
                 ));
             }
         }
-        finite("lead_angle_deg", self.lead_angle_deg)?;
-        finite("side_tilt_deg", self.side_tilt_deg)?;
+        self.lead_angle_deg
+            .map_or(Ok(()), |x| finite("lead_angle_deg", x))?;
+        self.side_tilt_deg
+            .map_or(Ok(()), |x| finite("side_tilt_deg", x))?;
         for (name, angle) in [
             ("lead_angle_deg", self.lead_angle_deg),
             ("side_tilt_deg", self.side_tilt_deg),
@@ -362,7 +398,7 @@ impl JobFile {
                     ));
                 }
                 for (i, &d) in c.iter().enumerate() {
-                    finite_positive(&format!("tool_catalogue[{i}]"), Some(d))?;
+                    positive(&format!("tool_catalogue[{i}]"), d)?;
                     if !CATALOGUE_DIAMETERS_MM.contains(&d) {
                         return Err(Error::invalid(
                             format!("tool_catalogue[{i}]"),
@@ -391,7 +427,7 @@ impl JobFile {
                 ("feed_speed", g.feed_speed),
             ];
             for (name, v) in fields {
-                finite_positive(&format!("grinding.{name}"), Some(v))?;
+                positive(&format!("grinding.{name}"), v)?;
             }
         }
         Ok(catalogue)
@@ -402,7 +438,7 @@ impl JobFile {
     fn checked_tool_and_machine(&self) -> Result<Machine> {
         let machine = self.machine.unwrap_or(self.strategy.default_machine());
         let Some(tool) = &self.tool else {
-            if self.strategy != Strategy::PocketMat {
+            if !self.strategy.needs_pocket() {
                 return Err(Error::invalid(
                     "tool",
                     format!(
@@ -614,7 +650,7 @@ fn face_list(surface: &serde_json::Value) -> Result<Option<Vec<u64>>> {
 /// surface names several STEP faces (`{"file": STEP path, "faces": [ID,
 /// ...]}`, docs/formats.md, "Several faces"), else the one job. Every face's
 /// job has the file's parameters and job id.
-pub fn jobs_from_file(f: JobFile, base_dir: Option<&Path>) -> Result<Vec<Job>> {
+pub(crate) fn jobs_from_file(f: JobFile, base_dir: Option<&Path>) -> Result<Vec<Job>> {
     let Some(ids) = face_list(&f.surface)? else {
         return Job::from_file(f, base_dir).map(|j| vec![j]);
     };
@@ -758,8 +794,8 @@ impl Job {
     /// How deep a cut may go below the surface before it is a gouge, mm:
     /// MPEC's band (`tolerance`, its +-delta), else [`DEFAULT_GOUGE_TOLERANCE`].
     pub fn gouge_tolerance(&self) -> f64 {
-        match (self.strategy, self.tolerance) {
-            (Strategy::Mpec, Some(delta)) => delta,
+        match (self.strategy.family(), self.tolerance) {
+            (Family::Mpec, Some(delta)) => delta,
             _ => DEFAULT_GOUGE_TOLERANCE,
         }
     }

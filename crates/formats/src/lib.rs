@@ -6,9 +6,9 @@ pub mod result;
 pub mod shape;
 pub mod step;
 
-pub use job::{FeedDirection, GrindingParams, Job, JobFile, Machine, Strategy};
+pub use job::{Family, FeedDirection, GrindingParams, Job, JobFile, Machine, Strategy};
 pub use result::{Pass, PathPoint, PlanResult, Stats};
-pub use shape::{PocketFile, Shape, SurfaceFile, TrimFile};
+pub use shape::{Shape, SurfaceFile, TrimFile};
 
 use serde::de::DeserializeOwned;
 use std::path::Path;
@@ -26,7 +26,7 @@ pub fn from_value<T: DeserializeOwned>(value: serde_json::Value) -> Result<T> {
 /// Parses JSON text; syntax errors give line and column, and the path of the
 /// value being read when the error struck (e.g. a number out of range such as
 /// 1e999, which JSON cannot hold as a finite f64).
-pub fn parse_json(text: &str, what: &str) -> Result<serde_json::Value> {
+pub(crate) fn parse_json(text: &str, what: &str) -> Result<serde_json::Value> {
     let mut de = serde_json::Deserializer::from_str(text);
     let value: serde_json::Value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
         let path = e.path().to_string();
@@ -46,7 +46,7 @@ pub fn parse_json(text: &str, what: &str) -> Result<serde_json::Value> {
 
 /// Largest text input file (job, surface, pocket, result, config), bytes:
 /// far above any real surface (a 1000 x 1000 control net is about 80 MB).
-pub const MAX_TEXT_FILE_BYTES: u64 = 256 << 20;
+pub(crate) const MAX_TEXT_FILE_BYTES: u64 = 256 << 20;
 
 /// The bytes of a regular file of at most `max_bytes`. Anything else is
 /// refused before it is opened: a directory, a device such as /dev/zero

@@ -1,8 +1,10 @@
 //! Result files: passes of tool positions plus per-strategy extras.
 //! Optional fields are omitted when a strategy does not produce them.
 
+use crate::job::Job;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+use toolpath_kernel::error::{Error, Result};
 
 /// One tool position. `cc` contact point on the surface; `cl` tool tip (or, for
 /// the belt, the contact-wheel centre); `axis` unit tool axis from the tip
@@ -175,6 +177,43 @@ impl PlanResult {
     pub fn point_count(&self) -> usize {
         self.passes.iter().map(|p| p.points.len()).sum()
     }
+}
+
+/// Refuses to check, simulate or post `result` against `job` when it was
+/// planned for another job: another job_id or strategy, or (when the result
+/// records it) another shape.
+pub fn check_belongs(job: &Job, result: &PlanResult) -> Result<()> {
+    if result.job_id != job.job_id {
+        return Err(Error::invalid(
+            "result.job_id",
+            format!(
+                "\"{}\" is not the job's \"{}\": the result belongs to another job",
+                result.job_id, job.job_id
+            ),
+        ));
+    }
+    if result.strategy != job.strategy.name() {
+        return Err(Error::invalid(
+            "result.strategy",
+            format!(
+                "{} is not the job's {}: the result belongs to another job",
+                result.strategy,
+                job.strategy.name()
+            ),
+        ));
+    }
+    if let Some(f) = &result.shape_fingerprint {
+        let own = job.shape.fingerprint();
+        if *f != own {
+            return Err(Error::invalid(
+                "result.shape_fingerprint",
+                format!(
+                    "{f} is not the job's shape ({own}): the result was planned on another shape"
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Length of a 3-D polyline.

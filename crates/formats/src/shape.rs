@@ -108,7 +108,7 @@ impl TrimFile {
 /// `{"kind": "pocket", "outer": [...], "holes": [...]}`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct PocketFile {
+pub(crate) struct PocketFile {
     pub kind: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
@@ -163,7 +163,7 @@ impl Shape {
 }
 
 impl SurfaceFile {
-    pub fn from_surface(s: &NurbsSurface, name: Option<String>) -> Self {
+    pub(crate) fn from_surface(s: &NurbsSurface, name: Option<String>) -> Self {
         Self {
             kind: "nurbs".into(),
             name,
@@ -204,14 +204,14 @@ impl PocketFile {
             holes: p.holes.clone(),
         }
     }
-    pub fn to_pocket(&self) -> Result<Pocket> {
+    pub(crate) fn to_pocket(&self) -> Result<Pocket> {
         Pocket::new(&self.outer, &self.holes)
     }
 }
 
 /// Parses a shape object (`kind` nurbs or pocket) from JSON. Field paths in
 /// errors are relative to the object.
-pub fn shape_from_value(value: serde_json::Value) -> Result<Shape> {
+pub(crate) fn shape_from_value(value: serde_json::Value) -> Result<Shape> {
     let kind = match value.get("kind") {
         Some(serde_json::Value::String(k)) => k.clone(),
         Some(_) => {

@@ -11,5 +11,6 @@ pub mod parallel;
 pub mod progress;
 pub mod rng;
 pub mod tools;
+pub mod validate;
 
 pub use error::{Error, Result};

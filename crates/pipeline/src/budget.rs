@@ -10,7 +10,7 @@
 //! what the machine can hold, never a normal one.
 
 use serde::{Deserialize, Serialize};
-use toolpath_formats::{Job, Strategy};
+use toolpath_formats::Job;
 use toolpath_kernel::error::{Error, Result};
 use toolpath_kernel::geometry::{LocalGeometry, NurbsSurface};
 
@@ -131,14 +131,7 @@ const BELT_STEP_SHARE: f64 = 0.25;
 /// The estimate for `job`; errors are the ones planning would give (a tool
 /// that gouges, a missing scallop), found before the work.
 pub fn estimate(job: &Job) -> Result<Estimate> {
-    match job.strategy {
-        Strategy::TensorRegions | Strategy::IsoScallop | Strategy::IsoParametric => {
-            strip_width(job)
-        }
-        Strategy::Mpec => mpec(job),
-        Strategy::BeltIsoParametric | Strategy::BeltIsoPlanar => belt(job),
-        Strategy::PocketMat => pocket(job),
-    }
+    crate::verification(job.strategy.family()).estimate(job)
 }
 
 /// Surface area by 3 x 3 Gauss points on 16 x 16 cells, mm^2.
@@ -177,7 +170,7 @@ fn simulator_mb(job: &Job, area_mm2: f64, r: f64) -> f64 {
     samples * BYTES_PER_SAMPLE / 1e6
 }
 
-fn strip_width(job: &Job) -> Result<Estimate> {
+pub(crate) fn strip_width(job: &Job) -> Result<Estimate> {
     use toolpath_planners::strip_width::{lower_bound, passes::PassSettings};
     let surface = job.surface()?;
     let settings = PassSettings::from_job(job)?;
@@ -189,12 +182,8 @@ fn strip_width(job: &Job) -> Result<Estimate> {
     let length = LENGTH_OVER_BOUND * bound;
     let passes = length / shortest_iso;
     let points = length / settings.point_step + POINTS_PER_PASS * passes;
-    // tensor_regions keeps every candidate plan until it has chosen one.
-    let plans = if job.strategy == Strategy::TensorRegions {
-        9.0
-    } else {
-        1.0
-    };
+    // tensor_regions holds every candidate plan until it has chosen one.
+    let plans = toolpath_planners::strategy(job.strategy).plans_held() as f64;
     let a = area(surface);
     let memory_mb =
         plans * points * BYTES_PER_POINT / 1e6 + simulator_mb(job, a, settings.cutter.radius);
@@ -215,7 +204,7 @@ fn strip_width(job: &Job) -> Result<Estimate> {
 /// MPEC: strips at least as wide as a ball of the torus's corner radius
 /// cuts at the tolerance band (the torus is flatter than that ball
 /// everywhere), so the passes are at most the cross extent over that width.
-fn mpec(job: &Job) -> Result<Estimate> {
+pub(crate) fn mpec(job: &Job) -> Result<Estimate> {
     let surface = job.surface()?;
     let tool = job.tool()?;
     let r = match *tool {
@@ -247,7 +236,7 @@ fn mpec(job: &Job) -> Result<Estimate> {
     })
 }
 
-fn belt(job: &Job) -> Result<Estimate> {
+pub(crate) fn belt(job: &Job) -> Result<Estimate> {
     use toolpath_planners::belt::contact::{point_spacing, BeltSpec};
     let surface = job.surface()?;
     let spec = BeltSpec::from_job(job)?;
@@ -284,7 +273,7 @@ fn belt(job: &Job) -> Result<Estimate> {
     })
 }
 
-fn pocket(job: &Job) -> Result<Estimate> {
+pub(crate) fn pocket(job: &Job) -> Result<Estimate> {
     use toolpath_planners::pocket::pocket_mat::{default_resolution, STEPOVER_FRACTION};
     let pocket = job.pocket()?;
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);

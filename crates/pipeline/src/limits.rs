@@ -16,7 +16,7 @@ pub struct TimeLimit {
     pub parameter: &'static str,
 }
 
-pub use toolpath_formats::job::MAX_TIME_LIMIT_S;
+use toolpath_formats::job::MAX_TIME_LIMIT_S;
 
 impl TimeLimit {
     /// Checks a limit given in `field`: finite, positive, at most [`MAX_TIME_LIMIT_S`].
@@ -36,7 +36,7 @@ impl TimeLimit {
 /// `inner`'s progress with a time limit counted from [`Limited::new`]: its
 /// check fails with `Error::Stopped` (not canceled) once the limit has
 /// passed, after asking `inner` first (a cancel wins over a limit).
-pub struct Limited<'a> {
+pub(crate) struct Limited<'a> {
     inner: &'a dyn Progress,
     limit: Option<TimeLimit>,
     started: Instant,

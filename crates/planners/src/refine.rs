@@ -17,8 +17,9 @@
 //! any gap of a planner without such an aim (MPEC), gets a path at its
 //! middle level. A place beyond the last path gets a path at its own level.
 
+use crate::strategy::PathLevels;
 use nalgebra::Vector3;
-use toolpath_formats::{FeedDirection, Job, PlanResult, Strategy};
+use toolpath_formats::{FeedDirection, Job, PlanResult};
 use toolpath_kernel::error::{Error, Result};
 
 /// A node the removal simulation left above h: its uv, surface point and
@@ -84,8 +85,8 @@ enum Levels {
 
 impl Levels {
     fn of(job: &Job, result: &PlanResult) -> Result<Self> {
-        match job.strategy {
-            Strategy::BeltIsoParametric | Strategy::Mpec => {
+        match crate::strategy(job.strategy).path_levels() {
+            Some(PathLevels::CrossParameter) => {
                 let feed_u = job.feed_direction.unwrap_or(FeedDirection::U) == FeedDirection::U;
                 let ((u0, u1), (v0, v1)) = job.surface()?.domain();
                 Ok(if feed_u {
@@ -100,7 +101,7 @@ impl Levels {
                     }
                 })
             }
-            Strategy::BeltIsoPlanar => {
+            Some(PathLevels::SectionPlane) => {
                 let n = result.section_normal.ok_or_else(|| {
                     Error::planning(
                         "internal: an iso-planar belt result without its section normal",
@@ -110,9 +111,9 @@ impl Levels {
                     normal: Vector3::new(n[0], n[1], n[2]),
                 })
             }
-            other => Err(Error::planning(format!(
+            None => Err(Error::planning(format!(
                 "internal: refinement asked for strategy {}",
-                other.name()
+                job.strategy.name()
             ))),
         }
     }
@@ -200,7 +201,7 @@ pub fn refine(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use toolpath_formats::{JobFile, Pass, PathPoint, Shape};
+    use toolpath_formats::{JobFile, Pass, PathPoint, Shape, Strategy};
     use toolpath_samples::surfaces;
 
     fn job(strategy: Strategy) -> Job {

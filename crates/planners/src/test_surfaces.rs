@@ -56,7 +56,7 @@ pub fn monkey_saddle(offset: [f64; 2], warp: f64) -> NurbsSurface {
 }
 
 /// Plane z = 0 on [0, 100]^2 with a sheared, non-orthogonal parametrisation.
-pub fn sheared_plane() -> NurbsSurface {
+pub(crate) fn sheared_plane() -> NurbsSurface {
     fit(1, 1, clamped(1, &[]), clamped(1, &[]), |u, v| {
         [100.0 * u + 40.0 * v, 100.0 * v, 0.0]
     })
@@ -64,7 +64,7 @@ pub fn sheared_plane() -> NurbsSurface {
 
 /// Elliptic paraboloid z = a x^2 + b y^2 (concave towards +z) with the
 /// sheared parametrisation x = 60 (u + 0.7 v) - 30, y = 60 v - 30.
-pub fn sheared_paraboloid(a: f64, b: f64) -> NurbsSurface {
+pub(crate) fn sheared_paraboloid(a: f64, b: f64) -> NurbsSurface {
     fit(2, 2, clamped(2, &[]), clamped(2, &[]), move |u, v| {
         let (x, y) = (60.0 * (u + 0.7 * v) - 30.0, 60.0 * v - 30.0);
         [x, y, a * x * x + b * y * y]

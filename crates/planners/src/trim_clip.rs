@@ -20,7 +20,7 @@ use toolpath_kernel::tools::Tool;
 /// How far from the face a contact must be before the tool can no longer
 /// touch it, mm: the cutter radius (every point of a cutter's footprint
 /// lies within it of the contact), half the belt's width.
-pub fn reach(tool: &Tool) -> f64 {
+pub(crate) fn reach(tool: &Tool) -> f64 {
     match *tool {
         Tool::Belt { width, .. } => 0.5 * width,
         _ => tool.radius(),
@@ -29,11 +29,11 @@ pub fn reach(tool: &Tool) -> f64 {
 
 /// Longest run-in or run-out past the boundary crossing, in reaches: a
 /// pass grazing the boundary stays within reach of the face a long way.
-pub const RUN_MAX: f64 = 4.0;
+pub(crate) const RUN_MAX: f64 = 4.0;
 
 /// Clips a surface result's passes (and its degenerate points) to the
 /// job's trimmed face; nothing changes on an untrimmed surface.
-pub fn clip_result(job: &Job, result: &mut PlanResult) -> Result<()> {
+pub(crate) fn clip_result(job: &Job, result: &mut PlanResult) -> Result<()> {
     let Some(surface) = job.shape.as_surface() else {
         return Ok(());
     };
@@ -49,7 +49,7 @@ pub fn clip_result(job: &Job, result: &mut PlanResult) -> Result<()> {
 }
 
 /// The passes clipped to `surface`'s face (all of them, untrimmed).
-pub fn clip_passes(surface: &NurbsSurface, passes: &[Pass], reach: f64) -> Vec<Pass> {
+pub(crate) fn clip_passes(surface: &NurbsSurface, passes: &[Pass], reach: f64) -> Vec<Pass> {
     let Some(trim) = surface.trim() else {
         return passes.to_vec();
     };

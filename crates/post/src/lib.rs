@@ -204,25 +204,7 @@ fn rotary_steps(motion: &Motion, pm: &PostMachine, format: Format, feed: f64) ->
 /// Posts `result` (planned from `job`) for machine `pm` in `format`.
 pub fn post(job: &Job, result: &PlanResult, pm: &PostMachine, format: Format) -> Result<Program> {
     motion::reject_belt(job, result)?;
-    if result.job_id != job.job_id {
-        return Err(Error::invalid(
-            "job_id",
-            format!(
-                "the result is of job \"{}\", the job file is \"{}\": post a result with the job it was planned from",
-                result.job_id, job.job_id
-            ),
-        ));
-    }
-    if result.strategy != job.strategy.name() {
-        return Err(Error::invalid(
-            "strategy",
-            format!(
-                "the result is a {} result, the job asks for {}",
-                result.strategy,
-                job.strategy.name()
-            ),
-        ));
-    }
+    toolpath_formats::result::check_belongs(job, result)?;
     let motion = motion::plan(job, result, pm)?;
     let mut report = rotary_steps(&motion, pm, format, job.feed_rate);
     let written = emit::write(format, &motion, job, result, pm, &report.rotary_line());

@@ -18,7 +18,7 @@ pub struct SampleInfo {
     pub description: &'static str,
 }
 
-pub const SAMPLES: &[SampleInfo] = &[
+pub(crate) const SAMPLES: &[SampleInfo] = &[
     SampleInfo {
         name: "plane",
         description: "flat 100 x 100 mm square, z = 0 (tensor_regions, flat end R2.5)",

@@ -36,9 +36,9 @@ pub fn pocket_with_hole() -> Pocket {
 }
 
 /// Leaf length, mm.
-pub const LEAF_LENGTH: f64 = 180.0;
+pub(crate) const LEAF_LENGTH: f64 = 180.0;
 /// Radius of the rounded leaf tips, mm.
-pub const LEAF_TIP_RADIUS: f64 = 1.5;
+pub(crate) const LEAF_TIP_RADIUS: f64 = 1.5;
 
 /// Half-widths of the leaf above and below its midrib at x: a sine envelope
 /// pinched at two necks (x = 62 and x = 122), slightly asymmetric.

@@ -1,8 +1,9 @@
 //! Seeded random bicubic surfaces (`toolpath sample random --seed N`): a
 //! family of parts the planners have never seen, for the strategy suite
 //! (`toolpath compare --suite`). The same parameters give the same surface,
-//! bit for bit, on every machine: the generator is SplitMix64 and the
-//! control net is built from its draws in a fixed order.
+//! bit for bit, on every machine: the generator is SplitMix64
+//! (`toolpath_kernel::rng`) and the control net is built from its draws in a
+//! fixed order.
 //!
 //! The surface is a clamped uniform bicubic B-spline over `size_x` x
 //! `size_y` mm, one span per [`SPAN_MM`] (at least 2 each way). Control
@@ -16,9 +17,10 @@
 use toolpath_kernel::error::{Error, Result};
 use toolpath_kernel::geometry::interpolation::{clamped_uniform_knots, greville};
 use toolpath_kernel::geometry::NurbsSurface;
+use toolpath_kernel::rng::SplitMix64;
 
 /// Control-net span length, mm.
-pub const SPAN_MM: f64 = 40.0;
+pub(crate) const SPAN_MM: f64 = 40.0;
 
 /// Parameters of one random surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,23 +42,6 @@ impl Default for RandomSurface {
             amplitude: 3.0,
             anisotropy: 0.0,
         }
-    }
-}
-
-/// SplitMix64 (Steele, Lea, Flood 2014): a fixed, portable generator.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [-1, 1] from the top 53 bits.
-    fn symmetric(&mut self) -> f64 {
-        ((self.next() >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     }
 }
 
@@ -158,15 +143,6 @@ pub fn suite() -> Vec<RandomSurface> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn splitmix_matches_the_reference_sequence() {
-        // First outputs of the reference C implementation for seed 1234567.
-        let mut r = SplitMix64(1234567);
-        assert_eq!(r.next(), 6457827717110365317);
-        assert_eq!(r.next(), 3203168211198807973);
-        assert_eq!(r.next(), 9817491932198370423);
-    }
 
     #[test]
     fn same_seed_same_surface_other_seed_other_surface() {

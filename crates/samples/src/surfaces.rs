@@ -31,7 +31,7 @@ pub fn plane() -> NurbsSurface {
 }
 
 /// Radius of the concave cylinder sample.
-pub const CYLINDER_RADIUS: f64 = 100.0;
+pub(crate) const CYLINDER_RADIUS: f64 = 100.0;
 
 /// Trough of a cylinder of radius 100 about an axis parallel to x at
 /// (y, z) = (0, 100): x in [0, 100], a 60-degree arc (y in [-50, 50]), lowest
@@ -68,7 +68,7 @@ pub fn concave_cylinder() -> NurbsSurface {
 }
 
 /// z = 1e-5 (x^3 - 3 x y^2) on [-50, 50]^2, as an exact bicubic Bezier patch.
-pub fn monkey_saddle_height(x: f64, y: f64) -> f64 {
+pub(crate) fn monkey_saddle_height(x: f64, y: f64) -> f64 {
     1e-5 * (x * x * x - 3.0 * x * y * y)
 }
 
@@ -86,7 +86,7 @@ pub fn monkey_saddle() -> NurbsSurface {
 /// circle of radius 0.47 in (u, v) about the domain's centre and an
 /// off-centre round hole of radius 0.1, both exact rational circles
 /// (docs/formats.md, "Trimmed surfaces"). The umbilic stays on the face.
-pub fn trimmed_saddle() -> NurbsSurface {
+pub(crate) fn trimmed_saddle() -> NurbsSurface {
     use toolpath_kernel::geometry::trim::{circle, Trim};
     let s = monkey_saddle();
     let ((u0, u1), (v0, v1)) = s.domain();
@@ -116,7 +116,7 @@ pub const WING_UMBILIC: [f64; 2] = [82.0, 86.0];
 /// direction matters, as on the paper's part), and gentle spanwise/chordwise
 /// cubic shaping (camber and dihedral) that keeps it the only umbilic on the
 /// part (checked by brute force in the sample tests).
-pub fn wing_mould_height(x: f64, y: f64) -> f64 {
+pub(crate) fn wing_mould_height(x: f64, y: f64) -> f64 {
     let (a, b, c1, c3) = (1.0 / 250.0, 2e-5, 1.5e-6, 2e-6);
     let (dx, dy) = (x - WING_UMBILIC[0], y - WING_UMBILIC[1]);
     0.5 * a * (dx * dx + dy * dy)
@@ -139,10 +139,10 @@ pub fn wing_mould() -> NurbsSurface {
 
 /// Curvatures of the die saddle: across the feed (y) concave, radius 1198 mm;
 /// along the feed (x) gently convex, radius 19000 mm.
-pub const DIE_KC: f64 = 1.0 / 1198.0;
-pub const DIE_KF: f64 = -1.0 / 19000.0;
+pub(crate) const DIE_KC: f64 = 1.0 / 1198.0;
+pub(crate) const DIE_KF: f64 = -1.0 / 19000.0;
 
-pub fn die_saddle_height(x: f64, y: f64) -> f64 {
+pub(crate) fn die_saddle_height(x: f64, y: f64) -> f64 {
     0.5 * DIE_KF * x * x + 0.5 * DIE_KC * y * y
 }
 
@@ -158,7 +158,7 @@ pub fn die_saddle() -> NurbsSurface {
     ))
 }
 
-pub fn sine_wave_height(x: f64, _y: f64) -> f64 {
+pub(crate) fn sine_wave_height(x: f64, _y: f64) -> f64 {
     5.0 * (2.0 * std::f64::consts::PI * x / 100.0).sin()
 }
 
@@ -174,7 +174,7 @@ pub fn sine_wave() -> NurbsSurface {
     ))
 }
 
-pub fn egg_crate_height(x: f64, y: f64) -> f64 {
+pub(crate) fn egg_crate_height(x: f64, y: f64) -> f64 {
     let k = 2.0 * std::f64::consts::PI / 50.0;
     2.0 * (k * x).sin() * (k * y).sin()
 }
@@ -192,10 +192,10 @@ pub fn egg_crate() -> NurbsSurface {
 }
 
 /// Apex of the turbine blade's cone.
-pub const BLADE_APEX: [f64; 3] = [35.0, 600.0, 30.0];
+pub(crate) const BLADE_APEX: [f64; 3] = [35.0, 600.0, 30.0];
 /// Tip section = apex + BLADE_TAPER (root section - apex): the tip sits
 /// 130 mm from the root along y.
-pub const BLADE_TAPER: f64 = 470.0 / 600.0;
+pub(crate) const BLADE_TAPER: f64 = 470.0 / 600.0;
 
 /// Developable blade: a conical ruled surface between a strongly cambered
 /// root section (cubic, chord 70 mm, arc about 85 mm, camber 20 mm, at y = 0)
@@ -238,7 +238,7 @@ pub const SPHERE_CAP_RADIUS: f64 = 60.0;
 /// one rational quadratic arc): u along the profile, v around the axis from
 /// the +x axis. A profile point with r = 0 becomes a row of coincident
 /// control points, a pole.
-pub fn revolve(
+pub(crate) fn revolve(
     degree_u: usize,
     knots_u: Vec<f64>,
     profile: &[([f64; 2], f64)],

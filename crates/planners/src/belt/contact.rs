@@ -56,7 +56,7 @@ impl BeltSpec {
 
     /// Arc-length step of the cross-section trace: fine enough that the
     /// interpolated scallop is accurate to far below `h` (error ~ step^2 / (32 rho)).
-    pub fn trace_step(&self) -> f64 {
+    pub(crate) fn trace_step(&self) -> f64 {
         self.width / 32.0
     }
 }
@@ -64,7 +64,7 @@ impl BeltSpec {
 /// One node of a traced cross-section, in the 2-D frame of the contact point:
 /// `a` along the belt axis b0, `h` along the surface normal n0 (tool side).
 #[derive(Clone, Copy, Debug)]
-pub struct SectionNode {
+pub(crate) struct SectionNode {
     /// Arc length from the contact point, mm (always >= 0).
     pub sigma: f64,
     pub uv: Vector2<f64>,
@@ -79,20 +79,18 @@ pub struct SectionNode {
 /// The cross-section `l` through a contact point, traced forward (towards the
 /// next path) up to arc length `w` and backward up to `w / 2`.
 #[derive(Clone, Debug)]
-pub struct CrossSection {
+pub(crate) struct CrossSection {
     /// Starts with the contact point itself (sigma = 0, a = h = 0, tangent (1, 0)).
     pub forward: Vec<SectionNode>,
     /// Backward nodes, nearest first; their `a` is negative.
     pub backward: Vec<SectionNode>,
     /// The forward trace ran into the edge of the surface.
     pub forward_hit_boundary: bool,
-    /// 3-D belt axis b0 (unit, along +a) at the contact point.
-    pub axis: Vector3<f64>,
 }
 
 /// Where the next contact point lies on the cross-section.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct NextContact {
+pub(crate) struct NextContact {
     /// Arc length from the current contact point, mm (<= belt width).
     pub sigma: f64,
     pub uv: Vector2<f64>,
@@ -139,7 +137,7 @@ pub fn pose(
 
 /// What the planners collect along the way and judge at the end.
 #[derive(Clone, Debug, Default)]
-pub struct Diagnostics {
+pub(crate) struct Diagnostics {
     /// Path points skipped where the surface normal is undefined.
     pub skipped: usize,
     /// The largest concave normal curvature along the feed, with its place.
@@ -157,7 +155,7 @@ impl Diagnostics {
     /// Error when the wheel cannot roll along a concave feed section: its
     /// radius must not exceed the smallest concave radius of curvature along
     /// the feed over the whole plan.
-    pub fn check_wheel_fits(&self, wheel_radius: f64) -> Result<()> {
+    pub(crate) fn check_wheel_fits(&self, wheel_radius: f64) -> Result<()> {
         let Some((kappa, uv, p)) = self.worst_concave else {
             return Ok(());
         };
@@ -182,7 +180,7 @@ impl Diagnostics {
 
 /// Traces the cross-section through `geom`'s point normal to the unit feed `t`,
 /// forward along `b` (the side where `b . hint >= 0`).
-pub fn cross_section(
+pub(crate) fn cross_section(
     surface: &NurbsSurface,
     geom: &LocalGeometry,
     t: Vector3<f64>,
@@ -225,7 +223,6 @@ pub fn cross_section(
         forward,
         backward,
         forward_hit_boundary: hit,
-        axis: b,
     })
 }
 
@@ -333,7 +330,7 @@ impl CrossSection {
     /// contact point (the line h = 0) and the segment tangent at forward node
     /// `k`. Negative or zero where they meet on the material side (concave) or
     /// are parallel.
-    pub fn scallop_at(&self, k: usize, width: f64) -> f64 {
+    pub(crate) fn scallop_at(&self, k: usize, width: f64) -> f64 {
         let nodes = &self.forward;
         let q = &nodes[k];
         // Segments laid end to end exactly (arc step w on a straight section)
@@ -421,7 +418,7 @@ impl CrossSection {
     }
 
     /// The farthest next contact point within arc length `w` with scallop <= `h`.
-    pub fn next_contact(&self, spec: &BeltSpec) -> NextContact {
+    pub(crate) fn next_contact(&self, spec: &BeltSpec) -> NextContact {
         let nodes = &self.forward;
         let (w, h) = (spec.width, spec.scallop);
         let mut prev_scallop = 0.0;
@@ -461,7 +458,7 @@ impl CrossSection {
     /// Depth by which the rigid belt segment (length `w`, tangent at the
     /// contact point) lies below the surface: the largest height of the section
     /// above the segment within |a| <= w/2, measured along the surface normal.
-    pub fn rigid_gouge(&self, width: f64) -> f64 {
+    pub(crate) fn rigid_gouge(&self, width: f64) -> f64 {
         let half = 0.5 * width;
         let mut worst: f64 = 0.0;
         for nodes in [&self.forward[..], &self.backward[..]] {
@@ -495,7 +492,7 @@ pub fn point_spacing(spec: &BeltSpec) -> f64 {
 
 /// What the contact model says about one point of a path.
 #[derive(Clone, Copy, Debug)]
-pub struct ContactPoint {
+pub(crate) struct ContactPoint {
     pub geom: LocalGeometry,
     /// Unit feed direction (sign not yet matched to the travel direction).
     pub t: Vector3<f64>,
@@ -508,7 +505,7 @@ pub struct ContactPoint {
 /// Runs the contact model along one path given by its uv points. `feed` gives
 /// the feed direction at a point, `hint` the side the next path lies on.
 /// Points where the surface normal is undefined are skipped and counted.
-pub fn analyse_path(
+pub(crate) fn analyse_path(
     surface: &NurbsSurface,
     uvs: &[Vector2<f64>],
     feed: &dyn Fn(&LocalGeometry) -> Vector3<f64>,
@@ -548,7 +545,7 @@ pub fn analyse_path(
 /// [`assemble`] of paths given with their levels (cross parameter or section
 /// offset), put in order of level first; a stable sort, so the planned
 /// paths keep their order among equal levels (the sections of one plane).
-pub fn assemble_levelled(
+pub(crate) fn assemble_levelled(
     mut paths: Vec<(f64, Vec<ContactPoint>)>,
     spec: &BeltSpec,
     result: &mut toolpath_formats::PlanResult,
@@ -566,7 +563,7 @@ pub fn assemble_levelled(
 /// Turns analysed paths (in machining order) into result passes: each pass
 /// runs opposite to the previous one (zig-zag), feed and wheel axis follow the
 /// travel direction. Fills `max_gouge_mm` and the contact-path length.
-pub fn assemble(
+pub(crate) fn assemble(
     paths: Vec<Vec<ContactPoint>>,
     spec: &BeltSpec,
     result: &mut toolpath_formats::PlanResult,

@@ -17,14 +17,17 @@ use toolpath_kernel::geometry::{LocalGeometry, NurbsSurface};
 /// Passes beyond this mean the step collapsed (bad geometry), not a real plan.
 const MAX_PASSES: usize = 20_000;
 
-pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-    plan_with(job, progress, &Refinement::default())
-}
+/// The strategy `belt_iso_parametric`.
+pub(crate) static BELT_ISO_PARAMETRIC: super::BeltStrategy = super::BeltStrategy {
+    id: toolpath_formats::Strategy::BeltIsoParametric,
+    levels: crate::strategy::PathLevels::CrossParameter,
+    plan_with,
+};
 
-/// [`plan`] as refined by the removal simulation (`crate::refine`): steps
+/// The plan as refined by the removal simulation (`crate::refine`): steps
 /// aiming below h where it found material left, more paths on the
 /// iso-curves at its added cross parameters.
-pub fn plan_with(
+pub(crate) fn plan_with(
     job: &Job,
     progress: &dyn Progress,
     refinement: &Refinement,
@@ -105,7 +108,7 @@ fn iso_curve(surface: &NurbsSurface, feed_u: bool, c: f64, spacing: f64) -> Vec<
 /// The contact paths in machining order with their cross parameters, and
 /// what was noticed on the way.
 #[allow(clippy::type_complexity)]
-pub fn plan_paths(
+pub(crate) fn plan_paths(
     surface: &NurbsSurface,
     spec: &BeltSpec,
     feed_dir: FeedDirection,

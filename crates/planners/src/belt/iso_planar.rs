@@ -58,7 +58,7 @@ pub fn min_curvature_directions(surface: &NurbsSurface, n: usize) -> Vec<Vector3
 /// The local geometry at the centres of a grid of `n x n` cells in
 /// parameter space, row by row along u; points where it is undefined are
 /// left out.
-pub fn cell_geometry(surface: &NurbsSurface, n: usize) -> Vec<LocalGeometry> {
+pub(crate) fn cell_geometry(surface: &NurbsSurface, n: usize) -> Vec<LocalGeometry> {
     let ((u0, u1), (v0, v1)) = surface.domain();
     let mut cells = Vec::with_capacity(n * n);
     for i in 0..n {
@@ -77,7 +77,7 @@ pub fn cell_geometry(surface: &NurbsSurface, n: usize) -> Vec<LocalGeometry> {
 /// surface more than h there: kappa w^2 / 8 > h), then the other one if that
 /// is not, else the less concave one. Points where both curvatures are equal
 /// in size have no direction and are left out.
-pub fn belt_directions(cells: &[LocalGeometry], concave_limit: f64) -> Vec<Vector3<f64>> {
+pub(crate) fn belt_directions(cells: &[LocalGeometry], concave_limit: f64) -> Vec<Vector3<f64>> {
     let mut dirs = Vec::with_capacity(cells.len());
     for g in cells {
         let (kmin, kmax) = (g.k_min.abs(), g.k_max.abs());
@@ -152,7 +152,10 @@ pub fn section_normal_from_directions(dirs: &[Vector3<f64>]) -> Option<SectionNo
 /// scallop height: the mean of the least-curvature directions, unless the
 /// mean of [`belt_directions`] (which turn away from concave sections) lets
 /// the rigid belt sink in less by more than h / 2 ([`rigid_sinking`]).
-pub fn automatic_section_normal(surface: &NurbsSurface, spec: &BeltSpec) -> Option<SectionNormal> {
+pub(crate) fn automatic_section_normal(
+    surface: &NurbsSurface,
+    spec: &BeltSpec,
+) -> Option<SectionNormal> {
     let cells = cell_geometry(surface, NORMAL_SAMPLES);
     let least = section_normal_from_directions(&belt_directions(&cells, f64::INFINITY));
     let concave_limit = 8.0 * spec.scallop / (spec.width * spec.width);
@@ -173,7 +176,7 @@ pub fn automatic_section_normal(surface: &NurbsSurface, spec: &BeltSpec) -> Opti
 /// How deep a rigid belt of width `w` lying along the tangent projection of
 /// `normal` (the belt axis of the section planes with that normal) sinks into
 /// concave sections at most, kappa w^2 / 8 over the points `cells`.
-pub fn rigid_sinking(cells: &[LocalGeometry], normal: Vector3<f64>, width: f64) -> f64 {
+pub(crate) fn rigid_sinking(cells: &[LocalGeometry], normal: Vector3<f64>, width: f64) -> f64 {
     let mut worst: f64 = 0.0;
     for g in cells {
         let axis = normal - g.forms.n * normal.dot(&g.forms.n);
@@ -188,14 +191,17 @@ pub fn rigid_sinking(cells: &[LocalGeometry], normal: Vector3<f64>, width: f64) 
     worst
 }
 
-pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-    plan_with(job, progress, &Refinement::default())
-}
+/// The strategy `belt_iso_planar`.
+pub(crate) static BELT_ISO_PLANAR: super::BeltStrategy = super::BeltStrategy {
+    id: toolpath_formats::Strategy::BeltIsoPlanar,
+    levels: crate::strategy::PathLevels::SectionPlane,
+    plan_with,
+};
 
-/// [`plan`] as refined by the removal simulation (`crate::refine`): steps
+/// The plan as refined by the removal simulation (`crate::refine`): steps
 /// aiming below h where it found material left, more paths in the section
 /// planes at its added offsets along the section normal.
-pub fn plan_with(
+pub(crate) fn plan_with(
     job: &Job,
     progress: &dyn Progress,
     refinement: &Refinement,
@@ -363,7 +369,7 @@ fn next_step(
 /// The contact paths in machining order (plane offsets increasing along the
 /// normal) with their plane offsets, and what was noticed on the way.
 #[allow(clippy::type_complexity)]
-pub fn plan_paths(
+pub(crate) fn plan_paths(
     surface: &NurbsSurface,
     spec: &BeltSpec,
     normal: Vector3<f64>,
@@ -388,16 +394,59 @@ pub fn plan_paths(
     // Keep the end planes a hair inside so that they still cut the surface.
     let margin = 1e-6 * extent;
     let (lo, hi) = (lo + margin, hi - margin);
-    let start = 0.5 * (lo + hi);
-    let feed = move |g: &LocalGeometry| -> Vector3<f64> { normal.cross(&g.forms.n) };
+    let sections = Sections {
+        surface,
+        spec,
+        normal,
+        refinement,
+        options,
+        range: (lo, hi),
+        extent,
+    };
     let mut diag = contact::Diagnostics::default();
-    let mut sides: Vec<Vec<(f64, Vec<ContactPoint>)>> = Vec::new();
-    for (side, sign) in [(0usize, 1.0), (1, -1.0)] {
-        let dir = normal * sign;
-        let hint = move |_: &LocalGeometry| -> Vector3<f64> { dir };
+    let plus = sections.side(0, &mut diag, progress)?;
+    let mut minus = sections.side(1, &mut diag, progress)?;
+    // Machining order: the - side from its far end, then the + side.
+    minus.reverse();
+    minus.extend(plus);
+    if minus.iter().all(|(_, p)| p.is_empty()) {
+        return Err(Error::planning(
+            "the belt cannot reach the surface: the section planes give no contact path",
+        ));
+    }
+    Ok((minus, diag))
+}
+
+/// The section planes of one plan: normal, offsets `range` (the surface's
+/// extent along the normal, a hair inside), and the settings every plane
+/// shares.
+struct Sections<'a> {
+    surface: &'a NurbsSurface,
+    spec: &'a BeltSpec,
+    normal: Vector3<f64>,
+    refinement: &'a Refinement,
+    options: SectionOptions,
+    range: (f64, f64),
+    /// The extent along the normal before the margins, mm.
+    extent: f64,
+}
+
+impl Sections<'_> {
+    /// The paths of one side (0: towards +normal, 1: towards -normal) from
+    /// the middle plane, each with its offset, in stepping order. The middle
+    /// plane is planned on the + side only; the - side steps from it.
+    fn side(
+        &self,
+        side: usize,
+        diag: &mut contact::Diagnostics,
+        progress: &dyn Progress,
+    ) -> Result<Vec<(f64, Vec<ContactPoint>)>> {
+        let (lo, hi) = self.range;
+        let (extent, normal) = (self.extent, self.normal);
+        let sign = if side == 0 { 1.0 } else { -1.0 };
+        let start = 0.5 * (lo + hi);
         let limit = if sign > 0.0 { hi } else { lo };
         let mut paths_side = Vec::new();
-        // The start plane is planned on the + side only; the - side steps from it.
         let mut offset = start;
         let mut first = true;
         loop {
@@ -405,21 +454,7 @@ pub fn plan_paths(
             let plane = Plane::new(Point3::from(normal * offset), normal).ok_or_else(|| {
                 Error::invalid("section_normal", "must be a finite non-zero vector")
             })?;
-            let curves = section_curves(surface, &plane, &options);
-            let mut step = f64::INFINITY;
-            let mut any_curve = false;
-            let mut analysed = Vec::new();
-            let aim = BeltSpec {
-                scallop: spec.scallop * refinement.factor(offset, sign > 0.0),
-                ..*spec
-            };
-            for uvs in &curves {
-                let path =
-                    contact::analyse_path(surface, uvs, &feed, &hint, &aim, !last, &mut diag);
-                step = step.min(next_step(surface, spec, &path, dir, extent));
-                any_curve |= !path.is_empty();
-                analysed.push(path);
-            }
+            let (analysed, step, any_curve) = self.plane_paths(&plane, offset, sign, last, diag);
             if !(side == 1 && first) {
                 paths_side.extend(analysed.into_iter().map(|p| (offset, p)));
             }
@@ -448,7 +483,7 @@ pub fn plan_paths(
             if paths_side.len() >= MAX_PASSES {
                 return Err(Error::planning(format!(
                     "more than {MAX_PASSES} belt passes needed: scallop {} mm is too small for this surface",
-                    spec.scallop
+                    self.spec.scallop
                 )));
             }
             offset += sign * step;
@@ -457,17 +492,39 @@ pub fn plan_paths(
             }
             first = false;
         }
-        sides.push(paths_side);
+        Ok(paths_side)
     }
-    // Machining order: the - side from its far end, then the + side.
-    let mut minus = sides.pop().unwrap_or_default();
-    let plus = sides.pop().unwrap_or_default();
-    minus.reverse();
-    minus.extend(plus);
-    if minus.iter().all(|(_, p)| p.is_empty()) {
-        return Err(Error::planning(
-            "the belt cannot reach the surface: the section planes give no contact path",
-        ));
+
+    /// The contact paths of the section `plane` at `offset`, stepping
+    /// towards `sign` x normal (the last plane with no next step), with the
+    /// step to the next plane (infinite when no path gives one) and whether
+    /// any path has contacts.
+    fn plane_paths(
+        &self,
+        plane: &Plane,
+        offset: f64,
+        sign: f64,
+        last: bool,
+        diag: &mut contact::Diagnostics,
+    ) -> (Vec<Vec<ContactPoint>>, f64, bool) {
+        let (surface, spec, normal) = (self.surface, self.spec, self.normal);
+        let feed = move |g: &LocalGeometry| -> Vector3<f64> { normal.cross(&g.forms.n) };
+        let dir = normal * sign;
+        let hint = move |_: &LocalGeometry| -> Vector3<f64> { dir };
+        let curves = section_curves(surface, plane, &self.options);
+        let mut step = f64::INFINITY;
+        let mut any_curve = false;
+        let mut analysed = Vec::new();
+        let aim = BeltSpec {
+            scallop: spec.scallop * self.refinement.factor(offset, sign > 0.0),
+            ..*spec
+        };
+        for uvs in &curves {
+            let path = contact::analyse_path(surface, uvs, &feed, &hint, &aim, !last, diag);
+            step = step.min(next_step(surface, spec, &path, dir, self.extent));
+            any_curve |= !path.is_empty();
+            analysed.push(path);
+        }
+        (analysed, step, any_curve)
     }
-    Ok((minus, diag))
 }

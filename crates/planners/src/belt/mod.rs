@@ -10,26 +10,40 @@
 //!   same way.
 
 pub mod contact;
-pub mod iso_parametric;
+pub(crate) mod iso_parametric;
 pub mod iso_planar;
 
+use crate::refine::Refinement;
+use crate::strategy::PathLevels;
 use crate::Progress;
-use toolpath_formats::{Job, PlanResult, Strategy};
-use toolpath_kernel::error::{Error, Result};
+use toolpath_formats::{Job, PlanResult};
+use toolpath_kernel::error::Result;
 
-/// Plans a belt job as refined by the removal simulation
-/// ([`crate::refine`]).
-pub fn plan_with(
-    job: &Job,
-    progress: &dyn Progress,
-    refinement: &crate::refine::Refinement,
-) -> Result<PlanResult> {
-    match job.strategy {
-        Strategy::BeltIsoParametric => iso_parametric::plan_with(job, progress, refinement),
-        Strategy::BeltIsoPlanar => iso_planar::plan_with(job, progress, refinement),
-        other => Err(Error::planning(format!(
-            "internal: {} is not a belt strategy",
-            other.name()
-        ))),
+/// A belt strategy: contact paths on levels, each planned by the strategy's
+/// `plan_with` with what the removal simulation's refinement rounds changed
+/// (nothing at first).
+pub(crate) struct BeltStrategy {
+    id: toolpath_formats::Strategy,
+    levels: PathLevels,
+    plan_with: fn(&Job, &dyn Progress, &Refinement) -> Result<PlanResult>,
+}
+
+impl crate::Strategy for BeltStrategy {
+    fn id(&self) -> toolpath_formats::Strategy {
+        self.id
+    }
+    fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+        (self.plan_with)(job, progress, &Refinement::default())
+    }
+    fn path_levels(&self) -> Option<PathLevels> {
+        Some(self.levels)
+    }
+    fn plan_refined(
+        &self,
+        job: &Job,
+        progress: &dyn Progress,
+        refinement: &Refinement,
+    ) -> Result<PlanResult> {
+        (self.plan_with)(job, progress, refinement)
     }
 }

@@ -119,7 +119,7 @@ impl Pose {
 }
 
 /// Tool tip (centre of the bottom face) and axis in the local frame.
-pub fn tip_and_axis(tool: CutterShape, pos: Position) -> ([f64; 3], [f64; 3]) {
+pub(crate) fn tip_and_axis(tool: CutterShape, pos: Position) -> ([f64; 3], [f64; 3]) {
     let (st, ct) = pos.theta.sin_cos();
     let (sp, cp) = pos.phi.sin_cos();
     // Tube-centre circle centre = C2 - R0 o', o' = (cos, 0, -sin); tip = centre - r axis.
@@ -283,7 +283,7 @@ const PSI_STEP: f64 = std::f64::consts::TAU / PSI_SAMPLES as f64;
 
 /// Lowest point of the whole error curve: min over psi of the sphere clearance.
 /// Returns (error, psi at the minimum).
-pub fn min_error(tool: CutterShape, pos: Position, h: &dyn LocalHeight) -> (f64, f64) {
+pub(crate) fn min_error(tool: CutterShape, pos: Position, h: &dyn LocalHeight) -> (f64, f64) {
     let pose = Pose::new(tool, pos);
     let cands = minimum_candidates(&pose, h);
     refine_minimum(&pose, h, &cands)
@@ -412,7 +412,8 @@ fn disc_clearance(pose: &Pose, h: &dyn LocalHeight) -> f64 {
 /// The error curve E(y): min over the spheres that reach y (front and back
 /// halves of the tube circle) of the sphere's lowest point minus the part.
 /// `f64::INFINITY` beyond the tool (|y| >= R0 + r).
-pub fn error_at(tool: CutterShape, pos: Position, h: &dyn LocalHeight, y: f64) -> f64 {
+#[cfg(test)]
+pub(crate) fn error_at(tool: CutterShape, pos: Position, h: &dyn LocalHeight, y: f64) -> f64 {
     pose_error_at(&Pose::new(tool, pos), h, y)
 }
 
@@ -461,7 +462,7 @@ fn pose_error_and_sphere(pose: &Pose, h: &dyn LocalHeight, y: f64) -> (f64, f64)
 /// rises behind the contact (a concave feed curve), up to 2 R0 + r back; a
 /// run-out past the far edge must carry the tool that far for the last
 /// sections of the face to be cut as planned.
-pub fn strip_trailing_reach(
+pub(crate) fn strip_trailing_reach(
     tool: CutterShape,
     pos: Position,
     h: &dyn LocalHeight,
@@ -482,18 +483,6 @@ pub fn strip_trailing_reach(
     reach + pose.r
 }
 
-/// Cross offsets of the outermost crossings of `level` by the error curve,
-/// (y_left, y_right) with y_left <= 0 <= y_right when the middle is below `level`.
-/// `None` when the curve never gets below `level`.
-pub fn outer_crossings(
-    tool: CutterShape,
-    pos: Position,
-    h: &dyn LocalHeight,
-    level: f64,
-) -> Option<(f64, f64)> {
-    outer_crossings_near(tool, pos, h, level, None)
-}
-
 /// Spacing of the scan for the outermost crossing, as a fraction of the tool's reach.
 const SCAN_STEPS: usize = 21;
 
@@ -501,9 +490,12 @@ const SCAN_STEPS: usize = 21;
 /// one found near a neighbour's, mm.
 const OUTWARD_CHECK_MM: f64 = 5.0;
 
-/// [`outer_crossings`] starting from the neighbouring drive point's crossings
-/// `hint`: a bracket of +-0.25 mm around each, checked to have nothing below
-/// `level` further out, replaces the scan from the tool's edge.
+/// Cross offsets of the outermost crossings of `level` by the error curve,
+/// (y_left, y_right) with y_left <= 0 <= y_right when the middle is below
+/// `level`; `None` when the curve never gets below `level`. With the
+/// neighbouring drive point's crossings `hint`, a bracket of +-0.25 mm
+/// around each, checked to have nothing below `level` further out, replaces
+/// the scan from the tool's edge.
 fn outer_crossings_near(
     tool: CutterShape,
     pos: Position,
@@ -839,7 +831,7 @@ pub fn solve_conventional(
 /// than the one pose's curve shows, by less than this share on the faces
 /// tested (docs/methods.md, "Where MPEC does not apply"; tests/step_import.rs,
 /// `mpec_plans_each_step_sample_face_within_its_band`).
-pub const CONVENTIONAL_MARGIN: f64 = 0.1;
+pub(crate) const CONVENTIONAL_MARGIN: f64 = 0.1;
 
 fn solve_at(
     tool: CutterShape,

@@ -10,6 +10,6 @@
 //!   strips meet within the band.
 
 pub mod error_curve;
-pub mod positioning;
+pub(crate) mod positioning;
 
 pub use positioning::Planner;

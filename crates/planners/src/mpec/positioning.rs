@@ -29,7 +29,7 @@ use toolpath_kernel::tools::CutterShape;
 use toolpath_kernel::tools::Tool;
 
 /// Drive-point spacing along a pass, mm (the paper: 400 points on ~600 mm).
-pub const POINT_SPACING: f64 = 1.5;
+pub(crate) const POINT_SPACING: f64 = 1.5;
 
 /// Drive points per parallel chunk of a pass (each chunk's first point is
 /// solved without a neighbour's warm start).
@@ -45,10 +45,10 @@ pub struct Frame {
 }
 
 impl Frame {
-    pub fn to_world(&self, local: [f64; 3]) -> Point3<f64> {
+    pub(crate) fn to_world(&self, local: [f64; 3]) -> Point3<f64> {
         self.p + self.e1 * local[0] + self.e2 * local[1] + self.e3 * local[2]
     }
-    pub fn dir_to_world(&self, local: [f64; 3]) -> Vector3<f64> {
+    pub(crate) fn dir_to_world(&self, local: [f64; 3]) -> Vector3<f64> {
         self.e1 * local[0] + self.e2 * local[1] + self.e3 * local[2]
     }
 }
@@ -58,7 +58,7 @@ impl Frame {
 /// at the drive point or, where the footprint's parameters were marched
 /// ([`march_footprint`]), at the nearest marched grid point (next to a pole
 /// the parameters are far from linear in the distance and one seed strays).
-pub struct ExactHeight<'a> {
+pub(crate) struct ExactHeight<'a> {
     pub surface: &'a NurbsSurface,
     pub frame: Frame,
     pub uv: Vector2<f64>,
@@ -76,7 +76,7 @@ impl LocalHeight for ExactHeight<'_> {
 
 /// Surface parameters at the [`fit_box`]'s 7 x 7 grid points.
 #[derive(Clone, Copy, Debug)]
-pub struct SeedGrid {
+pub(crate) struct SeedGrid {
     bx: (f64, f64),
     by: (f64, f64),
     uv: [Vector2<f64>; FIT_GRID * FIT_GRID],
@@ -114,7 +114,7 @@ const FIT_GRID: usize = 7;
 /// Quartic height field z = sum c_ij X^i Y^j (i + j <= 4, X = x / L, Y = y / L)
 /// fitted to exact surface points.
 #[derive(Clone, Copy, Debug)]
-pub struct FittedHeight {
+pub(crate) struct FittedHeight {
     c: [f64; FIT_TERMS],
     inv_scale: f64,
 }
@@ -227,7 +227,7 @@ fn fit_samples(
 /// Fits the quartic to a 7 x 7 grid of exact surface points covering the
 /// tool's footprint behind the drive point, reached by a linear step in
 /// (u, v). Returns the fit and its largest residual at the fitted points (mm).
-pub fn fit_height(
+pub(crate) fn fit_height(
     surface: &NurbsSurface,
     g: &LocalGeometry,
     frame: &Frame,
@@ -265,7 +265,7 @@ pub fn fit_height(
 /// linear in the distance (next to a pole or a collapsed edge) the linear
 /// step of [`fit_height`] strays, while the height field stays smooth.
 /// Returns the fit, its largest residual (mm) and the marched parameters.
-pub fn fit_height_inverted(
+pub(crate) fn fit_height_inverted(
     surface: &NurbsSurface,
     g: &LocalGeometry,
     frame: &Frame,
@@ -280,7 +280,7 @@ pub fn fit_height_inverted(
 /// and their surface parameters, each found by the frame inversion from its
 /// neighbour's parameters: rows outwards from the drive point's own y, each
 /// row's middle seeded by the last row's.
-pub fn march_footprint(
+pub(crate) fn march_footprint(
     surface: &NurbsSurface,
     g: &LocalGeometry,
     frame: &Frame,
@@ -406,12 +406,7 @@ impl<'a> Planner<'a> {
             ));
         }
         let delta = job.tolerance()?;
-        if !(delta.is_finite() && delta > 0.0) {
-            return Err(Error::invalid(
-                "tolerance",
-                format!("must be positive, got {delta}"),
-            ));
-        }
+        toolpath_kernel::validate::positive("tolerance", delta)?;
         if delta >= 0.5 * corner_radius {
             return Err(Error::invalid(
                 "tolerance",
@@ -469,7 +464,7 @@ impl<'a> Planner<'a> {
     /// Cross-parameter range of the face: the domain's, narrowed to the
     /// outer trim loop's extent on a trimmed face (no pass is planned
     /// wholly beside the face).
-    pub fn face_cross_range(&self) -> (f64, f64) {
+    pub(crate) fn face_cross_range(&self) -> (f64, f64) {
         let (_, (t0, t1)) = self.ranges();
         let Some(trim) = self.surface.trim() else {
             return (t0, t1);
@@ -570,7 +565,7 @@ impl<'a> Planner<'a> {
     }
 
     /// Positions the tool at (s, t).
-    pub fn drive_point(
+    pub(crate) fn drive_point(
         &self,
         s: f64,
         t: f64,
@@ -673,7 +668,7 @@ impl<'a> Planner<'a> {
     /// either side of its lowest point. Where a pass's strip is narrower
     /// (the tool lifted clear of a spot too tight for it), the passes are
     /// still spaced by this and the simulator reports what is left.
-    pub fn floor_half_width(&self) -> f64 {
+    pub(crate) fn floor_half_width(&self) -> f64 {
         (2.0 * self.tool.corner_radius * self.delta).sqrt()
     }
 
@@ -965,64 +960,53 @@ fn trial_samples(samples: &[(f64, bool)]) -> Vec<(f64, bool)> {
         .collect()
 }
 
-/// Plans an MPEC job.
-pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-    plan_refined(job, progress, &[])
+/// The strategy `mpec`: passes on levels of the cross parameter, refined
+/// with passes added at the middle of the gaps the simulator finds above
+/// the band.
+pub struct Mpec;
+
+impl crate::Strategy for Mpec {
+    fn id(&self) -> toolpath_formats::Strategy {
+        toolpath_formats::Strategy::Mpec
+    }
+    fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+        plan_refined(job, progress, &[])
+    }
+    fn path_levels(&self) -> Option<crate::strategy::PathLevels> {
+        Some(crate::strategy::PathLevels::CrossParameter)
+    }
+    fn plan_refined(
+        &self,
+        job: &Job,
+        progress: &dyn Progress,
+        refinement: &crate::refine::Refinement,
+    ) -> Result<PlanResult> {
+        plan_refined(job, progress, &refinement.added)
+    }
 }
 
-/// [`plan`] with more passes at the cross parameters `added` (the levels
+/// Plans an MPEC job with more passes at the cross parameters `added` (the levels
 /// of `crate::refine`), in order of the cross parameter.
-pub fn plan_refined(job: &Job, progress: &dyn Progress, added: &[f64]) -> Result<PlanResult> {
+pub(crate) fn plan_refined(
+    job: &Job,
+    progress: &dyn Progress,
+    added: &[f64],
+) -> Result<PlanResult> {
     let planner = Planner::from_job(job)?;
     plan_with(&planner, &job.job_id, progress, added)
 }
 
 /// Plans with a prepared [`Planner`] (tests use it to force exact heights),
 /// adding passes at the cross parameters `added`.
-pub fn plan_with(
+pub(crate) fn plan_with(
     planner: &Planner,
     job_id: &str,
     progress: &dyn Progress,
     added: &[f64],
 ) -> Result<PlanResult> {
     let samples = planner.feed_samples();
+    let mut passes = place_passes(planner, &samples, progress)?;
     let (t0, t1) = planner.face_cross_range();
-    let mut passes: Vec<(f64, Vec<DrivePoint>)> = Vec::new();
-    // First pass: its lower strip edge on the boundary t0.
-    let probe = planner.pass(t0, &trial_samples(&samples))?;
-    let (_, minus0) = planner.narrowest(&probe);
-    let (mut t, mut pass) =
-        planner.place_next(&samples, (t0, t1), 0.0, planner.usable(minus0), progress)?;
-    loop {
-        let plus = planner.usable(planner.narrowest(&pass).0);
-        passes.push((t, pass));
-        progress.set(((t - t0) / (t1 - t0)).clamp(0.0, 1.0) as f32 * 0.99);
-        progress.check()?;
-        if t >= t1 || planner.gap(&samples, t, t1) <= plus {
-            break;
-        }
-        if passes.len() > 10_000 {
-            return Err(Error::planning(
-                "more than 10 000 passes: the strips are far too narrow for this surface",
-            ));
-        }
-        let (_, minus_prev) =
-            planner.narrowest(passes.last().map(|p| p.1.as_slice()).unwrap_or(&[]));
-        let (nt, np) = planner.place_next(
-            &samples,
-            (t, t1),
-            plus,
-            planner.usable(minus_prev),
-            progress,
-        )?;
-        if nt <= t {
-            return Err(Error::planning(format!(
-                "the drive curves stopped advancing at cross parameter {t:.6}: zero strip width"
-            )));
-        }
-        t = nt;
-        pass = np;
-    }
     for &t in added {
         if (t0..=t1).contains(&t) {
             progress.check()?;
@@ -1032,29 +1016,94 @@ pub fn plan_with(
     // Stable: the planned passes keep their order among equal levels.
     passes.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut result = PlanResult::new(job_id, "mpec");
-    let mut not_applicable = 0usize;
-    let mut lifted: Vec<Point3<f64>> = Vec::new();
-    let mut narrow: Vec<Point3<f64>> = Vec::new();
+    let found = assemble_passes(planner, &passes, &mut result);
+    result.warnings.push(runout_note(planner, &passes));
+    found.warn(planner, &mut result);
+    Ok(result)
+}
+
+/// The passes across the face, each at its cross parameter: the first with
+/// its lower strip edge on the boundary t0, each next placed so that the
+/// facing half-widths meet, until the last strip reaches t1.
+fn place_passes(
+    planner: &Planner,
+    samples: &[(f64, bool)],
+    progress: &dyn Progress,
+) -> Result<Vec<(f64, Vec<DrivePoint>)>> {
+    let (t0, t1) = planner.face_cross_range();
+    let mut passes: Vec<(f64, Vec<DrivePoint>)> = Vec::new();
+    let probe = planner.pass(t0, &trial_samples(samples))?;
+    let (_, minus0) = planner.narrowest(&probe);
+    let (mut t, mut pass) =
+        planner.place_next(samples, (t0, t1), 0.0, planner.usable(minus0), progress)?;
+    loop {
+        let plus = planner.usable(planner.narrowest(&pass).0);
+        passes.push((t, pass));
+        progress.set(((t - t0) / (t1 - t0)).clamp(0.0, 1.0) as f32 * 0.99);
+        progress.check()?;
+        if t >= t1 || planner.gap(samples, t, t1) <= plus {
+            return Ok(passes);
+        }
+        if passes.len() > 10_000 {
+            return Err(Error::planning(
+                "more than 10 000 passes: the strips are far too narrow for this surface",
+            ));
+        }
+        let (_, minus_prev) =
+            planner.narrowest(passes.last().map(|p| p.1.as_slice()).unwrap_or(&[]));
+        let (nt, np) =
+            planner.place_next(samples, (t, t1), plus, planner.usable(minus_prev), progress)?;
+        if nt <= t {
+            return Err(Error::planning(format!(
+                "the drive curves stopped advancing at cross parameter {t:.6}: zero strip width"
+            )));
+        }
+        t = nt;
+        pass = np;
+    }
+}
+
+/// Drive points an MPEC plan reports in its warnings.
+struct Found {
+    not_applicable: usize,
+    /// Where the tool is lifted clear of a concavity it cannot follow.
+    lifted: Vec<Point3<f64>>,
+    /// Where the band holds over less than the floor half-width on a side.
+    narrow: Vec<Point3<f64>>,
+}
+
+/// Puts the passes into `result` with their strip-width figures in
+/// `extra`; returns the drive points the warnings report.
+fn assemble_passes(
+    planner: &Planner,
+    passes: &[(f64, Vec<DrivePoint>)],
+    result: &mut PlanResult,
+) -> Found {
+    let mut found = Found {
+        not_applicable: 0,
+        lifted: Vec::new(),
+        narrow: Vec::new(),
+    };
     let floor = planner.floor_half_width();
     let sign = planner.cross_sign();
     let mut widths = Vec::new();
-    for (_, pass) in &passes {
+    for (_, pass) in passes {
         let inside: Vec<f64> = pass
             .iter()
             .filter(|p| p.inside)
             .map(|p| p.solution.strip_width())
             .collect();
         widths.extend(inside.iter().copied());
-        not_applicable += pass
+        found.not_applicable += pass
             .iter()
             .filter(|p| p.inside && p.solution.status == Status::NotApplicable)
             .count();
         for p in pass.iter().filter(|p| p.inside) {
             let (a, b) = p.half_widths(sign);
             if p.solution.status == Status::Lifted {
-                lifted.push(p.frame.p);
+                found.lifted.push(p.frame.p);
             } else if a.min(b) < floor {
-                narrow.push(p.frame.p);
+                found.narrow.push(p.frame.p);
             }
         }
         result.passes.push(Pass {
@@ -1070,18 +1119,15 @@ pub fn plan_with(
     } else {
         widths.iter().copied().fold(f64::INFINITY, f64::min)
     };
-    result
-        .stats
-        .extra
-        .insert("mean_strip_width_mm".into(), mean);
-    result
-        .stats
-        .extra
-        .insert("min_strip_width_mm".into(), narrowest);
-    result
-        .stats
-        .extra
-        .insert("not_applicable_points".into(), not_applicable as f64);
+    let extra = &mut result.stats.extra;
+    extra.insert("mean_strip_width_mm".into(), mean);
+    extra.insert("min_strip_width_mm".into(), narrowest);
+    extra.insert("not_applicable_points".into(), found.not_applicable as f64);
+    found
+}
+
+/// How far the passes run past the far edge of the surface, in words.
+fn runout_note(planner: &Planner, passes: &[(f64, Vec<DrivePoint>)]) -> String {
     let (least, _) = planner.runout_counts(planner.feed_grid().2);
     let ((_, s1), _) = planner.ranges();
     let feed_of = |p: &DrivePoint| match planner.feed {
@@ -1104,31 +1150,43 @@ pub fn plan_with(
             2.0 * r0 + r
         );
     }
-    result.warnings.push(runout);
-    if not_applicable > 0 {
-        result.warnings.push(format!(
-            "{not_applicable} drive points are convex (or flat) across the feed, or twisted so that the \"W\" is narrower on one side than the conventional strip: MPEC does not apply there; they use the conventional position (tool touching, smallest non-gouging lead) with the strip where the scallop stays below the tolerance"
-        ));
+    runout
+}
+
+impl Found {
+    /// The warnings for the drive points where MPEC does not apply, the
+    /// tool is lifted or the band is narrow (and `lifted_points` in `extra`).
+    fn warn(&self, planner: &Planner, result: &mut PlanResult) {
+        let Found {
+            not_applicable,
+            lifted,
+            narrow,
+        } = self;
+        if *not_applicable > 0 {
+            result.warnings.push(format!(
+                "{not_applicable} drive points are convex (or flat) across the feed, or twisted so that the \"W\" is narrower on one side than the conventional strip: MPEC does not apply there; they use the conventional position (tool touching, smallest non-gouging lead) with the strip where the scallop stays below the tolerance"
+            ));
+        }
+        if !lifted.is_empty() {
+            result
+                .stats
+                .extra
+                .insert("lifted_points".into(), lifted.len() as f64);
+            result.warnings.push(format!(
+                "{} drive points{} lie where the part is concave tighter than the torus can follow at any lead: the tool is lifted clear there (no gouge beyond the tolerance) and leaves more than the tolerance; a smaller tool finishes them",
+                lifted.len(),
+                around(lifted)
+            ));
+        }
+        if !narrow.is_empty() {
+            let floor = planner.floor_half_width();
+            result.warnings.push(format!(
+                "{} drive points{} hold the band over less than {floor:.3} mm on one side (the corner radius at the tolerance); their passes are spaced by that and the simulator judges what is left",
+                narrow.len(),
+                around(narrow)
+            ));
+        }
     }
-    if !lifted.is_empty() {
-        result
-            .stats
-            .extra
-            .insert("lifted_points".into(), lifted.len() as f64);
-        result.warnings.push(format!(
-            "{} drive points{} lie where the part is concave tighter than the torus can follow at any lead: the tool is lifted clear there (no gouge beyond the tolerance) and leaves more than the tolerance; a smaller tool finishes them",
-            lifted.len(),
-            around(&lifted)
-        ));
-    }
-    if !narrow.is_empty() {
-        result.warnings.push(format!(
-            "{} drive points{} hold the band over less than {floor:.3} mm on one side (the corner radius at the tolerance); their passes are spaced by that and the simulator judges what is left",
-            narrow.len(),
-            around(&narrow)
-        ));
-    }
-    Ok(result)
 }
 
 #[cfg(test)]

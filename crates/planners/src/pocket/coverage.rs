@@ -307,7 +307,7 @@ impl SegmentIndex {
 
 /// Tools already used: their paths and radii.
 #[derive(Default)]
-pub struct Swept {
+pub(crate) struct Swept {
     tools: Vec<(SegmentIndex, f64)>,
 }
 
@@ -323,7 +323,7 @@ impl Swept {
         self.tools.iter().any(|(idx, r)| idx.within(p, r + tol))
     }
     /// Is p swept by one of the tools numbered `tools` (in the order added)?
-    pub fn covers_by(&self, tools: std::ops::Range<usize>, p: Point2, tol: f64) -> bool {
+    pub(crate) fn covers_by(&self, tools: std::ops::Range<usize>, p: Point2, tol: f64) -> bool {
         self.tools
             .get(tools)
             .is_some_and(|t| t.iter().any(|(idx, r)| idx.within(p, r + tol)))
@@ -332,14 +332,11 @@ impl Swept {
     pub fn len(&self) -> usize {
         self.tools.len()
     }
-    pub fn is_empty(&self) -> bool {
-        self.tools.is_empty()
-    }
 }
 
 /// A raster of the pocket (cell centres inside the pocket) and which cells
 /// the tools have swept, for the uncut area.
-pub struct Raster {
+pub(crate) struct Raster {
     origin: Point2,
     pub h: f64,
     nx: usize,
@@ -520,24 +517,9 @@ impl Raster {
     }
 
     /// Area of the pocket as rasterised, mm^2.
-    pub fn pocket_area(&self) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn pocket_area(&self) -> f64 {
         self.cells.iter().filter(|&&c| c != 0).count() as f64 * self.h * self.h
-    }
-
-    /// Centres of the uncut cells.
-    pub fn uncut_cells(&self) -> Vec<Point2> {
-        let mut out = Vec::new();
-        for j in 0..self.ny {
-            for i in 0..self.nx {
-                if self.cells[j * self.nx + i] == 1 {
-                    out.push([
-                        self.origin[0] + (i as f64 + 0.5) * self.h,
-                        self.origin[1] + (j as f64 + 0.5) * self.h,
-                    ]);
-                }
-            }
-        }
-        out
     }
 }
 

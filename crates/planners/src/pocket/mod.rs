@@ -11,4 +11,4 @@
 pub mod coverage;
 pub mod offset_passes;
 pub mod pocket_mat;
-pub mod tool_selection;
+pub(crate) mod tool_selection;

@@ -7,10 +7,10 @@ use cavalier_contours::shape_algorithms::{Shape, ShapeOffsetOptions};
 use toolpath_kernel::geometry::pocket::{Pocket, Point2};
 
 /// Chord error when arcs are flattened for output and distance checks, mm.
-pub const FLATTEN_TOL: f64 = 1e-4;
+pub(crate) const FLATTEN_TOL: f64 = 1e-4;
 
 /// The pocket as a cavalier shape (outer CCW, holes CW: positive offsets shrink it).
-pub fn pocket_shape(pocket: &Pocket) -> Shape<f64> {
+pub(crate) fn pocket_shape(pocket: &Pocket) -> Shape<f64> {
     let loops = std::iter::once(&pocket.outer)
         .chain(pocket.holes.iter())
         .map(|l| {
@@ -24,7 +24,7 @@ pub fn pocket_shape(pocket: &Pocket) -> Shape<f64> {
 }
 
 /// Closed tool-centre loops at inward offset `d` (arcs kept as bulges).
-pub fn inward_offset(shape: &Shape<f64>, d: f64) -> Vec<Polyline<f64>> {
+pub(crate) fn inward_offset(shape: &Shape<f64>, d: f64) -> Vec<Polyline<f64>> {
     let off = shape.parallel_offset(d, &ShapeOffsetOptions::default());
     off.ccw_plines
         .into_iter()
@@ -48,7 +48,7 @@ pub fn flatten(pl: &Polyline<f64>) -> Vec<Point2> {
 }
 
 /// Exact length of a polyline with arcs.
-pub fn exact_length(pl: &Polyline<f64>) -> f64 {
+pub(crate) fn exact_length(pl: &Polyline<f64>) -> f64 {
     pl.path_length()
 }
 
@@ -59,7 +59,10 @@ fn d2(a: Point2, b: Point2) -> f64 {
 /// Orders paths greedily by nearest next start, from `start`: open paths may be
 /// reversed, closed ones (first == last point) rotated to start at the vertex
 /// nearest to the tool. Returns the paths and the final tool position.
-pub fn order_paths(mut paths: Vec<Vec<Point2>>, start: Point2) -> (Vec<Vec<Point2>>, Point2) {
+pub(crate) fn order_paths(
+    mut paths: Vec<Vec<Point2>>,
+    start: Point2,
+) -> (Vec<Vec<Point2>>, Point2) {
     let mut out = Vec::with_capacity(paths.len());
     let mut at = start;
     while !paths.is_empty() {

@@ -493,59 +493,67 @@ pub fn plan_single_tool(
     })
 }
 
-pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-    let pocket = job.pocket()?;
-    let plan = plan_pocket(
-        pocket,
-        &job.tool_catalogue,
-        job.simulation_resolution,
-        progress,
-    )?;
-    let mut result = PlanResult::new(&job.job_id, job.strategy.name());
-    result.medial_axis = Some(
-        plan.medial_axis
-            .branches
-            .iter()
-            .map(|b| MedialBranch {
-                points: b.points.clone(),
-            })
-            .collect(),
-    );
-    result.dmax = Some(plan.medial_axis.dmax);
-    result.min_corner_radius = Some(plan.medial_axis.min_corner_radius);
-    result.stats.uncut_area_mm2 = Some(plan.uncut_area());
-    result.stats.path_length_per_tool_mm =
-        Some(plan.stages.iter().map(|s| s.path_length).collect());
-    for (i, s) in plan.stages.iter().enumerate() {
-        result
-            .stats
-            .extra
-            .insert(format!("tools[{i}].uncut_area_after_mm2"), s.uncut_after);
-        if let Some(r) = s.residual_dmax {
+/// The strategy `pocket_mat`.
+pub struct PocketMat;
+
+impl crate::Strategy for PocketMat {
+    fn id(&self) -> toolpath_formats::Strategy {
+        toolpath_formats::Strategy::PocketMat
+    }
+    fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+        let pocket = job.pocket()?;
+        let plan = plan_pocket(
+            pocket,
+            &job.tool_catalogue,
+            job.simulation_resolution,
+            progress,
+        )?;
+        let mut result = PlanResult::new(&job.job_id, job.strategy.name());
+        result.medial_axis = Some(
+            plan.medial_axis
+                .branches
+                .iter()
+                .map(|b| MedialBranch {
+                    points: b.points.clone(),
+                })
+                .collect(),
+        );
+        result.dmax = Some(plan.medial_axis.dmax);
+        result.min_corner_radius = Some(plan.medial_axis.min_corner_radius);
+        result.stats.uncut_area_mm2 = Some(plan.uncut_area());
+        result.stats.path_length_per_tool_mm =
+            Some(plan.stages.iter().map(|s| s.path_length).collect());
+        for (i, s) in plan.stages.iter().enumerate() {
             result
                 .stats
                 .extra
-                .insert(format!("tools[{i}].residual_dmax"), r);
+                .insert(format!("tools[{i}].uncut_area_after_mm2"), s.uncut_after);
+            if let Some(r) = s.residual_dmax {
+                result
+                    .stats
+                    .extra
+                    .insert(format!("tools[{i}].residual_dmax"), r);
+            }
         }
+        result
+            .stats
+            .extra
+            .insert("coverage_resolution_mm".into(), plan.resolution);
+        result.tools = Some(
+            plan.stages
+                .into_iter()
+                .map(|s| PocketTool {
+                    stage: s.stage.to_string(),
+                    diameter: s.diameter,
+                    passes: s.passes,
+                    path_length_mm: Some(s.path_length),
+                })
+                .collect(),
+        );
+        result.warnings = plan.warnings;
+        progress.set(1.0);
+        Ok(result)
     }
-    result
-        .stats
-        .extra
-        .insert("coverage_resolution_mm".into(), plan.resolution);
-    result.tools = Some(
-        plan.stages
-            .into_iter()
-            .map(|s| PocketTool {
-                stage: s.stage.to_string(),
-                diameter: s.diameter,
-                passes: s.passes,
-                path_length_mm: Some(s.path_length),
-            })
-            .collect(),
-    );
-    result.warnings = plan.warnings;
-    progress.set(1.0);
-    Ok(result)
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ const EPS: f64 = 1e-9;
 /// pass clears the whole machinable region and the smaller the tool the larger
 /// that region); if the catalogue has none there, the largest one below
 /// Dmax/2 (several contour passes). A pocket narrower than every tool is an error.
-pub fn roughing_diameter(dmax: f64, catalogue: &[f64]) -> Result<f64> {
+pub(crate) fn roughing_diameter(dmax: f64, catalogue: &[f64]) -> Result<f64> {
     let Some(&smallest) = catalogue.first() else {
         return Err(Error::invalid(
             "tool_catalogue",
@@ -38,7 +38,7 @@ pub fn roughing_diameter(dmax: f64, catalogue: &[f64]) -> Result<f64> {
 /// catalogue diameter D1 with Dmax1/2 <= D1 < previous, where Dmax1 is the
 /// largest medial-axis circle diameter left unmachined (one pass then clears
 /// the residual); if none satisfies Dmax1/2 <= D1, the largest below `previous`.
-pub fn cleaning_diameter(dmax1: f64, previous: f64, catalogue: &[f64]) -> Option<f64> {
+pub(crate) fn cleaning_diameter(dmax1: f64, previous: f64, catalogue: &[f64]) -> Option<f64> {
     let smaller = catalogue.iter().copied().filter(|&d| d < previous - EPS);
     let mut fallback = None;
     for d in smaller {
@@ -53,7 +53,7 @@ pub fn cleaning_diameter(dmax1: f64, previous: f64, catalogue: &[f64]) -> Option
 /// Root cleaning: the largest catalogue diameter not above twice the minimum
 /// concave-corner radius; the smallest tool when even that is too large
 /// (sharp corners: what it cannot reach stays uncut and is reported).
-pub fn root_diameter(min_corner_radius: f64, catalogue: &[f64]) -> Option<f64> {
+pub(crate) fn root_diameter(min_corner_radius: f64, catalogue: &[f64]) -> Option<f64> {
     catalogue
         .iter()
         .rev()

@@ -10,7 +10,7 @@ use toolpath_formats::{Pass, PlanResult};
 
 /// Crossings closer than this share of the domain's side to its edge are
 /// passes meeting on the edge, not passes crossing.
-pub const EDGE_SHARE: f64 = 0.002;
+pub(crate) const EDGE_SHARE: f64 = 0.002;
 
 /// Grid cells per domain side for the segment hash.
 const CELLS: f64 = 50.0;

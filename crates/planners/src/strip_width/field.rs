@@ -7,7 +7,7 @@ use nalgebra::{Matrix2, Vector2, Vector3};
 use toolpath_kernel::geometry::LocalGeometry;
 
 /// The strip-width tensor H = 1/2 (K_b G - D) in parameter coordinates.
-pub fn tensor_h(g: &LocalGeometry, k_b: f64) -> Matrix2<f64> {
+pub(crate) fn tensor_h(g: &LocalGeometry, k_b: f64) -> Matrix2<f64> {
     (g.forms.first * k_b - g.forms.second) * 0.5
 }
 
@@ -24,12 +24,11 @@ fn cholesky_inverse(g: &Matrix2<f64>) -> Option<Matrix2<f64>> {
 
 /// The field at one point.
 #[derive(Clone, Copy, Debug)]
-pub struct FieldSample {
+pub(crate) struct FieldSample {
     /// Optimal feed (largest mu) in parameter space, scaled to a unit 3-D tangent.
     pub feed_uv: Vector2<f64>,
-    /// Unit 3-D feed and cross-feed (n x feed).
+    /// Unit 3-D feed.
     pub feed: Vector3<f64>,
-    pub cross: Vector3<f64>,
     /// Generalised eigenvalues, mu_feed >= mu_cross.
     pub mu_feed: f64,
     pub mu_cross: f64,
@@ -38,7 +37,7 @@ pub struct FieldSample {
 /// Optimal feed from the generalised eigenproblem H t = mu G t, solved as the
 /// right eigenvector of G^-1 H (a vector, not the covector G t). `None` where
 /// the two eigenvalues coincide (a degenerate point: every direction is optimal).
-pub fn feed_at(g: &LocalGeometry, k_b: f64) -> Option<FieldSample> {
+pub(crate) fn feed_at(g: &LocalGeometry, k_b: f64) -> Option<FieldSample> {
     let gi = g.forms.first.try_inverse()?;
     let m = gi * tensor_h(g, k_b);
     let (a, b, c, d) = (m[(0, 0)], m[(0, 1)], m[(1, 0)], m[(1, 1)]);
@@ -67,7 +66,6 @@ pub fn feed_at(g: &LocalGeometry, k_b: f64) -> Option<FieldSample> {
     Some(FieldSample {
         feed_uv: t / len,
         feed,
-        cross: g.forms.n.cross(&feed),
         mu_feed: mu,
         mu_cross: mean - disc,
     })
@@ -78,7 +76,7 @@ pub fn feed_at(g: &LocalGeometry, k_b: f64) -> Option<FieldSample> {
 /// where e = f = 0 (T = mu I), independent of K_b. The major eigenvector of S
 /// (the feed) is at angle atan2(f, e)/2 in that frame; a frame vector y maps
 /// to the parameter-space direction L^-T y.
-pub fn deviator(g: &LocalGeometry) -> Option<(f64, f64, Matrix2<f64>)> {
+pub(crate) fn deviator(g: &LocalGeometry) -> Option<(f64, f64, Matrix2<f64>)> {
     let li = cholesky_inverse(&g.forms.first)?;
     // K_b only shifts S by a multiple of I, so it does not enter e and f.
     let s = li * tensor_h(g, 0.0) * li.transpose();

@@ -11,17 +11,25 @@ use crate::Progress;
 use toolpath_formats::{FeedDirection, Job, PlanResult};
 use toolpath_kernel::error::Result;
 
-pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-    let surface = job.surface()?;
-    let settings = PassSettings::from_job(job)?;
-    let feed = job.feed_direction.unwrap_or(FeedDirection::U);
-    let passes = plan_passes(surface, &settings, feed, progress)?;
-    let mut result = PlanResult::new(&job.job_id, job.strategy.name());
-    result.passes = passes;
-    result.stats.path_length_lower_bound_mm = Some(
-        super::lower_bound::job_path_length_lower_bound(job, surface, &settings.cutter)?,
-    );
-    Ok(result)
+/// The strategy `iso_parametric`.
+pub struct IsoParametric;
+
+impl crate::Strategy for IsoParametric {
+    fn id(&self) -> toolpath_formats::Strategy {
+        toolpath_formats::Strategy::IsoParametric
+    }
+    fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+        let surface = job.surface()?;
+        let settings = PassSettings::from_job(job)?;
+        let feed = job.feed_direction.unwrap_or(FeedDirection::U);
+        let passes = plan_passes(surface, &settings, feed, progress)?;
+        let mut result = PlanResult::new(&job.job_id, job.strategy.name());
+        result.passes = passes;
+        result.stats.path_length_lower_bound_mm = Some(
+            super::lower_bound::job_path_length_lower_bound(job, surface, &settings.cutter)?,
+        );
+        Ok(result)
+    }
 }
 
 #[cfg(test)]
@@ -29,6 +37,7 @@ mod tests {
     use super::*;
     use crate::test_surfaces;
     use crate::NoProgress;
+    use crate::Strategy as _;
     use toolpath_formats::Strategy;
 
     fn ellipse_scallop(r: f64, lead: f64, spacing: f64) -> f64 {
@@ -41,7 +50,7 @@ mod tests {
     fn plane_passes_are_straight_and_spaced_for_the_scallop() {
         let surface = test_surfaces::sheared_plane();
         let job = test_surfaces::job(surface, Strategy::IsoParametric, 2.5, 5.0, 0.05);
-        let r = plan(&job, &NoProgress).unwrap();
+        let r = IsoParametric.plan(&job, &NoProgress).unwrap();
         assert!(r.passes.len() > 20);
         let lead = 5f64.to_radians();
         let last = r.passes.len() - 2;
@@ -78,7 +87,7 @@ mod tests {
         // Feed along the axis: the spacing is wider than on the plane.
         let surface = test_surfaces::concave_cylinder(100.0, 100.0);
         let job = test_surfaces::job(surface, Strategy::IsoParametric, 2.5, 5.0, 0.05);
-        let r = plan(&job, &NoProgress).unwrap();
+        let r = IsoParametric.plan(&job, &NoProgress).unwrap();
         let arc = std::f64::consts::PI * 100.0;
         let per_pass = arc / (r.passes.len() - 1) as f64;
         assert!(
@@ -99,14 +108,20 @@ mod tests {
     fn too_large_a_tool_is_a_clear_error() {
         let surface = test_surfaces::concave_cylinder(10.0, 50.0);
         let job = test_surfaces::job(surface, Strategy::IsoParametric, 2.5, 5.0, 0.05);
-        let e = plan(&job, &NoProgress).unwrap_err().to_string();
+        let e = IsoParametric
+            .plan(&job, &NoProgress)
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("tool too large for the curvature") && e.contains("lead angle of at least"),
             "{e}"
         );
         let surface = test_surfaces::concave_cylinder(2.0, 50.0);
         let job = test_surfaces::job(surface, Strategy::IsoParametric, 2.5, 5.0, 0.05);
-        let e = plan(&job, &NoProgress).unwrap_err().to_string();
+        let e = IsoParametric
+            .plan(&job, &NoProgress)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("no lead angle avoids gouging"), "{e}");
     }
 }

@@ -47,7 +47,7 @@ pub fn job_spacing_lower_bound(job: &Job) -> Result<f64> {
 /// It depends only on its arguments, and jobs on one surface (a node's burst,
 /// the strategies of `toolpath compare`) ask for the same one, so the last few
 /// are kept: a repeated call returns the stored value, the same bits.
-pub fn path_length_lower_bound(
+pub(crate) fn path_length_lower_bound(
     surface: &NurbsSurface,
     cutter: &LeadCutter,
     h: f64,

@@ -28,13 +28,13 @@
 //! the baselines' plans built from [`parametric`] and [`offset`]).
 
 pub mod crossings;
-pub mod field;
-pub mod iso_parametric;
-pub mod iso_scallop;
+pub(crate) mod field;
+pub(crate) mod iso_parametric;
+pub(crate) mod iso_scallop;
 pub mod lower_bound;
 pub mod offset;
-pub mod parametric;
-pub mod pass_ends;
+pub(crate) mod parametric;
+pub(crate) mod pass_ends;
 pub mod passes;
 pub mod regions;
 pub mod repair;

@@ -24,7 +24,7 @@ fn uv_of(feed: FeedDirection, along: f64, across: f64) -> Vector2<f64> {
 /// travel. The classic iso-parametric method: one constant parameter step
 /// across the passes, the worst case over the surface (found by sweeping
 /// with the locally required step, then checked at the final passes).
-pub fn plan_passes(
+pub(crate) fn plan_passes(
     surface: &NurbsSurface,
     s: &PassSettings,
     feed: FeedDirection,

@@ -33,7 +33,7 @@ fn boundary_edges(surface: &NurbsSurface, uv: Vector2<f64>) -> Vec<Vector3<f64>>
 
 /// Unit 3-D tangents of the domain edges `uv` lies on; with `heading` (a
 /// parameter-space direction) only those it leaves the domain through.
-pub fn edges_at(
+pub(crate) fn edges_at(
     surface: &NurbsSurface,
     uv: Vector2<f64>,
     heading: Option<Vector2<f64>>,
@@ -151,7 +151,7 @@ fn walk_along_edge(
 ///   lifted along the edge normal by the depth its bottom disc reaches below
 ///   the real surface beyond the edge contact's own (a ball by the curvature
 ///   along the run).
-pub fn extend_pass(
+pub(crate) fn extend_pass(
     surface: &NurbsSurface,
     points: &mut Vec<PathPoint>,
     s: &PassSettings,
@@ -172,7 +172,7 @@ pub fn extend_pass(
 /// the edge at 35 deg needs half-width x cot(35 deg) plus the lag (up to
 /// about 2.3 R) before the far side of its strip has crossed the edge; a
 /// shorter cap leaves scallops above h along oblique edges.
-pub const RUN_OUT_MAX: f64 = 2.3;
+pub(crate) const RUN_OUT_MAX: f64 = 2.3;
 
 /// The points to add after the last (`at_end`) or before the first point,
 /// in order away from the pass: on over the surface by the disc's lag, then,

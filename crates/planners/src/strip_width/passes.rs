@@ -33,7 +33,7 @@ pub struct PassSettings {
 /// Share of the job's scallop the spacing is planned for: the rest absorbs
 /// the chord error between tool positions and the model's approximations
 /// (osculating circle across the feed).
-pub const SCALLOP_MARGIN: f64 = 0.9;
+pub(crate) const SCALLOP_MARGIN: f64 = 0.9;
 
 impl PassSettings {
     pub fn from_job(job: &toolpath_formats::Job) -> Result<Self> {
@@ -62,7 +62,7 @@ impl PassSettings {
     /// Settings for estimating a plan's length at a fraction of its cost: a
     /// point step `factor` times longer (at most the longest step), the
     /// chord tolerance that step keeps, and [`PassSettings::estimate`] set.
-    pub fn coarsened(&self, factor: f64) -> Self {
+    pub(crate) fn coarsened(&self, factor: f64) -> Self {
         let point_step = (self.point_step * factor).min(self.max_step);
         let ratio = point_step / self.point_step;
         Self {
@@ -95,7 +95,7 @@ pub fn max_curvature(surface: &NurbsSurface) -> f64 {
 
 /// A contact on the surface with its travel direction.
 #[derive(Clone, Copy, Debug)]
-pub struct Contact {
+pub(crate) struct Contact {
     /// The surface at the contact (no principal curvatures: a contact
     /// needs the curvatures along its travel only).
     pub g: FundamentalForms,
@@ -126,7 +126,7 @@ impl Contact {
         Self::from_geometry(g, travel)
     }
 
-    pub fn from_geometry(g: FundamentalForms, travel: Vector3<f64>) -> Option<Self> {
+    pub(crate) fn from_geometry(g: FundamentalForms, travel: Vector3<f64>) -> Option<Self> {
         let t = (travel - g.n * travel.dot(&g.n)).try_normalize(1e-12)?;
         Some(Self {
             k: curvatures_along(&g, t),
@@ -139,7 +139,7 @@ impl Contact {
     /// The contact with its half-widths for `s` on both sides computed
     /// once: the same values [`Self::half_width_towards`] and
     /// [`Self::path_point`] compute otherwise.
-    pub fn with_half_widths(mut self, s: &PassSettings) -> Self {
+    pub(crate) fn with_half_widths(mut self, s: &PassSettings) -> Self {
         self.widths = Some(HalfWidths {
             cutter: s.cutter,
             scallop: s.scallop,
@@ -170,7 +170,11 @@ impl Contact {
     }
 
     /// Half-width on the side of `towards` (a 3-D direction), for scallop h.
-    pub fn half_width_towards(&self, s: &PassSettings, towards: Vector3<f64>) -> Result<f64> {
+    pub(crate) fn half_width_towards(
+        &self,
+        s: &PassSettings,
+        towards: Vector3<f64>,
+    ) -> Result<f64> {
         let side = if towards.dot(&self.cross()) >= 0.0 {
             1.0
         } else {
@@ -183,7 +187,7 @@ impl Contact {
     }
 
     /// The path point: pose, strip width and feed. Errors where the cutter gouges.
-    pub fn path_point(&self, s: &PassSettings) -> Result<PathPoint> {
+    pub(crate) fn path_point(&self, s: &PassSettings) -> Result<PathPoint> {
         let depth = s.cutter.disc_gouge(self.k);
         if depth > 1e-3 * s.scallop {
             return Err(gouge_error(
@@ -218,7 +222,7 @@ impl Contact {
 /// Samples a curve `curve(s)`, s in [0, 1], so that every chord stays within
 /// `tol` of the curve (checked at chord midpoints, recursively) and no step is
 /// longer than `max_step`. Returns the parameters, sorted, including 0 and 1.
-pub fn sample_curve(
+pub(crate) fn sample_curve(
     curve: &dyn Fn(f64) -> Point3<f64>,
     tol: f64,
     max_step: f64,
@@ -297,7 +301,7 @@ const WALK_STEP: f64 = 0.75;
 /// integration error only (its steps are not the same), as much as either
 /// walk's own error (`continued_walks_match_fine_walks`).
 #[derive(Clone, Debug)]
-pub struct Walker {
+pub(crate) struct Walker {
     /// Sub-step ends of the walks so far, by distance from the start: the
     /// distance, the uv point, the carried heading and the sub-step
     /// direction there (computed when a walk first continues from it). The
@@ -383,7 +387,7 @@ impl Walker {
 /// the heading is carried along the walk (the offset distance of the
 /// iso-scallop offsetting is measured along it), so it is not traced with
 /// geometry::field_trace.
-pub fn walk_on_surface(
+pub(crate) fn walk_on_surface(
     surface: &NurbsSurface,
     uv: Vector2<f64>,
     dir: Vector3<f64>,
@@ -395,7 +399,7 @@ pub fn walk_on_surface(
 /// The start of a walk on the surface from one point along one direction
 /// ([`walk_on_surface`]; [`Walker`] for several distances along one line).
 #[derive(Clone, Copy, Debug)]
-pub struct WalkStart {
+pub(crate) struct WalkStart {
     uv: Vector2<f64>,
     /// The first sub-step's uv direction and unit tangent at `uv`.
     first: (Vector2<f64>, Vector3<f64>),

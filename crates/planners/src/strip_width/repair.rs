@@ -56,20 +56,84 @@ fn island_passes(
     island: &Island,
     region: usize,
 ) -> Vec<Pass> {
-    if island.uv.is_empty() {
+    let Some(centre_uv) = island_centre(island) else {
         return Vec::new();
-    }
-    let centre_uv = island.uv.iter().sum::<Vector2<f64>>() / island.uv.len() as f64;
-    // The sample nearest the mean, so the centre lies on the island.
-    let centre_uv = island
-        .uv
-        .iter()
-        .copied()
-        .min_by(|a, b| (a - centre_uv).norm().total_cmp(&(b - centre_uv).norm()))
-        .unwrap_or(centre_uv);
+    };
     let Some(g) = LocalGeometry::at(surface, centre_uv.x, centre_uv.y) else {
         return Vec::new();
     };
+    let extent = island_extent(surface, s, &g, island);
+    let Ok(w) = s
+        .cutter
+        .strip_width(s.scallop, curvatures_along(&g.forms, extent.feed))
+    else {
+        return Vec::new();
+    };
+    let (feed, cross) = (extent.feed, extent.cross);
+    let mut passes = Vec::new();
+    for (k, offset) in pass_offsets(extent.across, w).into_iter().enumerate() {
+        let forward = k % 2 == 0;
+        let heading = if forward { feed } else { -feed };
+        if let Some(points) = straight_pass(
+            surface,
+            s,
+            centre_uv,
+            cross,
+            offset,
+            heading,
+            forward,
+            extent.along,
+        ) {
+            let mut pass = Pass {
+                region,
+                points,
+                min_strip_width: None,
+            };
+            if extend_pass(surface, &mut pass.points, s).is_ok() {
+                passes.push(pass);
+            }
+        }
+    }
+    passes
+}
+
+/// The island's sample nearest the mean of its samples, so the centre lies
+/// on the island; `None` for an empty island.
+fn island_centre(island: &Island) -> Option<Vector2<f64>> {
+    if island.uv.is_empty() {
+        return None;
+    }
+    let mean = island.uv.iter().sum::<Vector2<f64>>() / island.uv.len() as f64;
+    Some(
+        island
+            .uv
+            .iter()
+            .copied()
+            .min_by(|a, b| (a - mean).norm().total_cmp(&(b - mean).norm()))
+            .unwrap_or(mean),
+    )
+}
+
+/// An island in the tangent plane at its centre: the feed of its passes,
+/// the cross direction, its extent along the feed (from the centre) and
+/// across it, each padded by half a sample spacing (the island's true
+/// extent around its samples).
+struct Extent {
+    feed: Vector3<f64>,
+    cross: Vector3<f64>,
+    along: (f64, f64),
+    across: (f64, f64),
+}
+
+/// The island's [`Extent`] at the geometry `g` of its centre: the feed
+/// runs along the island's long axis when it is a ridge (elongated past
+/// [`RIDGE_ELONGATION`]), else along the local best feed direction.
+fn island_extent(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    g: &LocalGeometry,
+    island: &Island,
+) -> Extent {
     let c = g.point();
     let e1 = g
         .forms
@@ -107,7 +171,7 @@ fn island_passes(
     let feed = if ridge {
         e1 * axis.x + e2 * axis.y
     } else {
-        match feed_at(&g, s.cutter.k_b()) {
+        match feed_at(g, s.cutter.k_b()) {
             Some(f) => f.feed,
             None => g.dir_min,
         }
@@ -122,19 +186,21 @@ fn island_passes(
         b0 = b0.min(b);
         b1 = b1.max(b);
     }
-    // Half a sample spacing around the samples: the island's true extent.
     let pad = 0.5 * island.spacing_mm;
-    let (a0, a1, b0, b1) = (a0 - pad, a1 + pad, b0 - pad, b1 + pad);
-    let Ok(w) = s
-        .cutter
-        .strip_width(s.scallop, curvatures_along(&g.forms, feed))
-    else {
-        return Vec::new();
-    };
-    // One pass's strip (less a margin) covers an island up to its width;
-    // wider islands get passes from edge to edge, no further apart than
-    // the spacing share of the strip width. Outside the island the
-    // material is already within h.
+    Extent {
+        feed,
+        cross,
+        along: (a0 - pad, a1 + pad),
+        across: (b0 - pad, b1 + pad),
+    }
+}
+
+/// The offsets across the feed of an island's passes, for strips `w` mm
+/// wide: one pass's strip (less a margin) covers an island up to its
+/// width; wider islands get passes from edge to edge, no further apart
+/// than the spacing share of the strip width. Outside the island the
+/// material is already within h.
+fn pass_offsets((b0, b1): (f64, f64), w: f64) -> Vec<f64> {
     let across = b1 - b0;
     let reach = REACH_SHARE * w;
     let count = if across <= reach {
@@ -142,41 +208,17 @@ fn island_passes(
     } else {
         ((across - reach) / (SPACING_SHARE * w)).ceil() as usize + 1
     };
-    let offset_of = |k: usize| {
-        if count == 1 {
-            0.5 * (b0 + b1)
-        } else {
-            let first = b0 + 0.5 * reach;
-            let last = b1 - 0.5 * reach;
-            first + (last - first) * k as f64 / (count - 1) as f64
-        }
-    };
-    let mut passes = Vec::new();
-    for k in 0..count {
-        let offset = offset_of(k);
-        let forward = k % 2 == 0;
-        let heading = if forward { feed } else { -feed };
-        if let Some(points) = straight_pass(
-            surface,
-            s,
-            centre_uv,
-            cross,
-            offset,
-            heading,
-            forward,
-            (a0, a1),
-        ) {
-            let mut pass = Pass {
-                region,
-                points,
-                min_strip_width: None,
-            };
-            if extend_pass(surface, &mut pass.points, s).is_ok() {
-                passes.push(pass);
+    (0..count)
+        .map(|k| {
+            if count == 1 {
+                0.5 * (b0 + b1)
+            } else {
+                let first = b0 + 0.5 * reach;
+                let last = b1 - 0.5 * reach;
+                first + (last - first) * k as f64 / (count - 1) as f64
             }
-        }
-    }
-    passes
+        })
+        .collect()
 }
 
 /// The pass `offset` mm across (along `cross`) from `centre`, heading

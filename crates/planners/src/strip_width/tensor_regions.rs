@@ -73,10 +73,41 @@ impl Candidate {
     }
 }
 
-/// The shortest candidate plan (see [`candidates`]).
-pub fn plan(job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
-    let mut all = candidates(job, progress)?;
-    Ok(all.swap_remove(SHORTEST))
+/// The strategy `tensor_regions`: several candidate plans, the pipeline
+/// keeps the shortest that verifies.
+pub struct TensorRegions;
+
+/// The candidates of every job, after [`Candidate::Partitioned`] where the
+/// partition has more than one region.
+const UNPARTITIONED: [Candidate; 8] = [
+    Candidate::WholeField,
+    Candidate::MeanFeed,
+    Candidate::EdgeOffset(FeedDirection::U, false),
+    Candidate::EdgeOffset(FeedDirection::V, false),
+    Candidate::EdgeOffset(FeedDirection::U, true),
+    Candidate::EdgeOffset(FeedDirection::V, true),
+    Candidate::IsoCurves(FeedDirection::U),
+    Candidate::IsoCurves(FeedDirection::V),
+];
+
+/// Candidate kinds of a job at most: planning holds one plan of each until
+/// it has ranked them.
+const CANDIDATE_KINDS: usize = 1 + UNPARTITIONED.len();
+
+impl crate::Strategy for TensorRegions {
+    fn id(&self) -> toolpath_formats::Strategy {
+        toolpath_formats::Strategy::TensorRegions
+    }
+    fn plan(&self, job: &Job, progress: &dyn Progress) -> Result<PlanResult> {
+        let mut all = candidates(job, progress)?;
+        Ok(all.swap_remove(SHORTEST))
+    }
+    fn candidates(&self, job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>> {
+        candidates(job, progress)
+    }
+    fn plans_held(&self) -> usize {
+        CANDIDATE_KINDS
+    }
 }
 
 /// Candidate plans built exactly: the shortest by estimate (see
@@ -100,13 +131,9 @@ const ESTIMATE_COARSENING: f64 = 4.0;
 /// job's settings; the [`EXACT_BUILDS`] shortest of the others by estimate
 /// are then built exactly too. Each result names its candidate, the exact
 /// lengths and every estimate in `plan_choice`.
-pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>> {
+pub(crate) fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>> {
     let setup = Setup::new(job, progress)?;
-    let surface = setup.surface;
     let checks = CheckOnly(progress);
-    let reach = crate::trim_clip::reach(job.tool()?);
-    let coarse = setup.settings.coarsened(ESTIMATE_COARSENING);
-    let kinds = &setup.kinds;
     // The plans the baselines make are always built exactly, so the kept
     // plan is never longer than either however the estimates err (Lee
     // offsetting reacts to its sampling; docs/methods.md, "Candidate plans
@@ -121,58 +148,23 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
         Candidate::IsoCurves(feed),
     ]
     .into_iter()
-    .filter(|b| kinds.contains(b))
+    .filter(|b| setup.kinds.contains(b))
     .collect();
     let first: Vec<(Candidate, bool)> = baselines
         .iter()
         .map(|&b| (b, true))
         .chain(
-            kinds
+            setup
+                .kinds
                 .iter()
                 .filter(|k| !baselines.contains(k))
                 .map(|&k| (k, false)),
         )
         .collect();
-    let done = toolpath_kernel::parallel::map_chunks(&first, 1, |work| -> Result<Built> {
-        checks.check()?;
-        let (kind, exact) = work[0];
-        if exact {
-            return Ok(Built::Exact(setup.build(kind, &setup.settings, &checks)?));
-        }
-        // The merge search estimated the merged partition's cover already
-        // (the whole field's too where it merged every region).
-        match (kind, setup.partitioned_estimate) {
-            (Candidate::Partitioned | Candidate::WholeField, Some((l, regions)))
-                if (kind == Candidate::WholeField) == (regions == 1) =>
-            {
-                return Ok(Built::Estimate(l));
-            }
-            _ => {}
-        }
-        let passes = setup.build(kind, &coarse, &checks)?;
-        Ok(Built::Estimate(estimate_length(surface, &passes, reach)))
-    });
-    stop_if_stopped(&done)?;
+    let done = setup.first_builds(&first, &checks)?;
     progress.set(0.6);
     progress.check()?;
-    // Shortest estimate first; candidates that could not be built coarse
-    // are still tried exactly after those (their error is the one to
-    // report); empty ones are dropped.
-    let mut order: Vec<(Candidate, Option<f64>)> = Vec::new();
-    let mut exact: Vec<(Candidate, Result<Vec<Pass>>)> = Vec::new();
-    for (&(kind, _), d) in first.iter().zip(done) {
-        match d {
-            Ok(Built::Exact(p)) => exact.push((kind, Ok(p))),
-            Ok(Built::Estimate(l)) if l > 0.0 => order.push((kind, Some(l))),
-            Ok(Built::Estimate(_)) => {}
-            Err(e) if baselines.contains(&kind) => exact.push((kind, Err(e))),
-            Err(_) => order.push((kind, None)),
-        }
-    }
-    order.sort_by(|a, b| match (a.1, b.1) {
-        (Some(x), Some(y)) => x.total_cmp(&y),
-        (x, y) => y.is_some().cmp(&x.is_some()),
-    });
+    let (order, exact) = by_estimate(&first, done, &baselines);
     let estimates: Vec<String> = order
         .iter()
         .filter_map(|&(k, e)| e.map(|l| format!("{} {l:.0} mm", k.label())))
@@ -189,45 +181,45 @@ pub fn candidates(job: &Job, progress: &dyn Progress) -> Result<Vec<PlanResult>>
         top.into_iter().zip(built).chain(exact).collect();
     progress.set(0.95);
     progress.check()?;
-    let bound = setup.bound()?;
-    let mut warnings = setup.warnings.clone();
-    let mut plans: Vec<(Candidate, PlanResult, f64)> = Vec::new();
-    let mut first_error = None;
-    for (kind, passes) in chosen {
-        let passes = match passes {
-            Ok(p) if !p.is_empty() => p,
-            Ok(_) => continue,
-            Err(e) => {
-                warnings.push(format!("candidate {} not built: {e}", kind.label()));
-                first_error.get_or_insert(e);
-                continue;
-            }
-        };
-        let result = setup.result(kind, passes, bound);
-        let length = result.cl_path_length();
-        plans.push((kind, result, length));
+    setup.ranked_plans(chosen, &estimates)
+}
+
+/// Candidates ordered by estimate, shortest first; those that could not be
+/// built coarse are still tried exactly after those (their error is the one
+/// to report); empty ones are dropped. Returns them with the exact builds
+/// (the baselines), which are not ranked by estimate.
+#[allow(clippy::type_complexity)]
+fn by_estimate(
+    first: &[(Candidate, bool)],
+    done: Vec<Result<Built>>,
+    baselines: &[Candidate],
+) -> (
+    Vec<(Candidate, Option<f64>)>,
+    Vec<(Candidate, Result<Vec<Pass>>)>,
+) {
+    let mut order: Vec<(Candidate, Option<f64>)> = Vec::new();
+    let mut exact: Vec<(Candidate, Result<Vec<Pass>>)> = Vec::new();
+    for (&(kind, _), d) in first.iter().zip(done) {
+        match d {
+            Ok(Built::Exact(p)) => exact.push((kind, Ok(p))),
+            Ok(Built::Estimate(l)) if l > 0.0 => order.push((kind, Some(l))),
+            Ok(Built::Estimate(_)) => {}
+            Err(e) if baselines.contains(&kind) => exact.push((kind, Err(e))),
+            Err(_) => order.push((kind, None)),
+        }
     }
-    if plans.is_empty() {
-        return Err(first_error.unwrap_or_else(|| {
-            toolpath_kernel::error::Error::planning(
-                "tensor_regions: no candidate plan has any pass",
-            )
-        }));
-    }
-    Ok(ranked(
-        plans,
-        &estimates,
-        kinds.len(),
-        setup.partition_note.as_deref(),
-        &warnings,
-    ))
+    order.sort_by(|a, b| match (a.1, b.1) {
+        (Some(x), Some(y)) => x.total_cmp(&y),
+        (x, y) => y.is_some().cmp(&x.is_some()),
+    });
+    (order, exact)
 }
 
 /// One candidate plan built at the job's settings, named by its label as
 /// in `plan_choice` (`partitioned`, `whole_field`, `mean_feed`,
 /// `edge_offset_u`, ..., `iso_curves_v`): for looking at a candidate the
 /// estimates did not keep, or `partitioned_as_traced` (the partition before
-/// merging, never a candidate of [`plan`]). `None` when the job has no such
+/// merging, never a candidate of `TensorRegions::candidates`). `None` when the job has no such
 /// candidate (`partitioned` needs more than one region after merging,
 /// `partitioned_as_traced` before) or it has no pass.
 pub fn candidate(job: &Job, label: &str, progress: &dyn Progress) -> Result<Option<PlanResult>> {
@@ -381,16 +373,7 @@ impl<'a> Setup<'a> {
         if regions.len() > 1 {
             kinds.push(Candidate::Partitioned);
         }
-        kinds.extend([
-            Candidate::WholeField,
-            Candidate::MeanFeed,
-            Candidate::EdgeOffset(FeedDirection::U, false),
-            Candidate::EdgeOffset(FeedDirection::V, false),
-            Candidate::EdgeOffset(FeedDirection::U, true),
-            Candidate::EdgeOffset(FeedDirection::V, true),
-            Candidate::IsoCurves(FeedDirection::U),
-            Candidate::IsoCurves(FeedDirection::V),
-        ]);
+        kinds.extend(UNPARTITIONED);
         Ok(Self {
             job,
             surface,
@@ -405,6 +388,85 @@ impl<'a> Setup<'a> {
             partition_note,
             partitioned_estimate,
         })
+    }
+
+    /// The first round, on up to two threads: each `(kind, exact)` built at
+    /// the job's settings when `exact`, else its length estimated from a
+    /// build at coarser settings.
+    fn first_builds(
+        &self,
+        first: &[(Candidate, bool)],
+        checks: &dyn Progress,
+    ) -> Result<Vec<Result<Built>>> {
+        let reach = crate::trim_clip::reach(self.job.tool()?);
+        let coarse = self.settings.coarsened(ESTIMATE_COARSENING);
+        let done = toolpath_kernel::parallel::map_chunks(first, 1, |work| -> Result<Built> {
+            checks.check()?;
+            let (kind, exact) = work[0];
+            if exact {
+                return Ok(Built::Exact(self.build(kind, &self.settings, checks)?));
+            }
+            // The merge search estimated the merged partition's cover already
+            // (the whole field's too where it merged every region).
+            match (kind, self.partitioned_estimate) {
+                (Candidate::Partitioned | Candidate::WholeField, Some((l, regions)))
+                    if (kind == Candidate::WholeField) == (regions == 1) =>
+                {
+                    return Ok(Built::Estimate(l));
+                }
+                _ => {}
+            }
+            let passes = self.build(kind, &coarse, checks)?;
+            Ok(Built::Estimate(estimate_length(
+                self.surface,
+                &passes,
+                reach,
+            )))
+        });
+        stop_if_stopped(&done)?;
+        Ok(done)
+    }
+
+    /// The plans of the `chosen` builds, ranked ([`ranked`]); a build that
+    /// failed is a warning, and the first error is returned when none has a
+    /// pass.
+    fn ranked_plans(
+        &self,
+        chosen: Vec<(Candidate, Result<Vec<Pass>>)>,
+        estimates: &[String],
+    ) -> Result<Vec<PlanResult>> {
+        let bound = self.bound()?;
+        let mut warnings = self.warnings.clone();
+        let mut plans: Vec<(Candidate, PlanResult, f64)> = Vec::new();
+        let mut first_error = None;
+        for (kind, passes) in chosen {
+            let passes = match passes {
+                Ok(p) if !p.is_empty() => p,
+                Ok(_) => continue,
+                Err(e) => {
+                    warnings.push(format!("candidate {} not built: {e}", kind.label()));
+                    first_error.get_or_insert(e);
+                    continue;
+                }
+            };
+            let result = self.result(kind, passes, bound);
+            let length = result.cl_path_length();
+            plans.push((kind, result, length));
+        }
+        if plans.is_empty() {
+            return Err(first_error.unwrap_or_else(|| {
+                toolpath_kernel::error::Error::planning(
+                    "tensor_regions: no candidate plan has any pass",
+                )
+            }));
+        }
+        Ok(ranked(
+            plans,
+            estimates,
+            self.kinds.len(),
+            self.partition_note.as_deref(),
+            &warnings,
+        ))
     }
 
     fn bound(&self) -> Result<f64> {
@@ -808,6 +870,7 @@ fn initial_pass(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Strategy as _;
     use crate::{test_surfaces, NoProgress};
     use toolpath_formats::Strategy;
 
@@ -820,7 +883,7 @@ mod tests {
             5.0,
             0.05,
         );
-        let r = plan(&job, &NoProgress).unwrap();
+        let r = TensorRegions.plan(&job, &NoProgress).unwrap();
         assert!(r.warnings.iter().any(|w| w.contains("isotropic")));
         assert_eq!(r.regions.as_ref().map(|x| x.len()), Some(1));
         assert!(r.degenerate_points.as_ref().is_some_and(|d| d.is_empty()));
@@ -841,7 +904,7 @@ mod tests {
             5.0,
             0.05,
         );
-        let r = plan(&job, &NoProgress).unwrap();
+        let r = TensorRegions.plan(&job, &NoProgress).unwrap();
         assert_eq!(r.regions.as_ref().map(|x| x.len()), Some(1));
         // The optimal feed on a concave cylinder is along its axis (x)
         // (pass ends may bend where they meet the boundary).
@@ -878,7 +941,7 @@ mod tests {
         for w in all.windows(2) {
             assert!(w[0].cl_path_length() <= w[1].cl_path_length());
         }
-        let best = plan(&job, &NoProgress).unwrap();
+        let best = TensorRegions.plan(&job, &NoProgress).unwrap();
         assert_eq!(best.passes, all[0].passes);
         let choice = all[0].plan_choice.as_deref().unwrap();
         // Its three sectors merge into one (the whole field): a boundary

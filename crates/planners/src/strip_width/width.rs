@@ -27,7 +27,7 @@ use toolpath_kernel::tools::{LeadCutter, LeadCutterError};
 
 /// The posed cutter of a milling job (flat-end or ball). A negative lead angle
 /// is refused: the heel would cut.
-pub fn cutter_of_job(job: &Job) -> Result<LeadCutter> {
+pub(crate) fn cutter_of_job(job: &Job) -> Result<LeadCutter> {
     LeadCutter::from_tool(job.tool()?, job.lead_angle()).map_err(|e| match e {
         LeadCutterError::NegativeLead => Error::invalid(
             "lead_angle_deg",
@@ -47,7 +47,7 @@ pub fn cutter_of_job(job: &Job) -> Result<LeadCutter> {
 }
 
 /// Normal curvatures at `g` in the frame of the unit tangent `t` (3-D).
-pub fn curvatures_along(g: &FundamentalForms, t: Vector3<f64>) -> Curvatures {
+pub(crate) fn curvatures_along(g: &FundamentalForms, t: Vector3<f64>) -> Curvatures {
     let c = g.n.cross(&t);
     let tu = g.tangent_to_uv(t);
     let cu = g.tangent_to_uv(c);
@@ -64,7 +64,7 @@ pub fn curvatures_along(g: &FundamentalForms, t: Vector3<f64>) -> Curvatures {
 /// The widest single-pass strip width at a point (over the feed directions;
 /// the principal directions are its stationary points, so both are tried) and
 /// the feed that gives it.
-pub fn max_strip_width(
+pub(crate) fn max_strip_width(
     cutter: &LeadCutter,
     h: f64,
     g: &LocalGeometry,
@@ -90,7 +90,7 @@ pub fn max_strip_width(
 
 /// The planning error for a cutter that gouges at `uv` with curvature `kappa`
 /// across the feed.
-pub fn gouge_error(cutter: &LeadCutter, uv: [f64; 2], kappa: f64, depth: f64) -> Error {
+pub(crate) fn gouge_error(cutter: &LeadCutter, uv: [f64; 2], kappa: f64, depth: f64) -> Error {
     let r = cutter.radius;
     let need = if cutter.ball || kappa * r >= 1.0 {
         format!(

@@ -98,7 +98,7 @@ pub fn boundary_start(
 /// travel direction of the first pass), to both sides. Passes are returned
 /// in machining order (outermost of one side first) with `region` set.
 /// `progress` is checked once per pass.
-pub fn cover(
+pub(crate) fn cover(
     surface: &NurbsSurface,
     s: &PassSettings,
     region: &Region,
@@ -189,10 +189,36 @@ fn cover_sides(
     if first.len() < 2 {
         return Ok(Vec::new());
     }
+    let sides = offset_sides(surface, s, region, &first, sides_to_cover, progress)?;
+    let mut passes = Vec::new();
+    for run in sides[0].iter().rev() {
+        progress.check()?;
+        passes.push(to_pass(surface, s, region, run)?);
+    }
+    passes.push(to_pass(surface, s, region, &first)?);
+    for run in &sides[1] {
+        progress.check()?;
+        passes.push(to_pass(surface, s, region, run)?);
+    }
+    fill_gaps(surface, s, region, &mut passes, progress)?;
+    Ok(passes)
+}
+
+/// The offset runs to each side of the `first` pass (side 1, then -1; an
+/// empty list for a side not in `sides_to_cover`), in offsetting order: each
+/// run's front offset again until the region is covered.
+fn offset_sides(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    first: &[Contact],
+    sides_to_cover: &[f64],
+    progress: &dyn Progress,
+) -> Result<Vec<Vec<Vec<Contact>>>> {
     let mut sides: Vec<Vec<Vec<Contact>>> = Vec::new();
     let mut total = 0usize;
     let mut coverage = Coverage::new(s, FOLD_SHARE);
-    coverage.add(s, 0, &first);
+    coverage.add(s, 0, first);
     for side in [1.0, -1.0] {
         if !sides_to_cover.contains(&side) {
             sides.push(Vec::new());
@@ -222,58 +248,68 @@ fn cover_sides(
         }
         sides.push(done);
     }
-    let mut passes = Vec::new();
-    let to_pass = |contacts: &[Contact]| -> Result<Pass> {
-        let mut pass = Pass {
-            region: region.id,
-            points: Vec::with_capacity(contacts.len() + 1),
-            min_strip_width: None,
-        };
-        let spikes = corner_spikes(s, contacts)?;
-        let run_ons = turn_starts(s, contacts)?;
-        let mut prev: Option<Contact> = None;
-        for (i, c) in contacts.iter().enumerate() {
-            if let Some(a) = prev {
-                // Offset points follow the front, not the chord tolerance
-                // (points clipped onto an edge can lie far apart): contacts
-                // in between keep each straight move within the tolerance.
-                let gap = (c.point() - a.point()).norm();
-                let n = (gap / s.point_step).ceil() as usize;
-                let mut last = a;
-                for m in 1..n {
-                    let f = m as f64 / n as f64;
-                    let uv = a.uv() * (1.0 - f) + c.uv() * f;
-                    let t = a.travel * (1.0 - f) + c.travel * f;
-                    if let Some(mc) = Contact::new(surface, uv, t) {
-                        pivot(&last, &mc, s, &mut pass.points)?;
-                        pass.points.push(mc.path_point(s)?);
-                        last = mc;
-                    }
-                }
-                pivot(&last, c, s, &mut pass.points)?;
-            }
-            pass.points.push(c.path_point(s)?);
-            if let Some((dir, len)) = spikes[i] {
-                spike(surface, s, c, dir, len, &mut pass.points)?;
-            } else if let Some(lag) = run_ons[i] {
-                run_on(surface, s, c, lag, &mut pass.points)?;
-            }
-            prev = Some(*c);
-        }
-        extend_pass(surface, &mut pass.points, s)?;
-        Ok(pass)
+    Ok(sides)
+}
+
+/// The pass through `contacts` in `region`: contacts in between where they
+/// lie far apart, pivots, spikes into corners and run-ons past turns, then
+/// the run-in and run-out.
+fn to_pass(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    contacts: &[Contact],
+) -> Result<Pass> {
+    let mut pass = Pass {
+        region: region.id,
+        points: Vec::with_capacity(contacts.len() + 1),
+        min_strip_width: None,
     };
-    for run in sides[0].iter().rev() {
-        progress.check()?;
-        passes.push(to_pass(run)?);
+    let spikes = corner_spikes(s, contacts)?;
+    let run_ons = turn_starts(s, contacts)?;
+    let mut prev: Option<Contact> = None;
+    for (i, c) in contacts.iter().enumerate() {
+        if let Some(a) = prev {
+            // Offset points follow the front, not the chord tolerance
+            // (points clipped onto an edge can lie far apart): contacts
+            // in between keep each straight move within the tolerance.
+            let gap = (c.point() - a.point()).norm();
+            let n = (gap / s.point_step).ceil() as usize;
+            let mut last = a;
+            for m in 1..n {
+                let f = m as f64 / n as f64;
+                let uv = a.uv() * (1.0 - f) + c.uv() * f;
+                let t = a.travel * (1.0 - f) + c.travel * f;
+                if let Some(mc) = Contact::new(surface, uv, t) {
+                    pivot(&last, &mc, s, &mut pass.points)?;
+                    pass.points.push(mc.path_point(s)?);
+                    last = mc;
+                }
+            }
+            pivot(&last, c, s, &mut pass.points)?;
+        }
+        pass.points.push(c.path_point(s)?);
+        if let Some((dir, len)) = spikes[i] {
+            spike(surface, s, c, dir, len, &mut pass.points)?;
+        } else if let Some(lag) = run_ons[i] {
+            run_on(surface, s, c, lag, &mut pass.points)?;
+        }
+        prev = Some(*c);
     }
-    passes.push(to_pass(&first)?);
-    for run in &sides[1] {
-        progress.check()?;
-        passes.push(to_pass(run)?);
-    }
-    // Corners the offsetting leaves between pass ends, region boundaries
-    // and fronts that split: short passes through what no strip reached.
+    extend_pass(surface, &mut pass.points, s)?;
+    Ok(pass)
+}
+
+/// Corners the offsetting leaves between pass ends, region boundaries and
+/// fronts that split: short passes through what no strip reached, added to
+/// `passes`.
+fn fill_gaps(
+    surface: &NurbsSurface,
+    s: &PassSettings,
+    region: &Region,
+    passes: &mut Vec<Pass>,
+    progress: &dyn Progress,
+) -> Result<()> {
     let mut reached = Coverage::new(s, GAP_SHARE);
     for (id, pass) in passes.iter().enumerate() {
         reached.add_points(id, &strip_of(pass));
@@ -290,12 +326,12 @@ fn cover_sides(
         if contacts.len() < 2 {
             continue;
         }
-        let pass = to_pass(&contacts)?;
+        let pass = to_pass(surface, s, region, &contacts)?;
         reached.add_points(passes.len(), &strip_of(&pass));
         passes.push(pass);
         if passes.len() > MAX_PASSES {
             return Err(too_many_passes(region));
         }
     }
-    Ok(passes)
+    Ok(())
 }

@@ -32,6 +32,8 @@ pub struct DegeneratePoint {
     pub uv: Vector2<f64>,
     pub xyz: Point3<f64>,
     pub kind: Kind,
+    /// delta = a d - b c, which classifies the point (the tests report it).
+    #[allow(dead_code)]
     pub delta: f64,
     /// Unit 3-D tangents of the separatrices leaving the point (half-rays
     /// along which the feed is radial), with their parameter-space directions.
@@ -40,7 +42,7 @@ pub struct DegeneratePoint {
 
 /// What the analysis found.
 #[derive(Clone, Debug)]
-pub struct Analysis {
+pub(crate) struct Analysis {
     pub points: Vec<DegeneratePoint>,
     /// The field is isotropic everywhere (plane, sphere): every point is
     /// degenerate and no feed direction is preferred.
@@ -59,7 +61,7 @@ fn ef(surface: &NurbsSurface, u: f64, v: f64) -> Option<Vector2<f64>> {
 const ISOTROPIC: f64 = 1e-9;
 
 /// Finds and classifies the degenerate points. `grid` cells per direction.
-pub fn find(surface: &NurbsSurface, grid: usize) -> Result<Analysis> {
+pub(crate) fn find(surface: &NurbsSurface, grid: usize) -> Result<Analysis> {
     let ((u0, u1), (v0, v1)) = surface.domain();
     let n = grid.max(4);
     let (du, dv) = ((u1 - u0) / n as f64, (v1 - v0) / n as f64);

@@ -22,9 +22,11 @@ struct Face {
 }
 
 /// The regions kept and what the search found.
-pub struct Merged {
+pub(crate) struct Merged {
     pub regions: Vec<Region>,
-    /// The separatrices left out (index as in the graph).
+    /// The separatrices left out (index as in the graph; the tests check
+    /// the search by it).
+    #[allow(dead_code)]
     pub removed: Vec<bool>,
     /// Estimated cover length of the traced partition and of the merged one, mm.
     pub traced_length: f64,
@@ -46,7 +48,7 @@ pub struct Merged {
 /// the surface again per trial for, as a rule, the same regions
 /// (docs/methods.md, "Merging regions"). It stops when no removal shortens
 /// the total.
-pub fn merge_regions<F>(
+pub(crate) fn merge_regions<F>(
     surface: &NurbsSurface,
     graph: &FaceGraph,
     traced: &[Region],
@@ -56,77 +58,29 @@ pub fn merge_regions<F>(
 where
     F: Fn(&Region) -> Result<f64> + Sync,
 {
-    let inside: Vec<_> = traced
-        .iter()
-        .map(|r| interior_point(&r.boundary_uv))
-        .collect();
+    let mut search = Search {
+        graph,
+        traced,
+        inside: traced
+            .iter()
+            .map(|r| interior_point(&r.boundary_uv))
+            .collect(),
+        cost,
+        progress,
+        costs: BTreeMap::new(),
+    };
     let n = graph.separatrix_count();
-    // The faces left without the `removed` separatrices, each with the
-    // traced regions it holds, and which separatrices were left out.
-    let faces_without = |removed: &[bool]| -> (Vec<Face>, Vec<bool>) {
-        let (polygons, out) = graph.faces_without(removed);
-        let faces = polygons
-            .into_iter()
-            .map(|poly| {
-                let held: Vec<usize> = (0..traced.len())
-                    .filter(|&i| inside[i].is_some_and(|p| polygon_contains(&poly, p)))
-                    .collect();
-                let area_mm2 = held.iter().map(|&i| traced[i].area_mm2).sum();
-                Face {
-                    held,
-                    region: Region {
-                        id: 0,
-                        boundary_uv: poly,
-                        area_mm2,
-                    },
-                }
-            })
-            .collect();
-        (faces, out)
-    };
-    let mut costs: BTreeMap<Vec<usize>, f64> = BTreeMap::new();
-    // The cost of every face not met before, two at a time.
-    let fill = |faces: &[&Face], costs: &mut BTreeMap<Vec<usize>, f64>| -> Result<()> {
-        let mut todo: Vec<&Face> = Vec::new();
-        for f in faces {
-            if !costs.contains_key(&f.held) && !todo.iter().any(|t| t.held == f.held) {
-                todo.push(f);
-            }
-        }
-        let done = toolpath_kernel::parallel::map_chunks(&todo, 1, |f| -> Result<f64> {
-            progress.check()?;
-            cost(&f[0].region)
-        });
-        for (f, c) in todo.iter().zip(done) {
-            costs.insert(f.held.clone(), c?);
-        }
-        Ok(())
-    };
-    let total = |faces: &[Face], costs: &BTreeMap<Vec<usize>, f64>| -> f64 {
-        faces.iter().map(|f| costs[&f.held]).sum()
-    };
     let mut removed = vec![false; n];
-    let (start, _) = faces_without(&removed);
-    fill(&start.iter().collect::<Vec<_>>(), &mut costs)?;
-    let traced_length = total(&start, &costs);
+    let (start, _) = search.faces_without(&removed);
+    search.fill(&start.iter().collect::<Vec<_>>())?;
+    let traced_length = search.total(&start);
     let mut best = traced_length;
     // What removing each separatrix saved from the partition as traced:
     // the order later steps try them in.
     let mut first_saving: Option<Vec<f64>> = None;
     loop {
         progress.check()?;
-        let mut trials: Vec<(usize, Vec<Face>, Vec<bool>)> = (0..n)
-            .filter(|&e| !removed[e])
-            .map(|e| {
-                let mut r = removed.clone();
-                r[e] = true;
-                let (faces, out) = faces_without(&r);
-                (e, faces, out)
-            })
-            // Every face must hold a traced region (it does, unless the
-            // graph's faces did not close).
-            .filter(|(_, faces, _)| !faces.is_empty() && faces.iter().all(|f| !f.held.is_empty()))
-            .collect();
+        let mut trials = search.trials(&removed);
         let chunk = match &first_saving {
             // The first step tries every separatrix.
             None => trials.len().max(1),
@@ -135,24 +89,11 @@ where
                 TRIALS_AT_ONCE
             }
         };
-        let mut pick: Option<(f64, usize)> = None;
-        for (c, group) in trials.chunks(chunk).enumerate() {
-            let faces: Vec<&Face> = group.iter().flat_map(|t| t.1.iter()).collect();
-            fill(&faces, &mut costs)?;
-            for (k, (_, faces, _)) in group.iter().enumerate() {
-                let t = total(faces, &costs);
-                if t < best && pick.is_none_or(|(b, _)| t < b) {
-                    pick = Some((t, c * chunk + k));
-                }
-            }
-            if pick.is_some() {
-                break;
-            }
-        }
+        let pick = search.pick(&trials, chunk, best)?;
         if first_saving.is_none() {
             let mut saving = vec![f64::NEG_INFINITY; n];
             for (e, faces, _) in &trials {
-                saving[*e] = best - total(faces, &costs);
+                saving[*e] = best - search.total(faces);
             }
             first_saving = Some(saving);
         }
@@ -167,6 +108,111 @@ where
         traced_length,
         merged_length: best,
     })
+}
+
+/// One removal tried: the separatrix, the faces left and which
+/// separatrices were left out.
+type Trial = (usize, Vec<Face>, Vec<bool>);
+
+/// The merge search's state: the graph, the traced regions with a point
+/// inside each, the cost function and the costs met so far, by the traced
+/// regions a face holds.
+struct Search<'a, F> {
+    graph: &'a FaceGraph,
+    traced: &'a [Region],
+    inside: Vec<Option<nalgebra::Vector2<f64>>>,
+    cost: F,
+    progress: &'a dyn Progress,
+    costs: BTreeMap<Vec<usize>, f64>,
+}
+
+impl<F> Search<'_, F>
+where
+    F: Fn(&Region) -> Result<f64> + Sync,
+{
+    /// The faces left without the `removed` separatrices, each with the
+    /// traced regions it holds, and which separatrices were left out.
+    fn faces_without(&self, removed: &[bool]) -> (Vec<Face>, Vec<bool>) {
+        let (polygons, out) = self.graph.faces_without(removed);
+        let faces = polygons
+            .into_iter()
+            .map(|poly| {
+                let held: Vec<usize> = (0..self.traced.len())
+                    .filter(|&i| self.inside[i].is_some_and(|p| polygon_contains(&poly, p)))
+                    .collect();
+                let area_mm2 = held.iter().map(|&i| self.traced[i].area_mm2).sum();
+                Face {
+                    held,
+                    region: Region {
+                        id: 0,
+                        boundary_uv: poly,
+                        area_mm2,
+                    },
+                }
+            })
+            .collect();
+        (faces, out)
+    }
+
+    /// The cost of every face not met before, two at a time.
+    fn fill(&mut self, faces: &[&Face]) -> Result<()> {
+        let mut todo: Vec<&Face> = Vec::new();
+        for f in faces {
+            if !self.costs.contains_key(&f.held) && !todo.iter().any(|t| t.held == f.held) {
+                todo.push(f);
+            }
+        }
+        let (cost, progress) = (&self.cost, self.progress);
+        let done = toolpath_kernel::parallel::map_chunks(&todo, 1, |f| -> Result<f64> {
+            progress.check()?;
+            cost(&f[0].region)
+        });
+        for (f, c) in todo.iter().zip(done) {
+            self.costs.insert(f.held.clone(), c?);
+        }
+        Ok(())
+    }
+
+    /// The summed cost of `faces` (every one filled).
+    fn total(&self, faces: &[Face]) -> f64 {
+        faces.iter().map(|f| self.costs[&f.held]).sum()
+    }
+
+    /// Each separatrix not yet removed taken out in turn, in index order.
+    fn trials(&self, removed: &[bool]) -> Vec<Trial> {
+        (0..removed.len())
+            .filter(|&e| !removed[e])
+            .map(|e| {
+                let mut r = removed.to_vec();
+                r[e] = true;
+                let (faces, out) = self.faces_without(&r);
+                (e, faces, out)
+            })
+            // Every face must hold a traced region (it does, unless the
+            // graph's faces did not close).
+            .filter(|(_, faces, _)| !faces.is_empty() && faces.iter().all(|f| !f.held.is_empty()))
+            .collect()
+    }
+
+    /// The trial with the shortest total below `best` in the first group of
+    /// `chunk` trials that has one (ties: the first), as (total, index).
+    fn pick(&mut self, trials: &[Trial], chunk: usize, best: f64) -> Result<Option<(f64, usize)>> {
+        let mut pick: Option<(f64, usize)> = None;
+        for (c, group) in trials.chunks(chunk).enumerate() {
+            let faces: Vec<&Face> = group.iter().flat_map(|t| t.1.iter()).collect();
+            self.fill(&faces)?;
+            for (k, (_, faces, _)) in group.iter().enumerate() {
+                let t = self.total(faces);
+                if t < best && pick.is_none_or(|(b, _)| t < b) {
+                    pick = Some((t, c * chunk + k));
+                }
+            }
+            if pick.is_some() {
+                break;
+            }
+        }
+        Ok(pick)
+    }
 }
 
 #[cfg(test)]

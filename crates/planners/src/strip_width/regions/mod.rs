@@ -3,11 +3,12 @@
 //! trisectors"): the degenerate points of the feed field, classified, and the
 //! partition of the parameter domain along the separatrices of trisectors.
 
-pub mod degenerate_points;
-pub mod merge;
-pub mod partition;
+pub(crate) mod degenerate_points;
+pub(crate) mod merge;
+pub(crate) mod partition;
 
-pub use partition::{polygon_area, Region};
+pub(crate) use partition::polygon_area;
+pub use partition::Region;
 
 use nalgebra::Vector2;
 use toolpath_kernel::geometry::NurbsSurface;

@@ -13,7 +13,7 @@ use toolpath_kernel::geometry::{LocalGeometry, NurbsSurface};
 
 /// How a traced field line ended.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum TraceEnd {
+pub(crate) enum TraceEnd {
     /// Reached the domain boundary (the last point is on it).
     Boundary,
     /// Ran into degenerate point `index` (the last point is that point).
@@ -38,7 +38,7 @@ fn inside_domain(surface: &NurbsSurface, uv: Vector2<f64>) -> bool {
 /// Feed field lines: traced with steps of at most `step` mm until the domain
 /// boundary, a degenerate point (within `snap` mm; not the one the line
 /// starts from), `stop(uv)`, or `max_len` mm.
-pub struct Tracer<'a> {
+pub(crate) struct Tracer<'a> {
     pub surface: &'a NurbsSurface,
     pub k_b: f64,
     pub step: f64,
@@ -155,25 +155,25 @@ fn crossings(poly: &[Vector2<f64>], y: f64) -> impl Iterator<Item = f64> + '_ {
 /// The [`crossings`] of the row at `y`, into `out`, for testing many points
 /// of one row with [`inside_of_row`] (the same answers as
 /// [`polygon_contains`]).
-pub fn row_crossings(poly: &[Vector2<f64>], y: f64, out: &mut Vec<f64>) {
+pub(crate) fn row_crossings(poly: &[Vector2<f64>], y: f64, out: &mut Vec<f64>) {
     out.clear();
     out.extend(crossings(poly, y));
 }
 
 /// [`polygon_contains`] for a point at `x` on the row whose
 /// [`row_crossings`] are `crossings`.
-pub fn inside_of_row(crossings: &[f64], x: f64) -> bool {
+pub(crate) fn inside_of_row(crossings: &[f64], x: f64) -> bool {
     crossings.iter().filter(|&&c| x < c).count() % 2 == 1
 }
 
 /// Even-odd point-in-polygon test.
-pub fn polygon_contains(poly: &[Vector2<f64>], p: Vector2<f64>) -> bool {
+pub(crate) fn polygon_contains(poly: &[Vector2<f64>], p: Vector2<f64>) -> bool {
     crossings(poly, p.y).filter(|&x| p.x < x).count() % 2 == 1
 }
 
 /// The partition of a surface.
 #[derive(Clone, Debug)]
-pub struct Partition {
+pub(crate) struct Partition {
     pub regions: Vec<Region>,
     /// Separatrices in parameter space, each from its trisector.
     pub separatrices_uv: Vec<Vec<Vector2<f64>>>,
@@ -185,7 +185,7 @@ pub struct Partition {
 /// bounded faces are the regions. The first `separatrices` edges are the
 /// separatrices (each once), the rest the boundary ring.
 #[derive(Clone, Debug)]
-pub struct FaceGraph {
+pub(crate) struct FaceGraph {
     nodes: Vec<Vector2<f64>>,
     edges: Vec<(usize, usize, Vec<Vector2<f64>>)>,
     separatrices: usize,
@@ -194,7 +194,7 @@ pub struct FaceGraph {
 
 impl FaceGraph {
     /// How many separatrix edges the graph has (the ones [`Self::regions_without`] may drop).
-    pub fn separatrix_count(&self) -> usize {
+    pub(crate) fn separatrix_count(&self) -> usize {
         self.separatrices
     }
 
@@ -205,7 +205,7 @@ impl FaceGraph {
     /// of the whole graph, such as a separatrix ending at a wedge, stay).
     /// Returns the faces (counter-clockwise polygons) and which separatrices
     /// were left out in the end.
-    pub fn faces_without(&self, removed: &[bool]) -> (Vec<Vec<Vector2<f64>>>, Vec<bool>) {
+    pub(crate) fn faces_without(&self, removed: &[bool]) -> (Vec<Vec<Vector2<f64>>>, Vec<bool>) {
         let mut out: Vec<bool> = (0..self.edges.len())
             .map(|e| e < self.separatrices && removed.get(e).copied().unwrap_or(false))
             .collect();
@@ -249,7 +249,7 @@ impl FaceGraph {
     }
 
     /// [`Self::faces_without`] as regions with their areas (ids by centroid).
-    pub fn regions_without(
+    pub(crate) fn regions_without(
         &self,
         surface: &NurbsSurface,
         removed: &[bool],
@@ -261,7 +261,7 @@ impl FaceGraph {
 
 /// A point strictly inside `poly` (even-odd): the middle of the widest
 /// inside interval on the rows at 1/4, 1/2 and 3/4 of its v range.
-pub fn interior_point(poly: &[Vector2<f64>]) -> Option<Vector2<f64>> {
+pub(crate) fn interior_point(poly: &[Vector2<f64>]) -> Option<Vector2<f64>> {
     let (lo, hi) = poly
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
@@ -316,13 +316,17 @@ const GAUSS3: [(f64, f64); 3] = [
 
 /// Surface area of a parameter-space polygon: scanlines in v at Gauss
 /// points, each crossing interval integrated in u with Gauss points.
-pub fn polygon_area(surface: &NurbsSurface, poly: &[Vector2<f64>], strips: usize) -> f64 {
+pub(crate) fn polygon_area(surface: &NurbsSurface, poly: &[Vector2<f64>], strips: usize) -> f64 {
     integrate_polygon(surface, poly, strips, false)
 }
 
 /// [`polygon_area`] of the part on a trimmed face (each scanline's
 /// intervals cut to the face's): the region's area a result reports.
-pub fn polygon_face_area(surface: &NurbsSurface, poly: &[Vector2<f64>], strips: usize) -> f64 {
+pub(crate) fn polygon_face_area(
+    surface: &NurbsSurface,
+    poly: &[Vector2<f64>],
+    strips: usize,
+) -> f64 {
     integrate_polygon(surface, poly, strips, surface.trim().is_some())
 }
 
@@ -418,7 +422,7 @@ fn on_boundary(surface: &NurbsSurface, p: Vector2<f64>) -> bool {
 
 /// Traces the separatrices of the trisectors and splits the domain.
 /// `step` mm for tracing.
-pub fn partition(
+pub(crate) fn partition(
     surface: &NurbsSurface,
     k_b: f64,
     points: &[DegeneratePoint],
@@ -436,7 +440,43 @@ pub fn partition(
         degenerate: &xyz,
         snap: 1.5 * step,
     };
-    // Nodes: degenerate points (index = point index), then boundary nodes.
+    let Separatrices {
+        mut nodes,
+        mut edges,
+        lines: separatrices_uv,
+    } = trace_separatrices(&tracer, points);
+    let ring_edges = close_boundary(surface, &mut nodes, &mut edges);
+    let separatrices = edges.len() - ring_edges;
+    let graph = FaceGraph {
+        nodes,
+        edges,
+        separatrices,
+        scale: (w, h),
+    };
+    let (regions, _) = graph.regions_without(surface, &[]);
+    Partition {
+        regions,
+        separatrices_uv,
+        graph,
+    }
+}
+
+/// The traced separatrices as graph nodes (the degenerate points, index =
+/// point index, then the places where separatrices leave the domain) and
+/// edges (one copy of a separatrix traced from both ends), with every
+/// traced line.
+struct Separatrices {
+    nodes: Vec<Vector2<f64>>,
+    edges: Vec<(usize, usize, Vec<Vector2<f64>>)>,
+    lines: Vec<Vec<Vector2<f64>>>,
+}
+
+/// Traces every separatrix of the trisectors among `points`, starting one
+/// step out along its direction.
+fn trace_separatrices(tracer: &Tracer, points: &[DegeneratePoint]) -> Separatrices {
+    let (surface, step) = (tracer.surface, tracer.step);
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let (w, h) = (u1 - u0, v1 - v0);
     let mut nodes: Vec<Vector2<f64>> = points.iter().map(|p| p.uv).collect();
     let mut edges: Vec<(usize, usize, Vec<Vector2<f64>>)> = Vec::new();
     let mut separatrices_uv = Vec::new();
@@ -483,7 +523,23 @@ pub fn partition(
             }
         }
     }
-    // Boundary cycle: corners, boundary nodes and degenerate points on the boundary.
+    Separatrices {
+        nodes,
+        edges,
+        lines: separatrices_uv,
+    }
+}
+
+/// Adds the boundary cycle to the graph: the corners, the boundary nodes
+/// and the degenerate points on the boundary, in order round the
+/// perimeter, joined by straight edges. Returns how many edges it added.
+fn close_boundary(
+    surface: &NurbsSurface,
+    nodes: &mut Vec<Vector2<f64>>,
+    edges: &mut Vec<(usize, usize, Vec<Vector2<f64>>)>,
+) -> usize {
+    let ((u0, u1), (v0, v1)) = surface.domain();
+    let (w, h) = (u1 - u0, v1 - v0);
     let corners = [
         Vector2::new(u0, v0),
         Vector2::new(u1, v0),
@@ -512,19 +568,7 @@ pub fn partition(
             ring_edges += 1;
         }
     }
-    let separatrices = edges.len() - ring_edges;
-    let graph = FaceGraph {
-        nodes,
-        edges,
-        separatrices,
-        scale: (w, h),
-    };
-    let (regions, _) = graph.regions_without(surface, &[]);
-    Partition {
-        regions,
-        separatrices_uv,
-        graph,
-    }
+    ring_edges
 }
 
 fn signed_area(poly: &[Vector2<f64>]) -> f64 {
