@@ -12,7 +12,7 @@
 //! costs a few dozen edge tests however fine the loops are.
 
 use super::nurbs::{basis_functions, MAX_DEGREE};
-use super::pocket::{signed_area, Point2};
+use super::pocket::Point2;
 use super::{NurbsSurface, Pocket};
 use crate::error::{Error, Result};
 
@@ -476,6 +476,7 @@ impl Trim {
     /// Area of the trimmed domain in (u, v) (outer minus holes).
     #[cfg(test)]
     fn uv_area(&self) -> f64 {
+        use super::pocket::signed_area;
         signed_area(&self.outer) + self.holes.iter().map(|h| signed_area(h)).sum::<f64>()
     }
 
@@ -636,6 +637,7 @@ pub fn circle(c: Point2, r: f64, ccw: bool) -> TrimCurve {
 
 #[cfg(test)]
 mod tests {
+    use super::super::pocket::signed_area;
     use super::*;
 
     fn unit_plane() -> NurbsSurface {

@@ -246,7 +246,7 @@ impl SweepLine<'_> {
     /// tolerance to each side (so the convex drop has its minimum within one
     /// tolerance, the stopping rule of
     /// [`bracket_min`](toolpath_kernel::numeric::bracket_min)). `None` otherwise:
-    /// the caller searches as before.
+    /// the caller searches.
     pub(super) fn kink_min(&self, known: &[(f64, f64)], tol: f64) -> Option<f64> {
         let m = (1..known.len()).fold(0, |m, i| if known[i].1 < known[m].1 { i } else { m });
         let (s_m, f_m) = *known.get(m)?;

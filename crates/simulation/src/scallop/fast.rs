@@ -15,12 +15,12 @@ impl Simulator<'_> {
     /// Lowest drop of the tool swept along `seg` at the line p + t n, or some
     /// value >= `cutoff` when the drop cannot go below `cutoff`.
     ///
-    /// The same scan and refinement as [`Self::sweep_min_reference`], cut short
+    /// The same scan and refinement as the reference (`reference.rs`), cut short
     /// by the convexity of the drop in the motion parameter (docs/methods.md,
     /// "Scallop simulator"): once the scanned drop rises it keeps rising, so
     /// the scan stops there (and where the line leaves the tool's reach); a
     /// secant through two scanned drops bounds the drop beyond them from below,
-    /// so a segment that cannot beat `cutoff` is left before its refinement.
+    /// so a motion that cannot beat `cutoff` is left before its refinement.
     /// Before any of that, a motion whose tip plane stays at or above `cutoff`
     /// along the line ([`SweepLine::plane_bound`], exact) is left unscanned.
     pub(super) fn sweep_min(
