@@ -2,6 +2,5 @@
 //! milling planner's tests and stats, and the belt-grinding material-removal
 //! simulation. Depends on geometry, tools, formats and planners' results only.
 
-mod minimum;
 pub mod removal;
 pub mod scallop;

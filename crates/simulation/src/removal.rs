@@ -108,7 +108,7 @@ pub struct Simulation {
 
 impl Simulation {
     /// The (u, v) of node (i, j).
-    pub fn node_uv(&self, i: usize, j: usize) -> [f64; 2] {
+    pub(crate) fn node_uv(&self, i: usize, j: usize) -> [f64; 2] {
         let at = |k: usize, n: usize, [lo, hi]: [f64; 2]| {
             if k + 1 == n {
                 hi

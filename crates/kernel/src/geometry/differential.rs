@@ -233,7 +233,7 @@ fn tangent_to_uv(
 
 /// Eigen-decomposition of a symmetric 2x2 matrix: (lambda_min, lambda_max,
 /// unit eigenvector for min, unit eigenvector for max).
-pub fn sym_eigen2(s: Matrix2<f64>) -> (f64, f64, Vector2<f64>, Vector2<f64>) {
+pub(crate) fn sym_eigen2(s: Matrix2<f64>) -> (f64, f64, Vector2<f64>, Vector2<f64>) {
     let a = s[(0, 0)];
     let b = 0.5 * (s[(0, 1)] + s[(1, 0)]);
     let c = s[(1, 1)];

@@ -274,30 +274,16 @@ where
         }
         let last_step = h >= remaining;
         h = h.min(remaining);
-        let (x_new, h_taken, err) = match tracer.step(x, &heading, h) {
-            Step::Undefined => {
-                h *= 0.5;
-                if h < options.min_step {
-                    out.stop = TraceStop::FieldUndefined;
-                    return out;
-                }
+        let (x_new, h_taken, grow) = match attempt(&tracer, x, &heading, h, options) {
+            Attempt::Accept { x, h, grow } => (x, h, grow),
+            Attempt::Retry(shorter) => {
+                h = shorter;
                 continue;
             }
-            Step::Ok { x: xn, err_mm } => (xn, h, err_mm),
-        };
-        let tol = options.tolerance.max(1e-15);
-        if err > tol {
-            h *= (0.9 * (tol / err).powf(0.2)).clamp(0.1, 0.9);
-            if h < options.min_step {
-                out.stop = TraceStop::StepTooSmall;
+            Attempt::Stop(stop) => {
+                out.stop = stop;
                 return out;
             }
-            continue;
-        }
-        let grow = if err > 0.0 {
-            (0.9 * (tol / err).powf(0.2)).clamp(1.0, 5.0)
-        } else {
-            5.0
         };
         // Leaving the domain: shorten the step so that it ends on the boundary.
         let (x_acc, h_acc, at_boundary) = if tracer.outside(x_new) > 0.0 {
@@ -332,6 +318,57 @@ where
             heading = dir;
         }
         h = (h_taken * grow).min(max_step);
+    }
+}
+
+/// What one try of a step of length h gives.
+enum Attempt {
+    /// The step's end, its length, and the factor for the next step.
+    Accept { x: Vector2<f64>, h: f64, grow: f64 },
+    /// Try again with this shorter step.
+    Retry(f64),
+    /// The trace ends here.
+    Stop(TraceStop),
+}
+
+/// One try of a step of length `h` from `x` along `heading`: accepted when
+/// its error estimate is within the tolerance (the next step grown by the
+/// fifth-order rule, at most 5 times), else shortened by the same rule (a
+/// field undefined along the step halves it), down to the minimum step.
+fn attempt<F: Fn(Vector2<f64>) -> Option<Vector2<f64>>>(
+    tracer: &Tracer<'_, F>,
+    x: Vector2<f64>,
+    heading: &Vector3<f64>,
+    mut h: f64,
+    options: &TraceOptions,
+) -> Attempt {
+    let (x_new, h_taken, err) = match tracer.step(x, heading, h) {
+        Step::Undefined => {
+            h *= 0.5;
+            if h < options.min_step {
+                return Attempt::Stop(TraceStop::FieldUndefined);
+            }
+            return Attempt::Retry(h);
+        }
+        Step::Ok { x: xn, err_mm } => (xn, h, err_mm),
+    };
+    let tol = options.tolerance.max(1e-15);
+    if err > tol {
+        h *= (0.9 * (tol / err).powf(0.2)).clamp(0.1, 0.9);
+        if h < options.min_step {
+            return Attempt::Stop(TraceStop::StepTooSmall);
+        }
+        return Attempt::Retry(h);
+    }
+    let grow = if err > 0.0 {
+        (0.9 * (tol / err).powf(0.2)).clamp(1.0, 5.0)
+    } else {
+        5.0
+    };
+    Attempt::Accept {
+        x: x_new,
+        h: h_taken,
+        grow,
     }
 }
 

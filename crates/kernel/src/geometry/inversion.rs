@@ -35,7 +35,7 @@ pub fn extended_derivs(surface: &NurbsSurface, u: f64, v: f64) -> SurfaceDerivs 
 /// surface of revolution and right to second order for any smooth surface
 /// (the height over the tangent plane is even to that order). `None` away
 /// from collapsed boundaries (docs/methods.md, "Degenerate boundaries").
-pub fn beyond_pole(surface: &NurbsSurface, u: f64, v: f64) -> Option<SurfaceDerivs> {
+pub(crate) fn beyond_pole(surface: &NurbsSurface, u: f64, v: f64) -> Option<SurfaceDerivs> {
     let c = surface.collapsed_boundaries();
     let ((u0, u1), (v0, v1)) = surface.domain();
     let mirror = |t: f64, lo: f64, hi: f64, at_lo: bool, at_hi: bool| -> Option<(f64, f64)> {

@@ -23,13 +23,13 @@ use boostvoronoi::prelude::{Builder, Diagram, Line, SourceCategory};
 /// Medial-axis edges whose object angle never reaches this are discretisation
 /// artefacts of smooth boundaries (radians; 10 degrees). A polygon corner with
 /// an interior angle above 170 degrees is treated as smooth.
-pub const MIN_OBJECT_ANGLE: f64 = 10.0 * std::f64::consts::PI / 180.0;
+pub(crate) const MIN_OBJECT_ANGLE: f64 = 10.0 * std::f64::consts::PI / 180.0;
 
 /// A polygon vertex turning by less than this (radians; 30 degrees) is read as
 /// one sample of a rounded corner: its corner radius is the radius where its
 /// medial-axis branch meets the others (the fan centre of the arc's vertices),
 /// not 0. Vertices turning more are sharp corners (radius 0).
-pub const SHARP_CORNER_TURN: f64 = 30.0 * std::f64::consts::PI / 180.0;
+pub(crate) const SHARP_CORNER_TURN: f64 = 30.0 * std::f64::consts::PI / 180.0;
 
 /// Largest spacing of the samples along curved medial-axis edges, mm.
 const SAMPLE_STEP_MM: f64 = 0.25;
@@ -430,18 +430,7 @@ pub fn medial_axis(pocket: &Pocket) -> Result<MedialAxis> {
 pub fn medial_axis_with(pocket: &Pocket, path: VoronoiPath) -> Result<MedialAxis> {
     let bd = Boundary::new(pocket, path)?;
     let o = bd.origin;
-    let lines: Vec<Line<i32>> = bd
-        .ints
-        .iter()
-        .map(|&[x0, y0, x1, y1]| Line::from([x0 + o, y0 + o, x1 + o, y1 + o]))
-        .collect();
-    let diagram: Diagram = {
-        let _mode = PredicateMode::set(path);
-        Builder::<i32>::default()
-            .with_segments(lines.iter())
-            .and_then(|b| b.build())
-            .map_err(voronoi_error)?
-    };
+    let diagram = voronoi_diagram(&bd, path)?;
     let step = SAMPLE_STEP_MM * bd.scale;
     let cells = diagram.cells();
     let vertices = diagram.vertices();
@@ -532,20 +521,48 @@ pub fn medial_axis_with(pocket: &Pocket, path: VoronoiPath) -> Result<MedialAxis
             segments,
         });
     }
+    Ok(assemble(&kept, vertices.len(), best, &bd))
+}
+
+/// The Voronoi diagram of the boundary's integer segments (shifted by its
+/// origin to non-negative coordinates), its predicates evaluated `path`'s way.
+fn voronoi_diagram(bd: &Boundary, path: VoronoiPath) -> Result<Diagram> {
+    let o = bd.origin;
+    let lines: Vec<Line<i32>> = bd
+        .ints
+        .iter()
+        .map(|&[x0, y0, x1, y1]| Line::from([x0 + o, y0 + o, x1 + o, y1 + o]))
+        .collect();
+    let _mode = PredicateMode::set(path);
+    Builder::<i32>::default()
+        .with_segments(lines.iter())
+        .and_then(|b| b.build())
+        .map_err(voronoi_error)
+}
+
+/// The medial axis from the kept edges (of a diagram of `vertex_count`
+/// vertices) and the largest inscribed circle `best` (radius, centre in the
+/// boundary's frame): branches chained, smooth ends completed, in mm.
+fn assemble(
+    kept: &[KeptEdge],
+    vertex_count: usize,
+    best: (f64, Point2),
+    bd: &Boundary,
+) -> MedialAxis {
     let centre = bd.to_mm(best.1);
     let rmax = best.0 / bd.scale;
-    let (mut branches, end_segments, mut nodes) = chain_branches(&kept, vertices.len());
-    extend_smooth_ends(&mut branches, &end_segments, &mut nodes, &bd);
+    let (mut branches, end_segments, mut nodes) = chain_branches(kept, vertex_count);
+    extend_smooth_ends(&mut branches, &end_segments, &mut nodes, bd);
     let min_corner_radius = corner_radii(&branches, &nodes)
         .min_by(f64::total_cmp)
         .unwrap_or(rmax);
-    Ok(MedialAxis {
+    MedialAxis {
         branches,
         nodes,
         dmax: 2.0 * rmax,
         dmax_center: centre,
         min_corner_radius,
-    })
+    }
 }
 
 /// Corner radius at every end point: its r when the axis ends inside (the tip
@@ -607,37 +624,7 @@ fn chain_branches(
             nodes.len() - 1
         })
     };
-    // Walk from vertex `v` along edge `k`, through degree-2 vertices.
-    let walk = |start_v: usize,
-                first: usize,
-                used: &mut Vec<bool>|
-     -> (Vec<[f64; 3]>, usize, [f64; 2], EndSegments) {
-        let mut pts: Vec<[f64; 3]> = Vec::new();
-        let (mut v, mut k) = (start_v, first);
-        let first_angle = kept[first].angle;
-        loop {
-            used[k] = true;
-            let e = &kept[k];
-            let angles = [first_angle, e.angle];
-            let forward = e.v0 == v;
-            let seq: Vec<[f64; 3]> = if forward {
-                e.points.clone()
-            } else {
-                e.points.iter().rev().copied().collect()
-            };
-            let skip = usize::from(!pts.is_empty());
-            pts.extend(seq.into_iter().skip(skip));
-            v = if forward { e.v1 } else { e.v0 };
-            let ends = [kept[first].segments, e.segments];
-            if incident[v].len() != 2 || v == start_v {
-                return (pts, v, angles, ends);
-            }
-            match incident[v].iter().copied().find(|&j| !used[j]) {
-                Some(j) => k = j,
-                None => return (pts, v, angles, ends),
-            }
-        }
-    };
+    let walk = |v: usize, k: usize, used: &mut Vec<bool>| walk_branch(kept, &incident, v, k, used);
     for v in 0..vertex_count {
         if incident[v].is_empty() || incident[v].len() == 2 {
             continue;
@@ -680,6 +667,44 @@ fn chain_branches(
         end_segments.push(ends);
     }
     (branches, end_segments, nodes)
+}
+
+/// A branch walked from vertex `start_v` along kept edge `first`, through
+/// degree-2 vertices (`incident`: the kept edges at each vertex), marking the
+/// edges `used`: its points, the vertex it ends at, the object angles of its
+/// first and last edge, and their boundary segments.
+fn walk_branch(
+    kept: &[KeptEdge],
+    incident: &[Vec<usize>],
+    start_v: usize,
+    first: usize,
+    used: &mut [bool],
+) -> (Vec<[f64; 3]>, usize, [f64; 2], EndSegments) {
+    let mut pts: Vec<[f64; 3]> = Vec::new();
+    let (mut v, mut k) = (start_v, first);
+    let first_angle = kept[first].angle;
+    loop {
+        used[k] = true;
+        let e = &kept[k];
+        let angles = [first_angle, e.angle];
+        let forward = e.v0 == v;
+        let seq: Vec<[f64; 3]> = if forward {
+            e.points.clone()
+        } else {
+            e.points.iter().rev().copied().collect()
+        };
+        let skip = usize::from(!pts.is_empty());
+        pts.extend(seq.into_iter().skip(skip));
+        v = if forward { e.v1 } else { e.v0 };
+        let ends = [kept[first].segments, e.segments];
+        if incident[v].len() != 2 || v == start_v {
+            return (pts, v, angles, ends);
+        }
+        match incident[v].iter().copied().find(|&j| !used[j]) {
+            Some(j) => k = j,
+            None => return (pts, v, angles, ends),
+        }
+    }
 }
 
 /// Completes the branches that stop inside the pocket at a smooth lobe.

@@ -7,12 +7,14 @@ pub mod field_trace;
 pub mod interpolation;
 pub mod inversion;
 pub mod medial_axis;
-pub mod numeric;
 pub mod nurbs;
 pub mod plane_intersection;
 pub mod pocket;
+pub mod segment_index;
 pub mod trim;
 
+/// The one-variable solvers, at their former path.
+pub use crate::numeric;
 pub use differential::{FundamentalForms, LocalGeometry};
 pub use nurbs::{NurbsSurface, SurfaceDerivs};
 pub use pocket::Pocket;

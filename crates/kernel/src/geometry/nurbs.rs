@@ -153,6 +153,97 @@ fn check_knots(name: &str, degree: usize, count: usize, knots: &[f64]) -> Result
     Ok(())
 }
 
+/// The grid size of `control_points` (rows along u), checked: not empty,
+/// rectangular, finite coordinates.
+fn check_control_points(control_points: &[Vec<[f64; 3]>]) -> Result<(usize, usize)> {
+    let count_u = control_points.len();
+    if count_u == 0 {
+        return Err(Error::invalid("control_points", "is empty"));
+    }
+    let count_v = control_points[0].len();
+    for (i, row) in control_points.iter().enumerate() {
+        if row.len() != count_v {
+            return Err(Error::invalid(
+                format!("control_points[{i}]"),
+                format!(
+                    "has {} points, row 0 has {count_v}: the grid must be rectangular",
+                    row.len()
+                ),
+            ));
+        }
+        for (j, p) in row.iter().enumerate() {
+            if p.iter().any(|c| !c.is_finite()) {
+                return Err(Error::invalid(
+                    format!("control_points[{i}][{j}]"),
+                    "has a coordinate that is not a finite number",
+                ));
+            }
+        }
+    }
+    Ok((count_u, count_v))
+}
+
+/// The homogeneous control points (x w, y w, z w, w), row-major, weights
+/// checked against the grid (positive, finite) and scaled by a power of two
+/// when their largest lies outside [1 / WEIGHT_RANGE, WEIGHT_RANGE]; and
+/// whether any weight differs from 1.
+fn homogeneous_points(
+    control_points: &[Vec<[f64; 3]>],
+    weights: Option<&[Vec<f64>]>,
+) -> Result<(Vec<[f64; 4]>, bool)> {
+    let (count_u, count_v) = (control_points.len(), control_points[0].len());
+    let mut homogeneous = Vec::with_capacity(count_u * count_v);
+    let mut rational = false;
+    let mut weight_scale = 1.0;
+    if let Some(w) = weights {
+        if w.len() != count_u {
+            return Err(Error::invalid(
+                "weights",
+                format!("has {} rows, control_points has {count_u}", w.len()),
+            ));
+        }
+        for (i, row) in w.iter().enumerate() {
+            if row.len() != count_v {
+                return Err(Error::invalid(
+                    format!("weights[{i}]"),
+                    format!(
+                        "has {} values, control_points[{i}] has {count_v}",
+                        row.len()
+                    ),
+                ));
+            }
+            for (j, &x) in row.iter().enumerate() {
+                if !x.is_finite() || x <= 0.0 {
+                    return Err(Error::invalid(
+                        format!("weights[{i}][{j}]"),
+                        format!("weight {x} must be a positive finite number"),
+                    ));
+                }
+            }
+        }
+        let max = w.iter().flatten().fold(0.0f64, |a, &b| a.max(b));
+        if !(1.0 / WEIGHT_RANGE..=WEIGHT_RANGE).contains(&max) {
+            // 2^-e with max in [2^e, 2^(e+1)): the largest weight becomes [1, 2).
+            weight_scale = 2f64.powi(-(max.log2().floor() as i32));
+        }
+    }
+    for i in 0..count_u {
+        for j in 0..count_v {
+            let w = match weights {
+                Some(w) => w[i][j],
+                None => 1.0,
+            };
+            if w != 1.0 {
+                rational = true;
+            }
+            let w = w * weight_scale;
+            let p = control_points[i][j];
+            homogeneous.push([p[0] * w, p[1] * w, p[2] * w, w]);
+        }
+    }
+    Ok((homogeneous, rational))
+}
+
 impl NurbsSurface {
     /// Builds and validates a surface. `control_points[i][j]`, `i` along u.
     pub fn new(
@@ -163,81 +254,10 @@ impl NurbsSurface {
         control_points: &[Vec<[f64; 3]>],
         weights: Option<&[Vec<f64>]>,
     ) -> Result<Self> {
-        let count_u = control_points.len();
-        if count_u == 0 {
-            return Err(Error::invalid("control_points", "is empty"));
-        }
-        let count_v = control_points[0].len();
-        for (i, row) in control_points.iter().enumerate() {
-            if row.len() != count_v {
-                return Err(Error::invalid(
-                    format!("control_points[{i}]"),
-                    format!(
-                        "has {} points, row 0 has {count_v}: the grid must be rectangular",
-                        row.len()
-                    ),
-                ));
-            }
-            for (j, p) in row.iter().enumerate() {
-                if p.iter().any(|c| !c.is_finite()) {
-                    return Err(Error::invalid(
-                        format!("control_points[{i}][{j}]"),
-                        "has a coordinate that is not a finite number",
-                    ));
-                }
-            }
-        }
+        let (count_u, count_v) = check_control_points(control_points)?;
         check_knots("u", degree_u, count_u, &knots_u)?;
         check_knots("v", degree_v, count_v, &knots_v)?;
-        let mut homogeneous = Vec::with_capacity(count_u * count_v);
-        let mut rational = false;
-        let mut weight_scale = 1.0;
-        if let Some(w) = weights {
-            if w.len() != count_u {
-                return Err(Error::invalid(
-                    "weights",
-                    format!("has {} rows, control_points has {count_u}", w.len()),
-                ));
-            }
-            for (i, row) in w.iter().enumerate() {
-                if row.len() != count_v {
-                    return Err(Error::invalid(
-                        format!("weights[{i}]"),
-                        format!(
-                            "has {} values, control_points[{i}] has {count_v}",
-                            row.len()
-                        ),
-                    ));
-                }
-                for (j, &x) in row.iter().enumerate() {
-                    if !x.is_finite() || x <= 0.0 {
-                        return Err(Error::invalid(
-                            format!("weights[{i}][{j}]"),
-                            format!("weight {x} must be a positive finite number"),
-                        ));
-                    }
-                }
-            }
-            let max = w.iter().flatten().fold(0.0f64, |a, &b| a.max(b));
-            if !(1.0 / WEIGHT_RANGE..=WEIGHT_RANGE).contains(&max) {
-                // 2^-e with max in [2^e, 2^(e+1)): the largest weight becomes [1, 2).
-                weight_scale = 2f64.powi(-(max.log2().floor() as i32));
-            }
-        }
-        for i in 0..count_u {
-            for j in 0..count_v {
-                let w = match weights {
-                    Some(w) => w[i][j],
-                    None => 1.0,
-                };
-                if w != 1.0 {
-                    rational = true;
-                }
-                let w = w * weight_scale;
-                let p = control_points[i][j];
-                homogeneous.push([p[0] * w, p[1] * w, p[2] * w, w]);
-            }
-        }
+        let (homogeneous, rational) = homogeneous_points(control_points, weights)?;
         let mut surface = Self {
             degree_u,
             degree_v,

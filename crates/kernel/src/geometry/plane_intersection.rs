@@ -317,7 +317,11 @@ fn root_on_edge(f: impl Fn(f64) -> f64, a: f64, b: f64, fa: f64, fb: f64) -> f64
 }
 
 /// Newton projection of `uv` onto d = 0 along the parameter gradient of d, kept in the domain.
-pub fn project_to_plane(surface: &NurbsSurface, plane: &Plane, uv: Vector2<f64>) -> Vector2<f64> {
+pub(crate) fn project_to_plane(
+    surface: &NurbsSurface,
+    plane: &Plane,
+    uv: Vector2<f64>,
+) -> Vector2<f64> {
     let mut x = uv;
     for _ in 0..20 {
         let d = surface.derivs(x.x, x.y);

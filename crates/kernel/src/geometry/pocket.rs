@@ -54,7 +54,7 @@ fn on_segment(a: Point2, b: Point2, p: Point2) -> bool {
 }
 
 /// Do closed segments ab and cd intersect (touching counts)?
-pub fn segments_intersect(a: Point2, b: Point2, c: Point2, d: Point2) -> bool {
+pub(crate) fn segments_intersect(a: Point2, b: Point2, c: Point2, d: Point2) -> bool {
     let d1 = orient(c, d, a);
     let d2 = orient(c, d, b);
     let d3 = orient(a, b, c);

@@ -12,7 +12,7 @@
 //! costs a few dozen edge tests however fine the loops are.
 
 use super::nurbs::{basis_functions, MAX_DEGREE};
-use super::pocket::{signed_area, Point2};
+use super::pocket::Point2;
 use super::{NurbsSurface, Pocket};
 use crate::error::{Error, Result};
 
@@ -35,11 +35,11 @@ pub const DEFAULT_TOLERANCE_MM: f64 = 1e-3;
 
 /// Largest gap between consecutive curves of a loop, as a share of the
 /// domain's diagonal in (u, v): ends closer than this are joined.
-pub const JOIN_GAP: f64 = 1e-6;
+pub(crate) const JOIN_GAP: f64 = 1e-6;
 
 /// Subcells per direction of a grid cell the trim boundary crosses, in
 /// [`Trim::cell_nodes`].
-pub const BOUNDARY_SUBCELLS: usize = 16;
+pub(crate) const BOUNDARY_SUBCELLS: usize = 16;
 
 /// Gauss-Legendre nodes and weights on [0, 1], 3 points.
 const GAUSS3: [(f64, f64); 3] = [
@@ -474,7 +474,9 @@ impl Trim {
     }
 
     /// Area of the trimmed domain in (u, v) (outer minus holes).
-    pub fn uv_area(&self) -> f64 {
+    #[cfg(test)]
+    fn uv_area(&self) -> f64 {
+        use super::pocket::signed_area;
         signed_area(&self.outer) + self.holes.iter().map(|h| signed_area(h)).sum::<f64>()
     }
 
@@ -569,31 +571,6 @@ impl Trim {
         std::iter::once(&self.outer).chain(self.holes.iter())
     }
 
-    /// Where the straight (u, v) segment from `a` to `b` first crosses a
-    /// loop: the share of the way `f` in [0, 1] and the crossed edge's
-    /// direction in (u, v). Exact polyline intersection.
-    pub fn first_crossing(&self, a: Point2, b: Point2) -> Option<(f64, Point2)> {
-        let d = [b[0] - a[0], b[1] - a[1]];
-        let mut best: Option<(f64, Point2)> = None;
-        for (p, q) in self.bands.edges_between(a[1].min(b[1]), a[1].max(b[1])) {
-            let e = [q[0] - p[0], q[1] - p[1]];
-            let den = d[0] * e[1] - d[1] * e[0];
-            if den == 0.0 {
-                continue;
-            }
-            let w = [p[0] - a[0], p[1] - a[1]];
-            let f = (w[0] * e[1] - w[1] * e[0]) / den;
-            let g = (w[0] * d[1] - w[1] * d[0]) / den;
-            if (0.0..=1.0).contains(&f)
-                && (0.0..=1.0).contains(&g)
-                && best.is_none_or(|(bf, _)| f < bf)
-            {
-                best = Some((f, e));
-            }
-        }
-        best
-    }
-
     /// Distance in (u, v) from `p` to the nearest loop, in the metric of the
     /// surface at `p` (the first fundamental form, so about mm): how far
     /// the face is from a point off it.
@@ -660,6 +637,7 @@ pub fn circle(c: Point2, r: f64, ccw: bool) -> TrimCurve {
 
 #[cfg(test)]
 mod tests {
+    use super::super::pocket::signed_area;
     use super::*;
 
     fn unit_plane() -> NurbsSurface {

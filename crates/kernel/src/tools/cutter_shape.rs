@@ -71,27 +71,12 @@ impl CutterShape {
         (self.radius - self.corner_radius).max(0.0)
     }
 
-    /// Height of the solid's bottom above the tip at radial distance `r`
-    /// (`None` beyond the radius): 0 on the flat bottom, the corner arc outside it.
-    pub fn bottom_height(&self, r: f64) -> Option<f64> {
-        let (rc, r0) = (self.corner_radius, self.tube_radius());
-        let r = r.abs();
-        if r > self.radius {
-            None
-        } else if r <= r0 {
-            Some(0.0)
-        } else {
-            let d = r - r0;
-            Some(rc - (rc * rc - d * d).max(0.0).sqrt())
-        }
-    }
-
     /// Signed distance from a point given in the meridian half-plane
     /// (`r` >= 0 radial distance from the axis, `z` height above the tip):
     /// negative inside. Exact inside and outside (the profile is a rectangle
     /// with one rounded corner; in the corner quadrant the arc is the nearest
     /// boundary, elsewhere the rectangle's sides are).
-    pub fn signed_distance_rz(&self, r: f64, z: f64) -> f64 {
+    pub(crate) fn signed_distance_rz(&self, r: f64, z: f64) -> f64 {
         let (rc, r0) = (self.corner_radius, self.tube_radius());
         let r = r.abs();
         if r > r0 && z < rc && rc > 0.0 {
@@ -105,7 +90,7 @@ impl CutterShape {
     }
 
     /// Signed distance from `x` to the cutter at (`tip`, unit `axis`), negative inside.
-    pub fn signed_distance(
+    pub(crate) fn signed_distance(
         &self,
         tip: &Vector3<f64>,
         axis: &Vector3<f64>,

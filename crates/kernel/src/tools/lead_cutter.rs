@@ -88,7 +88,12 @@ impl LeadCutter {
 
     /// [`LeadCutter::edge`] with `phi_sc` = phi.sin_cos() given (from a
     /// table of the fixed sample angles: the same bits, no trigonometry).
-    pub fn edge_sc(&self, phi: f64, phi_sc: (f64, f64), lead_sc: (f64, f64)) -> (f64, f64, f64) {
+    pub(crate) fn edge_sc(
+        &self,
+        phi: f64,
+        phi_sc: (f64, f64),
+        lead_sc: (f64, f64),
+    ) -> (f64, f64, f64) {
         let (s, c) = phi_sc;
         let r = self.radius;
         if self.ball {

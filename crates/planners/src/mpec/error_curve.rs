@@ -17,7 +17,7 @@
 //! its lowest point, which lies at the sphere's own feed coordinate cx(psi);
 //! the error there is that point's height minus the part at (cx(psi), y).
 
-use toolpath_kernel::geometry::numeric::Bracket;
+use toolpath_kernel::numeric::{brent_min, Bracket};
 use toolpath_kernel::tools::CutterShape;
 
 /// The part surface as a height field over the tangent plane at the drive point.
@@ -193,83 +193,6 @@ fn sphere_clearance(pose: &Pose, h: &dyn LocalHeight, psi: f64) -> f64 {
         y = ny;
     }
     best
-}
-
-/// Brent's minimisation of `f` on [a, b] (parabolic steps, golden-section
-/// fallback) to an abscissa tolerance `tol`: a handful of evaluations on the
-/// smooth, locally parabolic error functions here, where plain golden
-/// section needs 12 to 16. Returns (x, f(x)).
-fn brent_min(a: f64, b: f64, tol: f64, f: impl Fn(f64) -> f64) -> (f64, f64) {
-    const C: f64 = 0.381_966_011_250_105_1;
-    let (mut a, mut b) = (a.min(b), a.max(b));
-    let mut x = a + C * (b - a);
-    let (mut w, mut v) = (x, x);
-    let mut fx = f(x);
-    let (mut fw, mut fv) = (fx, fx);
-    let (mut d, mut e) = (0.0f64, 0.0f64);
-    for _ in 0..60 {
-        let m = 0.5 * (a + b);
-        let tol1 = tol + 1e-12 * x.abs();
-        let tol2 = 2.0 * tol1;
-        if (x - m).abs() <= tol2 - 0.5 * (b - a) {
-            break;
-        }
-        let mut golden = true;
-        if e.abs() > tol1 {
-            // Parabola through x, w, v.
-            let r = (x - w) * (fx - fv);
-            let mut q = (x - v) * (fx - fw);
-            let mut p = (x - v) * q - (x - w) * r;
-            q = 2.0 * (q - r);
-            if q > 0.0 {
-                p = -p;
-            }
-            q = q.abs();
-            let e_old = e;
-            if p.abs() < (0.5 * q * e_old).abs() && p > q * (a - x) && p < q * (b - x) {
-                e = d;
-                d = p / q;
-                let u = x + d;
-                if u - a < tol2 || b - u < tol2 {
-                    d = if m >= x { tol1 } else { -tol1 };
-                }
-                golden = false;
-            }
-        }
-        if golden {
-            e = if x >= m { a - x } else { b - x };
-            d = C * e;
-        }
-        let u = if d.abs() >= tol1 {
-            x + d
-        } else {
-            x + tol1.copysign(d)
-        };
-        let fu = f(u);
-        if fu <= fx {
-            if u >= x {
-                a = x;
-            } else {
-                b = x;
-            }
-            (v, fv) = (w, fw);
-            (w, fw) = (x, fx);
-            (x, fx) = (u, fu);
-        } else {
-            if u < x {
-                a = u;
-            } else {
-                b = u;
-            }
-            if fu <= fw || w == x {
-                (v, fv) = (w, fw);
-                (w, fw) = (u, fu);
-            } else if fu <= fv || v == x || v == w {
-                (v, fv) = (u, fu);
-            }
-        }
-    }
-    (x, fx)
 }
 
 /// Abscissa tolerance of the minimisations over psi (radians): the error

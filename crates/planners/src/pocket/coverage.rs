@@ -4,98 +4,24 @@
 //! sequence").
 
 use toolpath_kernel::geometry::pocket::{Pocket, Point2};
+use toolpath_kernel::geometry::segment_index::{box_dist2, segment_box, BoxGrid, BoxTree};
 
 /// Segments in a uniform grid of buckets, for nearest-segment queries, and
 /// in a bounding-box tree, for within-reach tests.
 pub struct SegmentIndex {
     segs: Vec<(Point2, Point2)>,
-    origin: Point2,
-    cell: f64,
-    nx: usize,
-    ny: usize,
-    buckets: Vec<Vec<u32>>,
+    /// The grid's cells hold (y, x) boxes: rows of constant y, the order in
+    /// which `nearest` meets the segments (it keeps the last of equals).
+    grid: BoxGrid<2>,
     /// Bounding-box tree of the same segments, for `within`: it skips the
     /// empty space round a point no path reaches in a few box tests, where
     /// the grid scans every bucket within reach.
-    tree: Vec<BoxNode>,
-    /// Segment numbers in tree order (each leaf a contiguous run).
-    order: Vec<u32>,
+    tree: BoxTree<2>,
 }
 
-/// A node of the segment tree: the box of its segments, and either two
-/// children (`leaf == false`, at `a` and `b`) or the run `order[a..b]`.
-#[derive(Clone, Copy)]
-struct BoxNode {
-    lo: Point2,
-    hi: Point2,
-    leaf: bool,
-    a: u32,
-    b: u32,
-}
-
-/// At most this many segments in a leaf of the tree.
-const LEAF_SEGMENTS: usize = 8;
-
-/// Squared distance from p to the box lo..hi (0 inside). The same
-/// expression as a segment's own box test: a node's box bounds its
-/// segments' boxes, so its value is never above theirs, rounding included.
-fn box_dist2(lo: Point2, hi: Point2, p: Point2) -> f64 {
-    let bx = (lo[0] - p[0]).max(p[0] - hi[0]).max(0.0);
-    let by = (lo[1] - p[1]).max(p[1] - hi[1]).max(0.0);
-    bx * bx + by * by
-}
-
-fn seg_box(a: Point2, b: Point2) -> (Point2, Point2) {
-    (
-        [a[0].min(b[0]), a[1].min(b[1])],
-        [a[0].max(b[0]), a[1].max(b[1])],
-    )
-}
-
-/// Builds the tree over `order[s..e]` (split at the median of the segment
-/// midpoints along the box's longer side); returns the node's number.
-fn build_tree(
-    segs: &[(Point2, Point2)],
-    order: &mut [u32],
-    s: usize,
-    tree: &mut Vec<BoxNode>,
-) -> u32 {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for &k in order.iter() {
-        let (a, b) = segs[k as usize];
-        let (l, h) = seg_box(a, b);
-        for t in 0..2 {
-            lo[t] = lo[t].min(l[t]);
-            hi[t] = hi[t].max(h[t]);
-        }
-    }
-    let id = tree.len();
-    let n = order.len();
-    tree.push(BoxNode {
-        lo,
-        hi,
-        leaf: true,
-        a: s as u32,
-        b: (s + n) as u32,
-    });
-    if n <= LEAF_SEGMENTS {
-        return id as u32;
-    }
-    let axis = usize::from(hi[1] - lo[1] > hi[0] - lo[0]);
-    let mid = |k: &u32| {
-        let (a, b) = segs[*k as usize];
-        a[axis] + b[axis]
-    };
-    let half = n / 2;
-    // Ties broken by the segment number: the same tree whatever the input order.
-    order.select_nth_unstable_by(half, |x, y| mid(x).total_cmp(&mid(y)).then(x.cmp(y)));
-    let (left, right) = order.split_at_mut(half);
-    let l = build_tree(segs, left, s, tree);
-    let r = build_tree(segs, right, s + half, tree);
-    tree[id].leaf = false;
-    tree[id].a = l;
-    tree[id].b = r;
-    id as u32
+/// The grid's coordinates of a point: (y, x).
+fn yx(p: Point2) -> Point2 {
+    [p[1], p[0]]
 }
 
 /// Nearest point of segment ab to p.
@@ -155,38 +81,20 @@ impl SegmentIndex {
             hi = [0.0; 2];
         }
         let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1e-6);
-        // About two segments per bucket along a path, at most 512 x 512 buckets.
+        // About two segments per bucket along a path, at most 512 x 512
+        // buckets (513 along a side: the cell is at least 1/512 of the
+        // extent, so the limit never enlarges it).
         let mean = total / segs.len().max(1) as f64;
         let cell = (2.0 * mean).max(extent / 512.0).max(1e-6);
-        let nx = (((hi[0] - lo[0]) / cell).floor() as usize + 1).min(513);
-        let ny = (((hi[1] - lo[1]) / cell).floor() as usize + 1).min(513);
-        let mut buckets: Vec<Vec<u32>> = vec![Vec::new(); nx * ny];
-        let clampi = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
-        for (k, &(a, b)) in segs.iter().enumerate() {
-            let x0 = clampi((a[0].min(b[0]) - lo[0]) / cell, nx);
-            let x1 = clampi((a[0].max(b[0]) - lo[0]) / cell, nx);
-            let y0 = clampi((a[1].min(b[1]) - lo[1]) / cell, ny);
-            let y1 = clampi((a[1].max(b[1]) - lo[1]) / cell, ny);
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    buckets[y * nx + x].push(k as u32);
-                }
-            }
-        }
-        let mut order: Vec<u32> = (0..segs.len() as u32).collect();
-        let mut tree = Vec::with_capacity(2 * segs.len() / LEAF_SEGMENTS + 1);
-        if !segs.is_empty() {
-            build_tree(&segs, &mut order, 0, &mut tree);
-        }
+        let yx_boxes: Vec<_> = segs
+            .iter()
+            .map(|&(a, b)| segment_box(&yx(a), &yx(b)))
+            .collect();
+        let boxes: Vec<_> = segs.iter().map(|(a, b)| segment_box(a, b)).collect();
         Self {
+            grid: BoxGrid::new(&yx_boxes, cell, 513 * 513),
+            tree: BoxTree::new(&boxes),
             segs,
-            origin: lo,
-            cell,
-            nx,
-            ny,
-            buckets,
-            tree,
-            order,
         }
     }
 
@@ -199,15 +107,6 @@ impl SegmentIndex {
         if self.segs.is_empty() {
             return None;
         }
-        let span = |v: f64, o: f64, n: usize| -> (usize, usize) {
-            let lo = ((v - max_dist - o) / self.cell).floor();
-            let hi = ((v + max_dist - o) / self.cell).floor();
-            let lo = lo.max(0.0).min((n - 1) as f64) as usize;
-            let hi = hi.max(0.0).min((n - 1) as f64) as usize;
-            (lo, hi)
-        };
-        let (x0, x1) = span(p[0], self.origin[0], self.nx);
-        let (y0, y1) = span(p[1], self.origin[1], self.ny);
         let mut best: Option<(f64, Point2)> = None;
         let mut bound = max_dist;
         // Squared distances screen the segments without a square root; one
@@ -215,30 +114,32 @@ impl SegmentIndex {
         // any other is measured exactly as before, so the answer is the same.
         let slack = 1.0 + 1e-12;
         let mut bound2 = bound * bound * slack;
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                for &k in &self.buckets[y * self.nx + x] {
-                    let (a, b) = self.segs[k as usize];
-                    // Distance to the segment's box first: a cheap lower bound.
-                    let bx = (a[0].min(b[0]) - p[0]).max(p[0] - a[0].max(b[0])).max(0.0);
-                    let by = (a[1].min(b[1]) - p[1]).max(p[1] - a[1].max(b[1])).max(0.0);
-                    if bx * bx + by * by > bound2 {
-                        continue;
-                    }
-                    let f = segment_foot(a, b, p);
-                    let (dx, dy) = (f[0] - p[0], f[1] - p[1]);
-                    if dx * dx + dy * dy > bound2 {
-                        continue;
-                    }
-                    let d = dist(f, p);
-                    if d <= bound {
-                        bound = d;
-                        bound2 = bound * bound * slack;
-                        best = Some((d, f));
-                    }
+        let (lo, hi) = (
+            yx([p[0] - max_dist, p[1] - max_dist]),
+            yx([p[0] + max_dist, p[1] + max_dist]),
+        );
+        self.grid.visit_clamped(&lo, &hi, |cell| {
+            for &k in cell {
+                let (a, b) = self.segs[k as usize];
+                // Distance to the segment's box first: a cheap lower bound.
+                let bx = (a[0].min(b[0]) - p[0]).max(p[0] - a[0].max(b[0])).max(0.0);
+                let by = (a[1].min(b[1]) - p[1]).max(p[1] - a[1].max(b[1])).max(0.0);
+                if bx * bx + by * by > bound2 {
+                    continue;
+                }
+                let f = segment_foot(a, b, p);
+                let (dx, dy) = (f[0] - p[0], f[1] - p[1]);
+                if dx * dx + dy * dy > bound2 {
+                    continue;
+                }
+                let d = dist(f, p);
+                if d <= bound {
+                    bound = d;
+                    bound2 = bound * bound * slack;
+                    best = Some((d, f));
                 }
             }
-        }
+        });
         best
     }
 
@@ -256,8 +157,8 @@ impl SegmentIndex {
         let (inside, outside) = (r2 * (1.0 - 1e-12), r2 * (1.0 + 1e-12));
         let hit = |k: u32| -> bool {
             let (a, b) = self.segs[k as usize];
-            let (lo, hi) = seg_box(a, b);
-            if box_dist2(lo, hi, p) > outside {
+            let (lo, hi) = segment_box(&a, &b);
+            if box_dist2(&lo, &hi, &p) > outside {
                 return false;
             }
             let f = segment_foot(a, b, p);
@@ -265,43 +166,13 @@ impl SegmentIndex {
             let d2 = dx * dx + dy * dy;
             d2 <= inside || (d2 <= outside && dist(f, p) <= r)
         };
-        let mut stack: [u32; 128] = [0; 128];
-        let mut top = 0usize;
-        if box_dist2(self.tree[0].lo, self.tree[0].hi, p) > outside {
-            return false;
-        }
-        stack[0] = 0;
-        top += 1;
-        while top > 0 {
-            top -= 1;
-            let node = self.tree[stack[top] as usize];
-            if node.leaf {
-                if self.order[node.a as usize..node.b as usize]
-                    .iter()
-                    .any(|&k| hit(k))
-                {
-                    return true;
-                }
-                continue;
-            }
-            let (ca, cb) = (self.tree[node.a as usize], self.tree[node.b as usize]);
-            let (da, db) = (box_dist2(ca.lo, ca.hi, p), box_dist2(cb.lo, cb.hi, p));
-            // Push the farther child first so that the nearer is searched first.
-            let (near, dn, far, df) = if da <= db {
-                (node.a, da, node.b, db)
-            } else {
-                (node.b, db, node.a, da)
-            };
-            if df <= outside {
-                stack[top] = far;
-                top += 1;
-            }
-            if dn <= outside {
-                stack[top] = near;
-                top += 1;
-            }
-        }
-        false
+        self.tree.search(
+            |lo, hi| {
+                let d = box_dist2(lo, hi, &p);
+                (d <= outside).then_some(d)
+            },
+            |ks| ks.iter().any(|&k| hit(k)),
+        )
     }
 }
 

@@ -8,8 +8,10 @@ use crate::strip_width::crossings::segment_crossing;
 use crate::strip_width::passes::{walk_on_surface as walk, Contact, PassSettings, Walker};
 use crate::strip_width::regions::Region;
 use nalgebra::{Point3, Vector2, Vector3};
+use std::cell::Cell;
 use std::collections::HashMap;
 use toolpath_kernel::error::Result;
+use toolpath_kernel::geometry::segment_index::{box_dist2, segment_box, BoxTree};
 use toolpath_kernel::geometry::NurbsSurface;
 
 /// A point of a pass front: its contact and the unit tangent pointing to
@@ -701,12 +703,13 @@ fn nearest_result(
     (!at_end).then_some((dist, ua + (ub - ua) * f))
 }
 
-/// Segments of a front per block in a box, so that a nearest-point query
-/// scans only the blocks whose box lies near enough.
+/// The segments of a front in a bounding-box tree, so that a nearest-point
+/// query scans only the leaves whose box lies near enough.
 pub(super) struct FrontIndex<'a> {
     xyz: &'a [nalgebra::Point3<f64>],
     uv: &'a [Vector2<f64>],
-    boxes: Vec<(nalgebra::Point3<f64>, nalgebra::Point3<f64>)>,
+    /// Segment k (points k and k + 1; the last the point itself) is item k.
+    tree: BoxTree<3>,
     /// Every front point finite (else queries scan every segment).
     finite: bool,
 }
@@ -715,71 +718,59 @@ fn finite(q: &nalgebra::Point3<f64>) -> bool {
     q.x.is_finite() && q.y.is_finite() && q.z.is_finite()
 }
 
-/// Front segments per block of a [`FrontIndex`].
-const FRONT_BLOCK: usize = 8;
-
 impl<'a> FrontIndex<'a> {
     pub(super) fn new(xyz: &'a [nalgebra::Point3<f64>], uv: &'a [Vector2<f64>]) -> Self {
-        let n = xyz.len();
-        let boxes = (0..n.div_ceil(FRONT_BLOCK))
-            .map(|b| {
-                let (k0, k1) = (b * FRONT_BLOCK, ((b + 1) * FRONT_BLOCK).min(n - 1));
-                let mut lo = xyz[k0];
-                let mut hi = xyz[k0];
-                for q in &xyz[k0..=k1] {
-                    lo = lo.inf(q);
-                    hi = hi.sup(q);
-                }
-                (lo, hi)
-            })
+        let at = |k: usize| {
+            let q = xyz[k.min(xyz.len() - 1)];
+            [q.x, q.y, q.z]
+        };
+        let boxes: Vec<_> = (0..xyz.len())
+            .map(|k| segment_box(&at(k), &at(k + 1)))
             .collect();
         Self {
             xyz,
             uv,
-            boxes,
+            tree: BoxTree::new(&boxes),
             finite: xyz.iter().all(finite),
         }
     }
 
     /// [`nearest_on_front`]: the same segment (the first of the nearest)
-    /// and the same answer. A block whose box lies farther than the nearest
+    /// and the same answer. A node whose box lies farther than the nearest
     /// segment found so far (with margins far beyond rounding: 1e-9 of it
-    /// and 1e-9 mm) cannot hold
-    /// a segment as near, so it is not scanned; the block nearest by its box
-    /// is scanned first.
+    /// and 1e-9 mm) cannot hold a segment as near, so it is not searched;
+    /// the nearer child by its box is searched first.
     pub(super) fn nearest(&self, p: &nalgebra::Point3<f64>) -> Option<(f64, Vector2<f64>)> {
         let n = self.xyz.len();
         if n == 0 || !self.finite || !finite(p) {
             return nearest_on_front(self.xyz, self.uv, p);
         }
-        let box_dist = |(lo, hi): &(nalgebra::Point3<f64>, nalgebra::Point3<f64>)| {
-            let e = (lo - p).sup(&(p - hi)).sup(&nalgebra::Vector3::zeros());
-            e.norm()
-        };
-        let mut best: Option<(f64, usize)> = None;
-        let scan = |b: usize, best: &mut Option<(f64, usize)>| {
-            for k in b * FRONT_BLOCK..((b + 1) * FRONT_BLOCK).min(n) {
-                let dist = front_segment(self.xyz, k, p).0;
-                // The first of the nearest, in front order.
-                if best.is_none_or(|(bd, bk)| dist < bd || (dist == bd && k < bk)) {
-                    *best = Some((dist, k));
+        let q = [p.x, p.y, p.z];
+        let best: Cell<Option<(f64, usize)>> = Cell::new(None);
+        self.tree.search(
+            |lo, hi| {
+                let d = box_dist2(lo, hi, &q).sqrt();
+                let far = best
+                    .get()
+                    .is_some_and(|(bd, _)| d > bd * (1.0 + 1e-9) + 1e-9);
+                (!far).then_some(d)
+            },
+            |ks| {
+                for &k in ks {
+                    let k = k as usize;
+                    let dist = front_segment(self.xyz, k, p).0;
+                    // The first of the nearest, in front order.
+                    if best
+                        .get()
+                        .is_none_or(|(bd, bk)| dist < bd || (dist == bd && k < bk))
+                    {
+                        best.set(Some((dist, k)));
+                    }
                 }
-            }
-        };
-        let first = (0..self.boxes.len())
-            .map(|b| (box_dist(&self.boxes[b]), b))
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-            .map_or(0, |(_, b)| b);
-        scan(first, &mut best);
-        for b in (0..self.boxes.len()).filter(|&b| b != first) {
-            if let Some((bd, _)) = best {
-                if box_dist(&self.boxes[b]) > bd * (1.0 + 1e-9) + 1e-9 {
-                    continue;
-                }
-            }
-            scan(b, &mut best);
-        }
-        nearest_result(self.xyz, self.uv, p, best?.1)
+                false
+            },
+        );
+        nearest_result(self.xyz, self.uv, p, best.get()?.1)
     }
 }
 

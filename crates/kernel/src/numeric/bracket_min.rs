@@ -1,5 +1,6 @@
 //! Minimum of a unimodal function of one variable over a bracket, resolved to
-//! an abscissa tolerance, for the scallop simulator's drop along a motion
+//! an abscissa tolerance, from points already known; written for the scallop
+//! simulator's drop along a motion
 //! (docs/methods.md, "Swept cutter and residual"). The drop of a flat end is
 //! the larger of two smooth branches (the bottom disc and the side wall) and
 //! has its minimum at their kink, the rim crossing; ball and torus drops are
@@ -25,16 +26,21 @@ pub fn bracket_min(
     tol: f64,
     max_eval: usize,
 ) -> f64 {
-    let mut pts = [(0.0f64, 0.0f64); KEEP + 1];
-    let mut n = 0;
+    let mut pts = Points {
+        pts: [(0.0f64, 0.0f64); KEEP + 1],
+        n: 0,
+    };
     for &q in init {
-        if n < KEEP && (n == 0 || q.0 > pts[n - 1].0) && !q.0.is_nan() {
-            pts[n] = q;
-            n += 1;
+        let n = pts.n;
+        if n < KEEP && (n == 0 || q.0 > pts.pts[n - 1].0) && !q.0.is_nan() {
+            pts.pts[n] = q;
+            pts.n += 1;
         }
     }
-    let mut low = pts[..n].iter().fold(f64::INFINITY, |a, q| a.min(q.1));
-    if n == 0 {
+    let mut low = pts.pts[..pts.n]
+        .iter()
+        .fold(f64::INFINITY, |a, q| a.min(q.1));
+    if pts.n == 0 {
         return low;
     }
     // Bracket widths of the last two steps (a step that does not halve the
@@ -43,49 +49,15 @@ pub fn bracket_min(
     let mut prefer_parabola = false;
     let (mut probing, mut probe_failed) = (false, false);
     for _ in 0..max_eval {
-        let m = (1..n).fold(0, |m, i| if pts[i].1 < pts[m].1 { i } else { m });
-        let (xm, fm) = pts[m];
-        let l = if m > 0 { pts[m - 1].0 } else { xm };
-        let r = if m + 1 < n { pts[m + 1].0 } else { xm };
+        let m = pts.lowest();
+        let (xm, fm) = pts.pts[m];
+        let (l, r) = pts.neighbours(m);
         let width = r - l;
         if width <= tol || width.is_nan() {
             break;
         }
-        // Kink model: the secant through two points on one side of the lowest
-        // meets the secant through two on the other side; of the two ways to
-        // split the points, the one that moves furthest (the other one meets
-        // at the lowest point itself when it straddles the kink).
-        let mut v_cand = f64::NAN;
-        let mut v_model = [(0.0, 0.0); 4];
-        let mut reach = -1.0;
-        for k in [m.wrapping_sub(1), m.wrapping_sub(2)] {
-            if k >= n || k + 3 >= n {
-                continue;
-            }
-            let q = [pts[k], pts[k + 1], pts[k + 2], pts[k + 3]];
-            let x = secants_meet(&q);
-            if x > l && x < r && (x - xm).abs() > reach {
-                v_cand = x;
-                v_model = q;
-                reach = (x - xm).abs();
-            }
-        }
-        // Parabola through the lowest point and its neighbours.
-        let mut p_cand = f64::NAN;
-        let mut p_model = [(0.0, 0.0); 3];
-        if m >= 1 && m + 1 < n {
-            let (a, b, c) = (pts[m - 1], pts[m], pts[m + 1]);
-            let num =
-                (b.0 - a.0) * (b.0 - a.0) * (b.1 - c.1) - (b.0 - c.0) * (b.0 - c.0) * (b.1 - a.1);
-            let den = (b.0 - a.0) * (b.1 - c.1) - (b.0 - c.0) * (b.1 - a.1);
-            if den != 0.0 {
-                let x = b.0 - 0.5 * num / den;
-                if x > l && x < r {
-                    p_cand = x;
-                    p_model = [a, b, c];
-                }
-            }
-        }
+        let (v_cand, v_model) = pts.kink_candidate(m, (l, r));
+        let (p_cand, p_model) = pts.parabola_candidate(m, (l, r));
         let cand = if v_cand.is_nan() || (prefer_parabola && !p_cand.is_nan()) {
             p_cand
         } else {
@@ -117,32 +89,123 @@ pub fn bracket_min(
         probing = false;
         low = low.min(fx);
         if !v_cand.is_nan() && !p_cand.is_nan() {
-            let line = |a: (f64, f64), b: (f64, f64)| a.1 + (b.1 - a.1) / (b.0 - a.0) * (x - a.0);
-            let kink = line(v_model[0], v_model[1]).max(line(v_model[2], v_model[3]));
-            let [a, b, c] = p_model;
-            let parabola = a.1 * (x - b.0) * (x - c.0) / ((a.0 - b.0) * (a.0 - c.0))
-                + b.1 * (x - a.0) * (x - c.0) / ((b.0 - a.0) * (b.0 - c.0))
-                + c.1 * (x - a.0) * (x - b.0) / ((c.0 - a.0) * (c.0 - b.0));
-            prefer_parabola = (parabola - fx).abs() < (kink - fx).abs();
+            prefer_parabola = parabola_predicts_better(&v_model, &p_model, (x, fx));
         }
-        // Insert in order; a repeated abscissa means the bracket cannot shrink.
-        let i = pts[..n].partition_point(|q| q.0 < x);
-        if i < n && pts[i].0 == x {
+        if !pts.insert(x, fx) {
             break;
-        }
-        pts.copy_within(i..n, i + 1);
-        pts[i] = (x, fx);
-        n += 1;
-        if n > KEEP {
-            // Drop the end point further from the lowest.
-            let m = (1..n).fold(0, |m, i| if pts[i].1 < pts[m].1 { i } else { m });
-            if m >= n - 1 - m {
-                pts.copy_within(1..n, 0);
-            }
-            n -= 1;
         }
     }
     low
+}
+
+/// The points a [`bracket_min`] keeps, sorted by x: `pts[..n]`, one spare
+/// for the insertion before the end further from the lowest is dropped.
+struct Points {
+    pts: [(f64, f64); KEEP + 1],
+    n: usize,
+}
+
+impl Points {
+    /// The index of the lowest point (the first of equals).
+    fn lowest(&self) -> usize {
+        let pts = &self.pts;
+        (1..self.n).fold(0, |m, i| if pts[i].1 < pts[m].1 { i } else { m })
+    }
+
+    /// The abscissae of the neighbours of point `m` (its own at an end).
+    fn neighbours(&self, m: usize) -> (f64, f64) {
+        let xm = self.pts[m].0;
+        let l = if m > 0 { self.pts[m - 1].0 } else { xm };
+        let r = if m + 1 < self.n {
+            self.pts[m + 1].0
+        } else {
+            xm
+        };
+        (l, r)
+    }
+
+    /// Kink model: the secant through two points on one side of the lowest
+    /// `m` meets the secant through two on the other side; of the two ways
+    /// to split the points, the one that moves furthest (the other one meets
+    /// at the lowest point itself when it straddles the kink). The meeting
+    /// point strictly inside (l, r) and its four points, or NaN.
+    fn kink_candidate(&self, m: usize, (l, r): (f64, f64)) -> (f64, [(f64, f64); 4]) {
+        let (pts, n, xm) = (&self.pts, self.n, self.pts[m].0);
+        let mut v_cand = f64::NAN;
+        let mut v_model = [(0.0, 0.0); 4];
+        let mut reach = -1.0;
+        for k in [m.wrapping_sub(1), m.wrapping_sub(2)] {
+            if k >= n || k + 3 >= n {
+                continue;
+            }
+            let q = [pts[k], pts[k + 1], pts[k + 2], pts[k + 3]];
+            let x = secants_meet(&q);
+            if x > l && x < r && (x - xm).abs() > reach {
+                v_cand = x;
+                v_model = q;
+                reach = (x - xm).abs();
+            }
+        }
+        (v_cand, v_model)
+    }
+
+    /// The vertex of the parabola through the lowest point `m` and its
+    /// neighbours, strictly inside (l, r), and the three points; or NaN.
+    fn parabola_candidate(&self, m: usize, (l, r): (f64, f64)) -> (f64, [(f64, f64); 3]) {
+        let pts = &self.pts;
+        if m >= 1 && m + 1 < self.n {
+            let (a, b, c) = (pts[m - 1], pts[m], pts[m + 1]);
+            let num =
+                (b.0 - a.0) * (b.0 - a.0) * (b.1 - c.1) - (b.0 - c.0) * (b.0 - c.0) * (b.1 - a.1);
+            let den = (b.0 - a.0) * (b.1 - c.1) - (b.0 - c.0) * (b.1 - a.1);
+            if den != 0.0 {
+                let x = b.0 - 0.5 * num / den;
+                if x > l && x < r {
+                    return (x, [a, b, c]);
+                }
+            }
+        }
+        (f64::NAN, [(0.0, 0.0); 3])
+    }
+
+    /// Inserts (x, fx) in order, then drops the end point further from the
+    /// lowest once more than [`KEEP`] are held; false for a repeated
+    /// abscissa (the bracket cannot shrink).
+    fn insert(&mut self, x: f64, fx: f64) -> bool {
+        let (pts, n) = (&mut self.pts, self.n);
+        let i = pts[..n].partition_point(|q| q.0 < x);
+        if i < n && pts[i].0 == x {
+            return false;
+        }
+        pts.copy_within(i..n, i + 1);
+        pts[i] = (x, fx);
+        self.n += 1;
+        if self.n > KEEP {
+            let n = self.n;
+            let m = self.lowest();
+            if m >= n - 1 - m {
+                self.pts.copy_within(1..n, 0);
+            }
+            self.n -= 1;
+        }
+        true
+    }
+}
+
+/// Whether the parabola through `p_model` predicted f at the new point
+/// (x, fx) better than the kink of the secants through `v_model`.
+fn parabola_predicts_better(
+    v_model: &[(f64, f64); 4],
+    p_model: &[(f64, f64); 3],
+    (x, fx): (f64, f64),
+) -> bool {
+    let line = |a: (f64, f64), b: (f64, f64)| a.1 + (b.1 - a.1) / (b.0 - a.0) * (x - a.0);
+    let kink = line(v_model[0], v_model[1]).max(line(v_model[2], v_model[3]));
+    let [a, b, c] = *p_model;
+    let parabola = a.1 * (x - b.0) * (x - c.0) / ((a.0 - b.0) * (a.0 - c.0))
+        + b.1 * (x - a.0) * (x - c.0) / ((b.0 - a.0) * (b.0 - c.0))
+        + c.1 * (x - a.0) * (x - b.0) / ((c.0 - a.0) * (c.0 - b.0));
+    (parabola - fx).abs() < (kink - fx).abs()
 }
 
 /// Where the secant through q[0], q[1] meets the secant through q[2], q[3]
@@ -162,34 +225,24 @@ mod tests {
     use super::*;
     use std::cell::Cell;
 
-    /// Golden section over [lo, hi] to `tol`, the lowest value seen (the
-    /// simulator's reference refinement), and its evaluation count.
-    fn golden(
-        f: impl Fn(f64) -> f64,
-        (mut lo, f_lo): (f64, f64),
-        (mut hi, f_hi): (f64, f64),
-        tol: f64,
-    ) -> (f64, usize) {
-        const G: f64 = 0.618_033_988_749_894_9;
-        let (mut x1, mut x2) = (hi - G * (hi - lo), lo + G * (hi - lo));
-        let (mut f1, mut f2) = (f(x1), f(x2));
-        let mut count = 2;
-        while hi - lo > tol {
-            count += 1;
-            if f1 <= f2 {
-                (hi, x2, f2) = (x2, x1, f1);
-                x1 = hi - G * (hi - lo);
-                f1 = f(x1);
-            } else {
-                (lo, x1, f1) = (x1, x2, f2);
-                x2 = lo + G * (hi - lo);
-                f2 = f(x2);
-            }
-        }
-        (f_lo.min(f_hi).min(f1).min(f2), count)
+    /// Golden section over [lo, hi] to `tol` (the simulator's reference
+    /// refinement): the lowest value seen and the evaluation count.
+    fn golden(f: impl Fn(f64) -> f64, lo: (f64, f64), hi: (f64, f64), tol: f64) -> (f64, usize) {
+        let count = Cell::new(0);
+        let low = golden_min(
+            |x| {
+                count.set(count.get() + 1);
+                f(x)
+            },
+            lo,
+            hi,
+            tol,
+        );
+        (low, count.get())
     }
 
-    use toolpath_kernel::rng::XorShift;
+    use crate::numeric::golden_min;
+    use crate::rng::XorShift;
 
     /// Kinked (a flat end's rim crossing: shallow disc branch, steep wall
     /// branch, straight or curved) and smooth functions with a known minimum

@@ -1,9 +1,10 @@
-//! One-dimensional root finding: a bracket narrowed by regula falsi with the
-//! Illinois modification. Superlinear on smooth functions, yet never leaves the
-//! bracket, so it is as safe as bisection (docs/methods.md, "One root
+//! Roots of a function of one variable: a bracket narrowed by regula falsi
+//! with the Illinois modification, and Newton's iteration kept inside such a
+//! bracket. Both are superlinear on smooth functions, yet never leave the
+//! bracket, so they are as safe as bisection (docs/methods.md, "One root
 //! finder"). Callers choose when to stop: the strip-width crossing, the
-//! plane-section edge crossings and MPEC's strip edges and pass advance each
-//! need a different tolerance.
+//! plane-section edge crossings, MPEC's strip edges and pass advance and the
+//! simulator's rim crossing each need a different tolerance.
 
 /// A bracket of a root of f: f(neg) <= 0 < f(pos). The ends may lie either
 /// way round on the axis.
@@ -241,6 +242,38 @@ mod tests {
                 "{x} vs {root}"
             );
             assert!(calls.get() <= most, "{} evaluations", calls.get());
+        }
+    }
+
+    /// Increasing functions with a known simple root r in a random bracket
+    /// (a cubic with a linear term, an exponential, a root of the form
+    /// (x - r) |x - r|): both solvers find r to their tolerance, and never
+    /// leave the bracket.
+    #[test]
+    fn roots_of_random_increasing_functions() {
+        let mut rng = crate::rng::XorShift(0x1405_7b7e_f767_814f);
+        for case in 0..3000 {
+            let a = 10.0 * (rng.unit() - 0.5);
+            let b = a + 0.01 + 10.0 * rng.unit();
+            let r = a + (b - a) * (0.01 + 0.98 * rng.unit());
+            let (c, d) = (0.1 + 5.0 * rng.unit(), 0.01 + 2.0 * rng.unit());
+            let kind = case % 3;
+            let f = |x: f64| -> (f64, f64) {
+                let t = x - r;
+                match kind {
+                    0 => (c * t * t * t + d * t, 3.0 * c * t * t + d),
+                    1 => (d * (c * t).exp_m1(), d * c * (c * t).exp()),
+                    _ => (c * t * t.abs() + d * t, 2.0 * c * t.abs() + d),
+                }
+            };
+            let value = |x: f64| f(x).0;
+            // Either way round.
+            let (lo, hi) = if case % 2 == 0 { (a, b) } else { (b, a) };
+            let x = illinois_root(value, (lo, value(lo)), (hi, value(hi)), 1e-12, 400);
+            assert!((x - r).abs() <= 1e-9, "case {case}: illinois {x} vs {r}");
+            let x = newton_root(f, (lo, value(lo)), (hi, value(hi)), None, 1e-10, 200);
+            assert!((x - r).abs() <= 1e-9, "case {case}: newton {x} vs {r}");
+            assert!(x >= a && x <= b, "case {case}: {x} left the bracket");
         }
     }
 }
