@@ -201,7 +201,7 @@ pub fn run(jobs: usize, points: usize, burst: usize, bursts: usize) -> Result<()
         start_node_with(
             domain,
             Some(&config),
-            "off,toolpath_planner::ros::node=debug",
+            "off,toolpath_node::node=debug",
             true,
         )
     });

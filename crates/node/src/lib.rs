@@ -8,6 +8,7 @@
 //! node's health on `/diagnostics`, `security` DDS Security from an SROS2 enclave.
 
 pub mod config;
+pub mod dds;
 pub mod diagnostics;
 pub mod execute;
 pub mod fake_controller;
@@ -17,6 +18,7 @@ pub mod node;
 pub mod parameter_descriptors;
 pub mod parameters;
 pub mod plan_action;
+pub mod qos;
 pub mod recorder;
 pub mod republish;
 pub mod ros_args;

@@ -1,6 +1,6 @@
 //! The node's log: the `log` crate's records go to stderr (env_logger) and,
 //! once the ROS node exists, the node's own records (target
-//! `toolpath_planner...`) also to `/rosout` as rcl_interfaces/Log with their
+//! `toolpath_...`) also to `/rosout` as rcl_interfaces/Log with their
 //! level, under the node's logger name (`cell_b.tp` for `/cell_b/tp`, as
 //! rclcpp names it). Levels come from the default filter, then RUST_LOG,
 //! then `--log-level` rules.
@@ -16,10 +16,13 @@ use std::sync::OnceLock;
 /// node's endpoints (target `rustdds::incompatible_qos`, a vendored patch):
 /// such a peer's data never arrives, and nothing else would say why.
 pub const DEFAULT_FILTER: &str = "warn,rustdds=off,rustdds::incompatible_qos=warn,\
-     ros2_client::distributions=error,toolpath_planner=info";
+     ros2_client::distributions=error,toolpath_=info";
 
-/// The crate's log target: `--log-level LEVEL` sets it.
-const OWN_TARGET: &str = "toolpath_planner";
+/// The workspace's log targets: `--log-level LEVEL` sets them. Every crate
+/// of the workspace is named `toolpath_*`, and a filter directive matches
+/// the targets its name is a prefix of, so this one covers the node, the
+/// pipeline and the planners alike.
+const OWN_TARGET: &str = "toolpath_";
 
 struct Bridge {
     stderr: env_logger::Logger,
@@ -207,7 +210,7 @@ mod tests {
         ];
         assert_eq!(
             directives(&rules, "cell_b.tp"),
-            "toolpath_planner=DEBUG,toolpath_planner=WARN,toolpath_planner=ERROR,rustdds::rtps=INFO"
+            "toolpath_=DEBUG,toolpath_=WARN,toolpath_=ERROR,rustdds::rtps=INFO"
         );
         assert_eq!(logger_name("/cell_b", "tp"), "cell_b.tp");
         assert_eq!(logger_name("/", "toolpath_planner"), "toolpath_planner");

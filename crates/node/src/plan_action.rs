@@ -15,7 +15,7 @@
 //! node's queue, and [`GoalLink`] how the worker reports back.
 
 use super::execute::{client_qos, server_qos};
-use super::node::{topic_name, RosNode};
+use super::dds::{topic_name, RosNode};
 use ros2_client::action::ActionClient;
 use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus, GoalId};
 use ros2_client::qos::{Durability, History, WhenFull};
@@ -64,9 +64,7 @@ pub fn action_client(ros: &mut RosNode) -> Result<PlanToolpathClient> {
     ros.node
         .create_action_client(ros.service_mapping, &name, &action_type(), client_qos())
         .map_err(|e| {
-            Error::planning(format!(
-                "ROS 2: cannot create action client {ACTION}: {e:?}"
-            ))
+            Error::dds(format!("cannot create action client {ACTION}: {e:?}"))
         })
 }
 
@@ -82,9 +80,7 @@ pub fn service_client(ros: &mut RosNode) -> Result<Client<Goal, GoalResult>> {
             service_qos(),
         )
         .map_err(|e| {
-            Error::planning(format!(
-                "ROS 2: cannot create service client {SERVICE}: {e:?}"
-            ))
+            Error::dds(format!("cannot create service client {SERVICE}: {e:?}"))
         })
 }
 
@@ -471,7 +467,7 @@ pub fn serve(ros: &mut RosNode, queue: Arc<dyn GoalQueue>) -> Result<()> {
             &action_type(),
             server_qos(),
         )
-        .map_err(|e| Error::planning(format!("ROS 2: cannot serve action {ACTION}: {e:?}")))?;
+        .map_err(|e| Error::dds(format!("cannot serve action {ACTION}: {e:?}")))?;
     let observer = {
         let queue = Arc::clone(&queue);
         move |a: &ros2_client::action_msgs::GoalStatusArray| {
@@ -489,7 +485,7 @@ pub fn serve(ros: &mut RosNode, queue: Arc<dyn GoalQueue>) -> Result<()> {
             service_qos(),
             service_qos(),
         )
-        .map_err(|e| Error::planning(format!("ROS 2: cannot serve service {SERVICE}: {e:?}")))?;
+        .map_err(|e| Error::dds(format!("cannot serve service {SERVICE}: {e:?}")))?;
     let toolpath_topic = topics::absolute(&ros.namespace, topics::TOOLPATH);
     let goals: Goals = Arc::default();
     tokio::spawn(accept_goals(

@@ -133,7 +133,7 @@ impl Recorder {
                 let failures = Arc::clone(&failures);
                 move || write_loop(writer, rx, &failures)
             })
-            .map_err(|e| Error::planning(format!("cannot start the recorder thread: {e}")))?;
+            .map_err(|e| Error::system(format!("cannot start the recorder thread: {e}")))?;
         Ok(Recorder {
             failures,
             namespace: namespace.trim_end_matches('/').to_string(),
@@ -215,7 +215,7 @@ impl Recorder {
         drop(lock(&self.tx).take());
         let handle = lock(&self.thread).take()?;
         Some(handle.join().unwrap_or_else(|_| {
-            Err(Error::planning(
+            Err(Error::shutdown(
                 "the recorder thread panicked (please report)",
             ))
         }))

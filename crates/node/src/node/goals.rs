@@ -27,7 +27,7 @@ impl NodeQueue {
     fn outputs(&self) -> Result<Arc<Outputs>> {
         self.outputs
             .upgrade()
-            .ok_or_else(|| Error::planning("the node is shutting down"))
+            .ok_or_else(|| Error::shutdown("the node is shutting down"))
     }
 
     /// The shape a goal's job plans on: the one inline, else one received.
