@@ -212,11 +212,27 @@ mod tests {
                 "out of spec: h",
             ),
             (Error::canceled("c"), 5, "canceled: c"),
-            (Error::dds("cannot create topic job"), 6, "DDS: cannot create topic job"),
+            (
+                Error::dds("cannot create topic job"),
+                6,
+                "DDS: cannot create topic job",
+            ),
             (Error::ipc("no service"), 6, "iceoryx2: no service"),
-            (Error::execution("pass 1/2 aborted"), 7, "not executed: pass 1/2 aborted"),
-            (Error::shutdown("the node is shutting down"), 8, "stopped: the node is shutting down"),
-            (Error::system("cannot start a thread"), 9, "system: cannot start a thread"),
+            (
+                Error::execution("pass 1/2 aborted"),
+                7,
+                "not executed: pass 1/2 aborted",
+            ),
+            (
+                Error::shutdown("the node is shutting down"),
+                8,
+                "stopped: the node is shutting down",
+            ),
+            (
+                Error::system("cannot start a thread"),
+                9,
+                "system: cannot start a thread",
+            ),
         ];
         for (e, code, text) in cases {
             assert_eq!((e.exit_code(), e.to_string()), (code, text.to_string()));

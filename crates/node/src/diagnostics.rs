@@ -169,8 +169,8 @@ pub fn qos() -> QosProfile {
 
 /// The `/diagnostics` publisher of `node`.
 pub fn publisher(node: &mut Node) -> Result<Publisher<DiagnosticArray>> {
-    let name = Name::new("/", "diagnostics")
-        .map_err(|e| Error::dds(format!("topic {TOPIC}: {e:?}")))?;
+    let name =
+        Name::new("/", "diagnostics").map_err(|e| Error::dds(format!("topic {TOPIC}: {e:?}")))?;
     let topic = node
         .create_topic(
             &name,

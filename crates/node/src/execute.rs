@@ -67,9 +67,7 @@ pub fn client(ros: &mut RosNode, action: &str) -> Result<FollowJointTrajectoryCl
     let name = super::dds::topic_name(&ros.namespace, action)?;
     ros.node
         .create_action_client(ros.service_mapping, &name, &action_type(), client_qos())
-        .map_err(|e| {
-            Error::dds(format!("cannot create action client {action}: {e:?}"))
-        })
+        .map_err(|e| Error::dds(format!("cannot create action client {action}: {e:?}")))
 }
 
 /// One job to execute: its passes, and where the outcome goes (the worker

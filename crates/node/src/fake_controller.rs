@@ -5,8 +5,8 @@
 //! following its timing (optionally faster), publishes feedback and
 //! `joint_states` as it goes, and can be told to abort or reject a goal.
 
-use super::execute::{action_type, server_qos};
 use super::dds::{topic_name, RosNode};
+use super::execute::{action_type, server_qos};
 use futures::FutureExt;
 use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus};
 use ros2_client::qos::{Durability, History, WhenFull};

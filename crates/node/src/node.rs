@@ -12,8 +12,8 @@
 //! and jobs by id), [`receive`] (the receive loop), [`worker`] (planning
 //! threads), [`goals`] (the queue as the PlanToolpath action sees it).
 
-use crate::parameters::{self, LiveConfig, Resolved};
 use crate::joint_states::JointStates;
+use crate::parameters::{self, LiveConfig, Resolved};
 use crate::shape_readers::ShapeReaders;
 use crate::NodeConfig;
 use outputs::{start_outputs, Outputs};
@@ -23,7 +23,7 @@ use ros2_client::Publisher;
 use std::sync::{Arc, Condvar, Mutex};
 use toolpath_kernel::error::{Error, Result};
 use toolpath_messages::topics;
-use worker::Workers;
+use worker::{large_blocks_back_to_the_system, Workers};
 
 mod goals;
 mod outputs;

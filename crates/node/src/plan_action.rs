@@ -14,8 +14,8 @@
 //! This module is the DDS side; [`GoalQueue`] is how it hands jobs to the
 //! node's queue, and [`GoalLink`] how the worker reports back.
 
-use super::execute::{client_qos, server_qos};
 use super::dds::{topic_name, RosNode};
+use super::execute::{client_qos, server_qos};
 use ros2_client::action::ActionClient;
 use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus, GoalId};
 use ros2_client::qos::{Durability, History, WhenFull};
@@ -63,9 +63,7 @@ pub fn action_client(ros: &mut RosNode) -> Result<PlanToolpathClient> {
     let name = topic_name(&ros.namespace, ACTION)?;
     ros.node
         .create_action_client(ros.service_mapping, &name, &action_type(), client_qos())
-        .map_err(|e| {
-            Error::dds(format!("cannot create action client {ACTION}: {e:?}"))
-        })
+        .map_err(|e| Error::dds(format!("cannot create action client {ACTION}: {e:?}")))
 }
 
 /// A client of the service `plan_toolpath` of a node in `ros`'s namespace.
@@ -79,9 +77,7 @@ pub fn service_client(ros: &mut RosNode) -> Result<Client<Goal, GoalResult>> {
             service_qos(),
             service_qos(),
         )
-        .map_err(|e| {
-            Error::dds(format!("cannot create service client {SERVICE}: {e:?}"))
-        })
+        .map_err(|e| Error::dds(format!("cannot create service client {SERVICE}: {e:?}")))
 }
 
 /// What the worker reports to a goal's task.

@@ -23,8 +23,8 @@ pub fn qos() -> QosProfile {
 /// Publishes `frames` once on `/tf_static`; the returned publisher keeps the
 /// message for late listeners as long as it lives.
 pub fn publish(node: &mut Node, frames: &Frames) -> Result<Publisher<TfMessage>> {
-    let name = Name::new("/", "tf_static")
-        .map_err(|e| Error::dds(format!("topic {TOPIC}: {e:?}")))?;
+    let name =
+        Name::new("/", "tf_static").map_err(|e| Error::dds(format!("topic {TOPIC}: {e:?}")))?;
     let topic = node
         .create_topic(
             &name,

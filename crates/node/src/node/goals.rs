@@ -2,7 +2,9 @@
 //! job goes through the checks and the queue of a job from topic `job`,
 //! bound to its shape (inline, or one received) when it is accepted.
 
-use super::{check_job, Admission, Outputs, Pending, ShapeEntry, Shared};
+use super::outputs::Outputs;
+use super::queue::{Admission, Pending, ShapeEntry, Shared};
+use super::receive::check_job;
 use crate::plan_action::{GoalLink, GoalQueue};
 use std::sync::{Arc, Weak};
 use std::time::Instant;

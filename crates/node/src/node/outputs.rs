@@ -45,7 +45,8 @@ pub(super) struct Outputs {
 }
 
 /// The queue of a machine's executor task.
-pub(super) type ExecutorQueue = tokio::sync::mpsc::UnboundedSender<(Execution, Arc<Report<'static>>)>;
+pub(super) type ExecutorQueue =
+    tokio::sync::mpsc::UnboundedSender<(Execution, Arc<Report<'static>>)>;
 
 /// Starts the thread that owns the iceoryx2 publisher and sends it every
 /// result; fails (naming the service) when the publisher cannot be made.
@@ -133,7 +134,14 @@ impl Outputs {
 
     /// A status with the estimated seconds left (`eta_s`, [`ETA_UNKNOWN`]
     /// when there is no estimate).
-    pub(super) fn status_eta(&self, job_id: &str, state: u8, progress: f32, mut message: String, eta_s: f32) {
+    pub(super) fn status_eta(
+        &self,
+        job_id: &str,
+        state: u8,
+        progress: f32,
+        mut message: String,
+        eta_s: f32,
+    ) {
         if let (true, Some(r)) = (state >= msgs::JobStatus::SUCCEEDED, &self.recorder) {
             if let Some(failed) = r.new_failures(RECORDING_SYNC_TIMEOUT) {
                 message = if message.is_empty() {

@@ -122,7 +122,11 @@ fn addressed_to(job: &msgs::Job, name: &str) -> bool {
 
 /// Receives shapes and jobs (recording each as it arrives) until SIGINT or
 /// SIGTERM. Never plans: jobs go to the workers' queue.
-pub(super) async fn receive_until_signal(inputs: Inputs, shared: &Shared, outputs: &Outputs) -> Result<()> {
+pub(super) async fn receive_until_signal(
+    inputs: Inputs,
+    shared: &Shared,
+    outputs: &Outputs,
+) -> Result<()> {
     let recorder = outputs.recorder.as_deref();
     let mut surface_stream = Box::pin(inputs.surfaces.async_stream());
     let mut pocket_stream = Box::pin(inputs.pockets.async_stream());

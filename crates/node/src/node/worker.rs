@@ -347,7 +347,11 @@ pub(super) struct Workers {
 impl Workers {
     /// Starts `count` workers, and resizes the pool whenever a parameter
     /// set changes `node.workers`.
-    pub(super) fn start(count: usize, shared: &Arc<Shared>, outputs: &Arc<Outputs>) -> Result<Arc<Self>> {
+    pub(super) fn start(
+        count: usize,
+        shared: &Arc<Shared>,
+        outputs: &Arc<Outputs>,
+    ) -> Result<Arc<Self>> {
         let pool = Arc::new(Self {
             shared: Arc::clone(shared),
             outputs: Arc::clone(outputs),
