@@ -13,6 +13,7 @@ pub mod diagnostics;
 pub mod execute;
 pub mod fake_controller;
 pub mod joint_states;
+mod journal;
 pub mod logging;
 pub mod node;
 pub mod parameter_descriptors;

@@ -14,7 +14,6 @@
 
 use crate::joint_states::JointStates;
 use crate::parameters::{self, LiveConfig, Resolved};
-use crate::shape_readers::ShapeReaders;
 use crate::NodeConfig;
 use outputs::{start_outputs, Outputs};
 use queue::{Shared, State};
@@ -29,6 +28,7 @@ mod goals;
 mod outputs;
 mod queue;
 mod receive;
+mod restart;
 mod worker;
 
 /// The DDS helpers the node's clients use, under the names they had here.
@@ -56,6 +56,9 @@ fn announce_ready(
     }
     if config.ipc.enabled {
         extra += &format!(", iceoryx2 service {}", config.ipc.service);
+    }
+    if let Some(j) = &outputs.journal {
+        extra += &format!(", job journal {}", j.path().display());
     }
     println!(
         "ready: node {} on ROS domain {domain}, interfaces {}{extra}",
@@ -204,22 +207,13 @@ pub async fn run(resolved: Resolved, enclave_dir: Option<std::path::PathBuf>) ->
         crate::logging::paired_durability_readers(&format!("rt{}", ros.resolved(t)));
     }
     let frames = config.frames();
-    let inputs = Inputs {
-        name: ros.node.fully_qualified_name(),
-        frames: frames.clone(),
-        surfaces: ShapeReaders {
-            volatile: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
-            transient_local: ros.subscription(topics::SURFACE, qos::shapes_history_reader())?,
-        },
-        pockets: ShapeReaders {
-            volatile: ros.subscription(topics::POCKET, qos::shapes_reader())?,
-            transient_local: ros.subscription(topics::POCKET, qos::shapes_history_reader())?,
-        },
-        jobs: ros.subscription(topics::JOB, qos::job_reader())?,
-        joint_states: ros.subscription(topics::JOINT_STATES, qos::joint_states())?,
-        cancels: ros.subscription(topics::CANCEL, qos::job())?,
-    };
-    let (outputs, ipc_thread) = start_outputs(&mut ros, config)?;
+    let inputs = Inputs::subscribe(&mut ros, &frames)?;
+    let journal = restart::open(&config.journal)?;
+    let (outputs, ipc_thread) = start_outputs(
+        &mut ros,
+        config,
+        journal.as_ref().map(|(j, _)| Arc::clone(j)),
+    )?;
     if let Some(r) = &outputs.recorder {
         live.set_recorder(Arc::clone(r));
     }
@@ -231,6 +225,18 @@ pub async fn run(resolved: Resolved, enclave_dir: Option<std::path::PathBuf>) ->
         activity: Default::default(),
     });
     let workers = Workers::start(config.node.worker_count(), &shared, &outputs)?;
+    if let Some((_, recovery)) = journal {
+        let timeout = std::time::Duration::from_secs_f64(settings.surface_timeout_s);
+        let on_restart = config.journal.on_restart;
+        let machines = config.machines();
+        restart::resume(
+            recovery,
+            on_restart,
+            (&shared, &outputs),
+            &machines,
+            timeout,
+        );
+    }
     let queue = goals::NodeQueue {
         shared: Arc::clone(&shared),
         outputs: Arc::downgrade(&outputs),

@@ -93,6 +93,8 @@ pub enum GoalEvent {
 /// the toolpath it published.
 pub struct GoalLink {
     pub job_id: String,
+    /// The goal's id (`None`: a service request).
+    pub goal_id: Option<[u8; 16]>,
     canceled: AtomicBool,
     executing: AtomicBool,
     done: AtomicBool,
@@ -109,9 +111,18 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 
 impl GoalLink {
     pub fn new(job_id: &str) -> (Arc<Self>, tokio::sync::mpsc::UnboundedReceiver<GoalEvent>) {
+        Self::of_goal(job_id, None)
+    }
+
+    /// The link of the goal `goal_id` (`None`: a service request).
+    pub fn of_goal(
+        job_id: &str,
+        goal_id: Option<[u8; 16]>,
+    ) -> (Arc<Self>, tokio::sync::mpsc::UnboundedReceiver<GoalEvent>) {
         let (events, rx) = tokio::sync::mpsc::unbounded_channel();
         let link = Self {
             job_id: job_id.to_string(),
+            goal_id,
             canceled: AtomicBool::new(false),
             executing: AtomicBool::new(false),
             done: AtomicBool::new(false),
@@ -292,7 +303,7 @@ async fn serve_goal(
     toolpath_topic: String,
 ) {
     let goal_id = executing.goal_id();
-    let (link, events) = GoalLink::new(&goal.job.job_id);
+    let (link, events) = GoalLink::of_goal(&goal.job.job_id, Some(goal_id.uuid.into_bytes()));
     lock(&goals).insert(goal_id, Arc::clone(&link));
     let result = run_job(
         queue.as_ref(),

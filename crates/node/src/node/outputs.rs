@@ -5,9 +5,12 @@
 use crate::config::{IpcSettings, NodeConfig};
 use crate::dds::RosNode;
 use crate::execute::{self, Cancels, Execution, Report};
+use crate::journal::Journal;
+use crate::plan_action::GoalLink;
 use crate::qos;
 use crate::recorder::Recorder;
 use ros2_client::Publisher;
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -42,6 +45,21 @@ pub(super) struct Outputs {
         toolpath_post::Format,
         std::path::PathBuf,
     )>,
+    /// The job journal, when the node keeps one.
+    pub(super) journal: Option<Arc<Journal>>,
+    /// The latest state and progress of each job that has not ended: what a
+    /// refused second job under its id is told.
+    latest: Mutex<BTreeMap<String, (u8, f32)>>,
+    /// PlanToolpath goals sent again, by goal id, for a job accepted before
+    /// the node restarted: they end with that job (by journal entry).
+    reasked: Mutex<BTreeMap<u64, Vec<Arc<GoalLink>>>>,
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    match m.lock() {
+        Ok(g) => g,
+        Err(p) => p.into_inner(),
+    }
 }
 
 /// The queue of a machine's executor task.
@@ -139,9 +157,93 @@ impl Outputs {
         job_id: &str,
         state: u8,
         progress: f32,
-        mut message: String,
+        message: String,
         eta_s: f32,
     ) {
+        let m = self.compose(job_id, state, progress, message, eta_s);
+        self.send_status(m);
+    }
+
+    /// The final status of a job: written to the job journal (entry `seq`)
+    /// before it goes out, so that a node restarted after a crash neither
+    /// plans the job again nor leaves it without its final status.
+    pub(super) fn finish(
+        &self,
+        job_id: &str,
+        seq: Option<u64>,
+        state: u8,
+        progress: f32,
+        message: String,
+    ) {
+        let m = self.compose(job_id, state, progress, message, ETA_UNKNOWN);
+        let journaled = self.journal.as_ref().zip(seq);
+        if let Some((j, seq)) = journaled {
+            if let Err(e) = j.finish(seq, &m) {
+                log::error!("job {job_id}: its final status is not in the journal: {e}");
+            }
+        }
+        let (state, reason) = (m.state, m.message.clone());
+        self.send_status(m);
+        if let Some((j, seq)) = journaled {
+            if let Err(e) = j.sent(seq) {
+                log::error!("job {job_id}: {e}");
+            }
+            for link in lock(&self.reasked).remove(&seq).unwrap_or_default() {
+                link.finish(state, reason.clone());
+            }
+        }
+    }
+
+    /// Publishes again, as it was, a final status the journal holds (entry
+    /// `seq`) without a record that it went out.
+    pub(super) fn resend(&self, seq: u64, m: msgs::JobStatus) {
+        let id = m.job_id.clone();
+        self.send_status(m);
+        if let Some(j) = &self.journal {
+            if let Err(e) = j.sent(seq) {
+                log::error!("job {id}: {e}");
+            }
+        }
+    }
+
+    /// Answers a second job under the id of a job that is queued or
+    /// running: a status of the first job (its latest state and progress,
+    /// never a final one) whose message says the second was refused.
+    pub(super) fn refuse_duplicate(&self, job_id: &str, why: String) {
+        let (state, progress) = lock(&self.latest)
+            .get(job_id)
+            .copied()
+            .unwrap_or((msgs::JobStatus::ACCEPTED, 0.0));
+        self.status(job_id, state, progress, why);
+    }
+
+    /// Ends `link` with the job of journal entry `seq` (a goal sent again
+    /// after a restart, by the goal id of a job accepted before it).
+    pub(super) fn end_with(&self, seq: u64, link: &Arc<GoalLink>) {
+        lock(&self.reasked)
+            .entry(seq)
+            .or_default()
+            .push(Arc::clone(link));
+        // The job may have ended meanwhile: its final is in the journal then.
+        let ended = self
+            .journal
+            .as_ref()
+            .and_then(|j| j.final_of(seq).ok().flatten());
+        if let Some(m) = ended {
+            link.finish(m.state, m.message);
+        }
+    }
+
+    /// A status message; a final one carries the write errors of the
+    /// recording that hit its job.
+    fn compose(
+        &self,
+        job_id: &str,
+        state: u8,
+        progress: f32,
+        mut message: String,
+        eta_s: f32,
+    ) -> msgs::JobStatus {
         if let (true, Some(r)) = (state >= msgs::JobStatus::SUCCEEDED, &self.recorder) {
             if let Some(failed) = r.new_failures(RECORDING_SYNC_TIMEOUT) {
                 message = if message.is_empty() {
@@ -151,33 +253,62 @@ impl Outputs {
                 };
             }
         }
-        match state {
-            msgs::JobStatus::FAILED | msgs::JobStatus::REJECTED => {
-                log::warn!(
-                    "job {job_id}: {}: {message}",
-                    msgs::JobStatus::state_name(state)
-                )
-            }
-            _ => log::info!(
-                "job {job_id}: {} {progress:.2} {message}",
-                msgs::JobStatus::state_name(state)
-            ),
-        }
-        let m = msgs::JobStatus {
+        msgs::JobStatus {
             header: self.header(),
             job_id: job_id.to_string(),
             state,
             progress,
             message,
             eta_s,
-        };
+        }
+    }
+
+    /// Logs a status, writes it into the bag (handed to the operating
+    /// system, so a client that saw it finds it in the bag of a node killed
+    /// right after) and publishes it.
+    fn send_status(&self, m: msgs::JobStatus) {
+        let (job_id, state) = (&m.job_id, m.state);
+        match state {
+            msgs::JobStatus::FAILED | msgs::JobStatus::REJECTED => {
+                log::warn!(
+                    "job {job_id}: {}: {}",
+                    msgs::JobStatus::state_name(state),
+                    m.message
+                )
+            }
+            _ => log::info!(
+                "job {job_id}: {} {:.2} {}",
+                msgs::JobStatus::state_name(state),
+                m.progress,
+                m.message
+            ),
+        }
         let is_final = m.is_final();
-        self.publish(&self.status, topics::JOB_STATUS, m);
+        {
+            let mut latest = lock(&self.latest);
+            if is_final {
+                latest.remove(job_id);
+            } else {
+                latest.insert(job_id.clone(), (state, m.progress));
+            }
+        }
+        if let Some(r) = &self.recorder {
+            r.record_written(topics::JOB_STATUS, &m, RECORDING_WRITE_TIMEOUT);
+        }
+        let guard = lock(&self.status);
+        if let Err(e) = guard.publish(m) {
+            log::error!("cannot publish on {}: {e:?}", topics::JOB_STATUS);
+        }
+        drop(guard);
         if let (true, Some(r)) = (is_final, &self.recorder) {
             r.job_done();
         }
     }
 }
+
+/// How long a status waits for the recorder to write it before it is
+/// published anyway (a disk that hangs must not stop the node).
+const RECORDING_WRITE_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// `eta_s` of a status or feedback that carries no estimate.
 pub(super) const ETA_UNKNOWN: f32 = -1.0;
@@ -200,6 +331,7 @@ const RECORDING_SYNC_TIMEOUT: std::time::Duration = std::time::Duration::from_se
 pub(super) fn start_outputs(
     ros: &mut RosNode,
     config: &NodeConfig,
+    journal: Option<Arc<Journal>>,
 ) -> Result<(Arc<Outputs>, Option<std::thread::JoinHandle<()>>)> {
     let settings = &config.node;
     let recorder = if config.recording.enabled {
@@ -251,6 +383,9 @@ pub(super) fn start_outputs(
         } else {
             None
         },
+        journal,
+        latest: Mutex::default(),
+        reasked: Mutex::default(),
     });
     Ok((outputs, ipc.map(|(_, handle)| handle)))
 }

@@ -3,6 +3,7 @@
 //! first whose shape has arrived, been rejected, or whose wait timed out).
 
 use crate::joint_states::JointStates;
+use crate::journal::JournalShape;
 use crate::parameters::LiveConfig;
 use crate::plan_action::GoalLink;
 use std::collections::{BTreeMap, VecDeque};
@@ -14,8 +15,15 @@ use toolpath_messages as msgs;
 /// What the node knows about a shape id.
 #[derive(Clone)]
 pub(super) enum ShapeEntry {
-    Ready(Arc<Shape>),
+    Ready(Arc<ReadyShape>),
     Rejected(String),
+}
+
+/// A shape ready to plan on, with the message the job journal stores for
+/// the jobs bound to it (when the node keeps a journal).
+pub(super) struct ReadyShape {
+    pub(super) shape: Shape,
+    pub(super) journal: Option<JournalShape>,
 }
 
 pub(super) struct Pending {
@@ -28,6 +36,10 @@ pub(super) struct Pending {
     pub(super) shape: Option<ShapeEntry>,
     /// The PlanToolpath goal (or service request) the job serves, if any.
     pub(super) goal: Option<Arc<GoalLink>>,
+    /// The job's entry in the job journal, when the node keeps one.
+    pub(super) seq: Option<u64>,
+    /// Accepted before the node restarted, and planned again.
+    pub(super) restarted: bool,
 }
 
 /// Shapes the node keeps by id. Beyond this the least recently received
@@ -74,18 +86,22 @@ impl State {
             Admission::Resent
         } else {
             Admission::Conflict(format!(
-                "job_id \"{}\" is already queued or running with other parameters: one job_id, one plan (use a new job_id)",
+                "job_id \"{}\" is already queued or running with other parameters: this second job is \
+                 refused and not planned (one job_id, one plan: use a new job_id); the job under this id goes on",
                 msg.job_id
             ))
         }
     }
 
     /// Stores a received shape, binds it to the queued jobs waiting for it,
-    /// and evicts the least recently received shapes beyond [`MAX_SHAPES`].
-    pub(super) fn insert_shape(&mut self, id: String, entry: ShapeEntry) {
+    /// and evicts the least recently received shapes beyond [`MAX_SHAPES`];
+    /// the journal entries of the jobs it was bound to.
+    pub(super) fn insert_shape(&mut self, id: String, entry: ShapeEntry) -> Vec<u64> {
+        let mut bound = Vec::new();
         for p in self.queue.iter_mut() {
             if p.shape.is_none() && p.msg.surface_id == id {
                 p.shape = Some(entry.clone());
+                bound.extend(p.seq);
             }
         }
         self.received_shapes += 1;
@@ -103,6 +119,7 @@ impl State {
                 None => break,
             }
         }
+        bound
     }
 }
 
@@ -128,7 +145,7 @@ impl Shared {
 
 /// What a worker takes from the queue.
 pub(super) enum Work {
-    Plan(Pending, Arc<Shape>),
+    Plan(Pending, Arc<ReadyShape>),
     Reject(Pending, String),
     TimedOut(Pending),
 }
@@ -213,6 +230,8 @@ mod tests {
             deadline: now,
             shape: None,
             goal: None,
+            seq: None,
+            restarted: false,
         }
     }
 

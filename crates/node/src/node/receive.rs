@@ -3,7 +3,10 @@
 //! ACCEPTED and queued for the workers. It never plans.
 
 use super::outputs::Outputs;
-use super::queue::{Admission, Pending, ShapeEntry, Shared};
+use super::queue::{Admission, Pending, ReadyShape, ShapeEntry, Shared};
+use crate::dds::RosNode;
+use crate::journal::{JournalShape, Origin, ShapeMsg};
+use crate::qos;
 use crate::shape_readers::ShapeReaders;
 use futures::StreamExt;
 use ros2_client::Subscription;
@@ -27,6 +30,27 @@ pub(super) struct Inputs {
     pub(super) jobs: Subscription<msgs::Job>,
     pub(super) joint_states: Subscription<msgs::JointState>,
     pub(super) cancels: Subscription<msgs::follow_joint_trajectory::StringMsg>,
+}
+
+impl Inputs {
+    /// The node's readers on `ros`.
+    pub(super) fn subscribe(ros: &mut RosNode, frames: &Frames) -> Result<Self> {
+        Ok(Inputs {
+            name: ros.node.fully_qualified_name(),
+            frames: frames.clone(),
+            surfaces: ShapeReaders {
+                volatile: ros.subscription(topics::SURFACE, qos::shapes_reader())?,
+                transient_local: ros.subscription(topics::SURFACE, qos::shapes_history_reader())?,
+            },
+            pockets: ShapeReaders {
+                volatile: ros.subscription(topics::POCKET, qos::shapes_reader())?,
+                transient_local: ros.subscription(topics::POCKET, qos::shapes_history_reader())?,
+            },
+            jobs: ros.subscription(topics::JOB, qos::job_reader())?,
+            joint_states: ros.subscription(topics::JOINT_STATES, qos::joint_states())?,
+            cancels: ros.subscription(topics::CANCEL, qos::job())?,
+        })
+    }
 }
 
 /// The checks of a job message that need no shape: its fields, and its feed
@@ -54,17 +78,14 @@ fn receive_job(
     msg: msgs::Job,
     timeout: Duration,
 ) {
-    let msg = match frames.job_in_workpiece(&msg) {
-        Ok(moved) => moved.unwrap_or(msg),
-        Err(e) => {
-            outputs.status(&msg.job_id, final_state(&e), 0.0, e.to_string());
-            return;
-        }
+    let checked = frames
+        .job_in_workpiece(&msg)
+        .map(|moved| moved.unwrap_or_else(|| msg.clone()))
+        .and_then(|m| check_job(&m, machines).map(|()| m));
+    let msg = match checked {
+        Ok(m) => m,
+        Err(e) => return refuse(shared, outputs, &msg.job_id, &e),
     };
-    if let Err(e) = check_job(&msg, machines) {
-        outputs.status(&msg.job_id, final_state(&e), 0.0, e.to_string());
-        return;
-    }
     let mut st = shared.lock();
     match st.admit(&msg) {
         Admission::New => {}
@@ -74,44 +95,118 @@ fn receive_job(
         }
         Admission::Conflict(why) => {
             drop(st);
-            outputs.status(&msg.job_id, msgs::JobStatus::REJECTED, 0.0, why);
+            outputs.refuse_duplicate(&msg.job_id, why);
             return;
         }
     }
     st.active.insert(msg.job_id.clone(), msg.clone());
+    let shape = st.shapes.get(&msg.surface_id).map(|(_, e)| e.clone());
     drop(st);
     // A cancel sent before this job (for an earlier one of its id) is not its own.
     outputs.cancels.forget(&msg.job_id);
+    let Some(seq) = journal_accept(outputs, Origin::Topic, &msg, shape.as_ref()) else {
+        shared.lock().active.remove(&msg.job_id);
+        return;
+    };
     // ACCEPTED before the job is queued, so a worker's statuses follow it;
     // published without the lock (a reliable publish may wait).
     outputs.status(&msg.job_id, msgs::JobStatus::ACCEPTED, 0.0, String::new());
-    let mut st = shared.lock();
-    let shape = st.shapes.get(&msg.surface_id).map(|(_, e)| e.clone());
     let now = Instant::now();
+    let mut st = shared.lock();
+    // A shape that arrived since is bound now, as if it had come later.
+    let late = shape
+        .is_none()
+        .then(|| st.shapes.get(&msg.surface_id).map(|(_, e)| e.clone()))
+        .flatten();
     st.queue.push_back(Pending {
         msg,
         received: now,
         deadline: now + timeout,
-        shape,
+        shape: shape.or(late.clone()),
         goal: None,
+        seq,
+        restarted: false,
     });
     drop(st);
     shared.wake.notify_all();
+    if let (Some(ShapeEntry::Ready(s)), Some(seq)) = (late, seq) {
+        journal_bind(outputs, &[seq], &s);
+    }
 }
 
-fn receive_shape(shared: &Shared, id: String, shape: Result<Shape>) {
+/// Answers a job refused before it was accepted: REJECTED (or FAILED) with
+/// the reason, unless a job under its id is queued or running, whose own
+/// final status that would look like; that job's id gets a non-final status
+/// saying the second job was refused.
+pub(super) fn refuse(shared: &Shared, outputs: &Outputs, job_id: &str, e: &Error) {
+    if shared.lock().active.contains_key(job_id) {
+        outputs.refuse_duplicate(
+            job_id,
+            format!("a second job under job_id \"{job_id}\" is refused ({e}); the job under this id goes on"),
+        );
+    } else {
+        outputs.status(job_id, final_state(e), 0.0, e.to_string());
+    }
+}
+
+/// Writes an accepted job into the journal (when the node keeps one) before
+/// its ACCEPTED status goes out: `Some(entry)`, `Some(None)` without a
+/// journal, `None` when the journal could not take it (the job then ends
+/// FAILED: it cannot be promised).
+pub(super) fn journal_accept(
+    outputs: &Outputs,
+    origin: Origin,
+    msg: &msgs::Job,
+    shape: Option<&ShapeEntry>,
+) -> Option<Option<u64>> {
+    let Some(journal) = &outputs.journal else {
+        return Some(None);
+    };
+    let stored = match shape {
+        Some(ShapeEntry::Ready(s)) => s.journal.as_ref(),
+        _ => None,
+    };
+    match journal.accept(origin, msg, stored) {
+        Ok(seq) => Some(Some(seq)),
+        Err(e) => {
+            let why = format!("not accepted: the job journal cannot take it: {e}");
+            outputs.status(&msg.job_id, msgs::JobStatus::FAILED, 0.0, why);
+            None
+        }
+    }
+}
+
+/// Binds journal entries `seqs` to the shape that arrived for them.
+fn journal_bind(outputs: &Outputs, seqs: &[u64], shape: &ReadyShape) {
+    let (Some(journal), Some(stored)) = (&outputs.journal, &shape.journal) else {
+        return;
+    };
+    for &seq in seqs {
+        if let Err(e) = journal.bind(seq, stored) {
+            log::error!("journal entry {seq}: the shape it waited for is not recorded: {e}");
+        }
+    }
+}
+
+fn receive_shape(shared: &Shared, outputs: &Outputs, id: String, shape: Result<(Shape, ShapeMsg)>) {
     let entry = match shape {
-        Ok(s) => {
+        Ok((s, msg)) => {
             log::info!("received {id}");
-            ShapeEntry::Ready(Arc::new(s))
+            ShapeEntry::Ready(Arc::new(ReadyShape {
+                shape: s,
+                journal: outputs.journal.as_ref().map(|_| JournalShape::new(msg)),
+            }))
         }
         Err(e) => {
             log::warn!("rejected {id}: {e}");
             ShapeEntry::Rejected(e.to_string())
         }
     };
-    shared.lock().insert_shape(id, entry);
+    let bound = shared.lock().insert_shape(id, entry.clone());
     shared.wake.notify_all();
+    if let ShapeEntry::Ready(s) = &entry {
+        journal_bind(outputs, &bound, s);
+    }
 }
 
 /// Whether a job is for the node named `name` (fully qualified): it names
@@ -161,9 +256,10 @@ pub(super) async fn receive_until_signal(
                     let shape = inputs
                         .frames
                         .surface_in_workpiece(msg)
-                        .and_then(|m| convert::surface_from_msg(&m))
-                        .map(Shape::Surface);
-                    receive_shape(shared, id, shape);
+                        .and_then(|m| {
+                            convert::surface_from_msg(&m).map(|s| (Shape::Surface(s), ShapeMsg::Surface(m)))
+                        });
+                    receive_shape(shared, outputs, id, shape);
                 }
                 Err(e) => log::error!("undecodable message on topic surface: {e:?}"),
             },
@@ -172,12 +268,13 @@ pub(super) async fn receive_until_signal(
                     if let Some(rec) = recorder {
                         rec.record(topics::POCKET, &msg);
                     }
+                    let id = msg.pocket_id.clone();
                     let shape = inputs
                         .frames
                         .check_pocket(&msg)
                         .and_then(|()| convert::pocket_from_msg(&msg))
-                        .map(Shape::Pocket);
-                    receive_shape(shared, msg.pocket_id, shape);
+                        .map(|p| (Shape::Pocket(p), ShapeMsg::Pocket(msg)));
+                    receive_shape(shared, outputs, id, shape);
                 }
                 Err(e) => log::error!("undecodable message on topic pocket: {e:?}"),
             },

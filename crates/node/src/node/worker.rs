@@ -250,49 +250,16 @@ fn execute_job(
 pub(super) fn worker(shared: Arc<Shared>, outputs: Arc<Outputs>) {
     while let Some(work) = next_work(&shared) {
         let _busy = shared.activity.working();
-        let config = shared.live.get();
-        let (machines, timeout_s) = (config.machines(), config.node.surface_timeout_s);
-        let options = RunOptions {
-            skip_verify: !config.node.verify,
-            no_timing: false,
-            time_limit: config.node.time_limit(),
-            budget: config.node.budget,
-        };
-        let goal = match &work {
-            Work::Reject(p, _) | Work::TimedOut(p) | Work::Plan(p, _) => p.goal.clone(),
-        };
-        let (job_id, state, progress, message) = match work {
-            Work::Reject(p, why) => (p.msg.job_id, msgs::JobStatus::REJECTED, 0.0, why),
-            Work::TimedOut(p) => {
-                let why = format!(
-                    "surface \"{}\" has not arrived within {timeout_s} s: publish it on topic surface (or pocket)",
-                    p.msg.surface_id
-                );
-                (p.msg.job_id, msgs::JobStatus::FAILED, 0.0, why)
-            }
-            Work::Plan(p, shape) => {
-                let started = Instant::now();
-                let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                    plan_and_publish(&p, &shape, &outputs, &machines, &shared.joints, options)
-                }));
-                shared.activity.planned(started.elapsed());
-                let (state, progress, message) = match run {
-                    Ok(Ok(summary)) => (msgs::JobStatus::SUCCEEDED, 1.0, summary),
-                    Ok(Err(e)) => (final_state(&e), 0.0, e.to_string()),
-                    Err(panic) => {
-                        let what = panic
-                            .downcast_ref::<String>()
-                            .cloned()
-                            .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
-                            .unwrap_or_default();
-                        let why = format!("internal error while planning (please report): {what}");
-                        (msgs::JobStatus::FAILED, 0.0, why)
-                    }
-                };
-                (p.msg.job_id, state, progress, message)
+        let (goal, seq, restarted) = match &work {
+            Work::Reject(p, _) | Work::TimedOut(p) | Work::Plan(p, _) => {
+                (p.goal.clone(), p.seq, p.restarted)
             }
         };
-        outputs.status(&job_id, state, progress, message.clone());
+        let (job_id, state, progress, mut message) = handle(work, &shared, &outputs);
+        if restarted {
+            message.push_str(&format!("; {RESTARTED_FINAL}"));
+        }
+        outputs.finish(&job_id, seq, state, progress, message.clone());
         // A later job under this id starts uncanceled.
         outputs.cancels.forget(&job_id);
         let idle = {
@@ -305,6 +272,60 @@ pub(super) fn worker(shared: Arc<Shared>, outputs: Arc<Outputs>) {
         }
         if idle {
             release_free_memory();
+        }
+    }
+}
+
+/// What the final status of a job planned again after a restart adds.
+pub(super) const RESTARTED_FINAL: &str = "planned again after the node restarted";
+
+/// Handles one piece of work: the job's id and final state, progress and
+/// message.
+fn handle(work: Work, shared: &Shared, outputs: &Arc<Outputs>) -> (String, u8, f32, String) {
+    let config = shared.live.get();
+    let (machines, timeout_s) = (config.machines(), config.node.surface_timeout_s);
+    let options = RunOptions {
+        skip_verify: !config.node.verify,
+        no_timing: false,
+        time_limit: config.node.time_limit(),
+        budget: config.node.budget,
+    };
+    match work {
+        Work::Reject(p, why) => (p.msg.job_id, msgs::JobStatus::REJECTED, 0.0, why),
+        Work::TimedOut(p) => {
+            let why = format!(
+                "surface \"{}\" has not arrived within {timeout_s} s: publish it on topic surface (or pocket)",
+                p.msg.surface_id
+            );
+            (p.msg.job_id, msgs::JobStatus::FAILED, 0.0, why)
+        }
+        Work::Plan(p, shape) => {
+            let started = Instant::now();
+            let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                plan_and_publish(
+                    &p,
+                    &shape.shape,
+                    outputs,
+                    &machines,
+                    &shared.joints,
+                    options,
+                )
+            }));
+            shared.activity.planned(started.elapsed());
+            let (state, progress, message) = match run {
+                Ok(Ok(summary)) => (msgs::JobStatus::SUCCEEDED, 1.0, summary),
+                Ok(Err(e)) => (final_state(&e), 0.0, e.to_string()),
+                Err(panic) => {
+                    let what = panic
+                        .downcast_ref::<String>()
+                        .cloned()
+                        .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                        .unwrap_or_default();
+                    let why = format!("internal error while planning (please report): {what}");
+                    (msgs::JobStatus::FAILED, 0.0, why)
+                }
+            };
+            (p.msg.job_id, state, progress, message)
         }
     }
 }
