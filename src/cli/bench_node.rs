@@ -177,8 +177,15 @@ impl BurstOutcome {
 }
 
 /// Runs the benchmark and prints the table: `jobs` timed jobs (0: none),
-/// then `bursts` bursts of `burst` jobs (0: none).
-pub fn run(jobs: usize, points: usize, burst: usize, bursts: usize) -> Result<()> {
+/// then `bursts` bursts of `burst` jobs (0: none); the node runs with the
+/// config file `config`, else [`NODE_CONFIG`].
+pub fn run(
+    jobs: usize,
+    points: usize,
+    burst: usize,
+    bursts: usize,
+    config: Option<&std::path::Path>,
+) -> Result<()> {
     if points == 0 || (jobs == 0 && (burst == 0 || bursts == 0)) {
         return Err(Error::invalid(
             "--jobs/--points/--burst/--bursts",
@@ -193,17 +200,18 @@ pub fn run(jobs: usize, points: usize, burst: usize, bursts: usize) -> Result<()
     };
     let dir = std::env::temp_dir().join(format!("toolpath_bench_node_{}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(dir.display().to_string(), e))?;
+    let given = config;
     let config = dir.join("node.yaml");
-    let written = std::fs::write(&config, NODE_CONFIG)
-        .map_err(|e| Error::io(config.display().to_string(), e));
+    let text = match given {
+        Some(path) => toolpath_formats::read_text(path),
+        None => Ok(NODE_CONFIG.to_string()),
+    };
+    let written = text.and_then(|text| {
+        std::fs::write(&config, text).map_err(|e| Error::io(config.display().to_string(), e))
+    });
     let domain = demo_domain();
     let started = written.and_then(|_| {
-        start_node_with(
-            domain,
-            Some(&config),
-            "off,toolpath_node=debug",
-            true,
-        )
+        start_node_with(domain, Some(&config), "off,toolpath_node=debug", true)
     });
     let _ = std::fs::remove_dir_all(&dir);
     let (mut node, stderr) = started?;

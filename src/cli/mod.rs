@@ -173,6 +173,10 @@ pub enum Command {
         /// How many bursts (the figure is their median time).
         #[arg(long, default_value_t = 5)]
         bursts: usize,
+        /// The node's config (default: planning only, no recording or
+        /// journal), e.g. to measure what recording and the journal cost.
+        #[arg(long)]
+        config: Option<PathBuf>,
     },
     /// Run the ROS 2 node. ROS arguments follow `--ros-args` (-p NAME:=VALUE,
     /// --params-file FILE, -r FROM:=TO incl. __ns and __node, --log-level):
@@ -407,7 +411,8 @@ fn dispatch(command: Command, ros: Option<&[String]>) -> Result<(), Error> {
             points,
             burst,
             bursts,
-        } => bench_node::run(jobs, points, burst, bursts),
+            config,
+        } => bench_node::run(jobs, points, burst, bursts, config.as_deref()),
         Command::Record {
             job,
             output,

@@ -268,7 +268,7 @@ pub fn decode(b: &[u8]) -> Result<DecodedToolpath> {
 }
 
 fn ipc_error(what: &str, e: impl std::fmt::Display) -> Error {
-    Error::io("iceoryx2", format!("{what}: {e}"))
+    Error::ipc(format!("{what}: {e}"))
 }
 
 /// A node with the default configuration, or with file-name prefix `prefix`

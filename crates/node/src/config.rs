@@ -199,6 +199,59 @@ impl RecordingSettings {
     }
 }
 
+/// The job journal (the `journal:` section): every accepted job is written
+/// to it durably before ACCEPTED is published, and its final status before
+/// that is published, so a node that restarts after a crash finds the jobs
+/// it had not finished (docs/node.md, "Job journal and restarts").
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct JournalSettings {
+    /// The journal file; `null` = no journal (a crash loses the queue).
+    pub path: Option<String>,
+    /// Finished jobs kept in the journal (the oldest are removed first).
+    pub keep_finished: usize,
+    /// What a restart does with the jobs the journal holds unfinished.
+    pub on_restart: OnRestart,
+}
+
+/// What a node that restarts does with the jobs it had not finished.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OnRestart {
+    /// Plans them again in their order, under their job_id.
+    Replan,
+    /// Ends each FAILED: "node restarted before finishing".
+    Fail,
+}
+
+impl Default for JournalSettings {
+    fn default() -> Self {
+        Self {
+            path: None,
+            keep_finished: 1000,
+            on_restart: OnRestart::Replan,
+        }
+    }
+}
+
+impl JournalSettings {
+    pub fn validate(&self) -> Result<()> {
+        if self.path.as_deref().is_some_and(|p| p.trim().is_empty()) {
+            return Err(Error::invalid(
+                "journal.path",
+                "must not be empty (null = no journal)",
+            ));
+        }
+        if self.keep_finished == 0 {
+            return Err(Error::invalid(
+                "journal.keep_finished",
+                "must be at least 1",
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Zero-copy toolpath output over iceoryx2 (the `ipc:` section; payload
 /// layout in docs/formats.md).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -267,6 +320,7 @@ impl PostSettings {
 pub struct NodeConfig {
     pub node: NodeSettings,
     pub recording: RecordingSettings,
+    pub journal: JournalSettings,
     pub ipc: IpcSettings,
     pub post: PostSettings,
     pub mill5: Mill5Config,
@@ -340,6 +394,7 @@ impl NodeConfig {
         }
         self.interfaces()?;
         self.recording.validate()?;
+        self.journal.validate()?;
         self.post.format()?;
         if self.ipc.service.trim().is_empty() {
             return Err(Error::invalid("ipc.service", "must not be empty"));

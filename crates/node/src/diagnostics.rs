@@ -169,17 +169,17 @@ pub fn qos() -> QosProfile {
 
 /// The `/diagnostics` publisher of `node`.
 pub fn publisher(node: &mut Node) -> Result<Publisher<DiagnosticArray>> {
-    let name = Name::new("/", "diagnostics")
-        .map_err(|e| Error::planning(format!("ROS 2: topic {TOPIC}: {e:?}")))?;
+    let name =
+        Name::new("/", "diagnostics").map_err(|e| Error::dds(format!("topic {TOPIC}: {e:?}")))?;
     let topic = node
         .create_topic(
             &name,
             MessageTypeName::new(DiagnosticArray::PACKAGE, DiagnosticArray::NAME),
             &qos(),
         )
-        .map_err(|e| Error::planning(format!("ROS 2: cannot create topic {TOPIC}: {e:?}")))?;
+        .map_err(|e| Error::dds(format!("cannot create topic {TOPIC}: {e:?}")))?;
     node.create_publisher(&topic, Some(qos()))
-        .map_err(|e| Error::planning(format!("ROS 2: cannot publish on {TOPIC}: {e:?}")))
+        .map_err(|e| Error::dds(format!("cannot publish on {TOPIC}: {e:?}")))
 }
 
 /// Publishes `status(snapshot())` every [`PERIOD`], forever.

@@ -6,7 +6,7 @@
 //! A cancel of the job (topic `cancel`, or the node stopping) is forwarded to
 //! the controller.
 
-use super::node::RosNode;
+use super::dds::RosNode;
 use futures::{FutureExt, StreamExt};
 use ros2_client::action::{ActionClient, ActionClientQosPolicies, ActionServerQosPolicies};
 use ros2_client::action_msgs::GoalStatusEnum;
@@ -64,14 +64,10 @@ pub fn action_type() -> ActionTypeName {
 
 /// The action client of `action` (relative names go under the namespace).
 pub fn client(ros: &mut RosNode, action: &str) -> Result<FollowJointTrajectoryClient> {
-    let name = super::node::topic_name(&ros.namespace, action)?;
+    let name = super::dds::topic_name(&ros.namespace, action)?;
     ros.node
         .create_action_client(ros.service_mapping, &name, &action_type(), client_qos())
-        .map_err(|e| {
-            Error::planning(format!(
-                "ROS 2: cannot create action client {action}: {e:?}"
-            ))
-        })
+        .map_err(|e| Error::dds(format!("cannot create action client {action}: {e:?}")))
 }
 
 /// One job to execute: its passes, and where the outcome goes (the worker
@@ -137,12 +133,12 @@ fn answer<T>(
     >,
 ) -> Result<T> {
     r.map_err(|_| {
-        Error::planning(format!(
+        Error::execution(format!(
             "{action}: no answer to {what} within {} s: is the controller running?",
             ANSWER_TIMEOUT.as_secs()
         ))
     })?
-    .map_err(|e| Error::planning(format!("{action}: {what} failed: {e:?}")))
+    .map_err(|e| Error::execution(format!("{action}: {what} failed: {e:?}")))
 }
 
 /// Executes `e` pass by pass on `client`; the summary of a full run, or why
@@ -159,94 +155,122 @@ pub async fn execute(
     let started = Instant::now();
     let mut done = 0.0;
     for (i, chunk) in e.chunks.iter().enumerate() {
-        let pass = format!("pass {}/{n}", i + 1);
-        if cancels.is_canceled(&e.job_id) {
-            return Err(Error::planning(format!(
-                "canceled before {pass}: not sent to {action}"
-            )));
-        }
-        let goal = Goal {
-            trajectory: chunk.clone(),
-            ..Default::default()
-        };
-        let (goal_id, response) = answer(
-            &format!("the goal of {pass}"),
+        let pass = Pass {
+            name: format!("pass {}/{n}", i + 1),
             action,
-            tokio::time::timeout(ANSWER_TIMEOUT, client.async_send_goal(goal)).await,
-        )?;
-        if !response.accepted {
-            return Err(Error::planning(format!(
-                "{action} rejected {pass} (the trajectory breaks one of its rules or it is busy)"
+            done,
+            total,
+        };
+        if cancels.is_canceled(&e.job_id) {
+            return Err(Error::execution(format!(
+                "canceled before {}: not sent to {action}",
+                pass.name
             )));
         }
-        report(
-            (done / total) as f32,
-            format!("executing {pass} on {action}: accepted"),
-        );
-        let result = client.async_request_result(goal_id).fuse();
-        let feedback = client.feedback_stream(goal_id);
-        futures::pin_mut!(result, feedback);
-        let mut last_report = Instant::now();
-        let mut cancel_sent = false;
-        let outcome = loop {
-            tokio::select! {
-                r = &mut result => break r,
-                Some(Ok(fb)) = feedback.next() => {
-                    if last_report.elapsed() >= Duration::from_millis(200) {
-                        last_report = Instant::now();
-                        let t = fb.desired.time_from_start.as_secs_f64();
-                        report(
-                            ((done + t) / total).min(1.0) as f32,
-                            format!("executing {pass} on {action}: {t:.1} of {:.1} s", duration_of(chunk)),
-                        );
-                    }
-                }
-                _ = cancels.wake.notified(), if !cancel_sent => {
-                    if cancels.is_canceled(&e.job_id) {
-                        cancel_sent = true;
-                        let zero = ros2_client::builtin_interfaces::Time::ZERO;
-                        answer(
-                            "the cancel request",
-                            action,
-                            tokio::time::timeout(ANSWER_TIMEOUT, client.async_cancel_goal(goal_id, zero)).await,
-                        )?;
-                    }
-                }
-            }
-        };
-        let (status, r) = outcome
-            .map_err(|err| Error::planning(format!("{action}: no result of {pass}: {err:?}")))?;
-        match status {
-            GoalStatusEnum::Succeeded => {}
-            GoalStatusEnum::Canceled => {
-                return Err(Error::planning(format!(
-                    "canceled during {pass}: {action} stopped it"
-                )))
-            }
-            GoalStatusEnum::Aborted => {
-                return Err(Error::planning(format!(
-                    "{action} aborted {pass}: error_code {} ({}){}",
-                    r.error_code,
-                    GoalResult::code_name(r.error_code),
-                    if r.error_string.is_empty() {
-                        String::new()
-                    } else {
-                        format!(": {}", r.error_string)
-                    }
-                )))
-            }
-            other => {
-                return Err(Error::planning(format!(
-                    "{action} ended {pass} in state {other:?}"
-                )))
-            }
-        }
+        follow_pass(client, &pass, chunk, &e.job_id, cancels, report).await?;
         done += duration_of(chunk);
     }
     Ok(format!(
         "executed {n} passes on {action} in {:.1} s",
         started.elapsed().as_secs_f64()
     ))
+}
+
+/// One pass of an execution: its name, the controller's action, and the
+/// trajectory seconds before it and in all (for the progress fraction).
+struct Pass<'a> {
+    name: String,
+    action: &'a str,
+    done: f64,
+    total: f64,
+}
+
+/// Sends one pass to the controller and follows it to its end: feedback as
+/// progress, a cancel of the job forwarded to the controller.
+async fn follow_pass(
+    client: &FollowJointTrajectoryClient,
+    pass: &Pass<'_>,
+    chunk: &msgs::JointTrajectory,
+    job_id: &str,
+    cancels: &Cancels,
+    report: &Report<'_>,
+) -> Result<()> {
+    let (action, name, total) = (pass.action, &pass.name, pass.total);
+    let goal = Goal {
+        trajectory: chunk.clone(),
+        ..Default::default()
+    };
+    let (goal_id, response) = answer(
+        &format!("the goal of {name}"),
+        action,
+        tokio::time::timeout(ANSWER_TIMEOUT, client.async_send_goal(goal)).await,
+    )?;
+    if !response.accepted {
+        return Err(Error::execution(format!(
+            "{action} rejected {name} (the trajectory breaks one of its rules or it is busy)"
+        )));
+    }
+    report(
+        (pass.done / total) as f32,
+        format!("executing {name} on {action}: accepted"),
+    );
+    let result = client.async_request_result(goal_id).fuse();
+    let feedback = client.feedback_stream(goal_id);
+    futures::pin_mut!(result, feedback);
+    let mut last_report = Instant::now();
+    let mut cancel_sent = false;
+    let outcome = loop {
+        tokio::select! {
+            r = &mut result => break r,
+            Some(Ok(fb)) = feedback.next() => {
+                if last_report.elapsed() >= Duration::from_millis(200) {
+                    last_report = Instant::now();
+                    let t = fb.desired.time_from_start.as_secs_f64();
+                    report(
+                        ((pass.done + t) / total).min(1.0) as f32,
+                        format!("executing {name} on {action}: {t:.1} of {:.1} s", duration_of(chunk)),
+                    );
+                }
+            }
+            _ = cancels.wake.notified(), if !cancel_sent => {
+                if cancels.is_canceled(job_id) {
+                    cancel_sent = true;
+                    let zero = ros2_client::builtin_interfaces::Time::ZERO;
+                    answer(
+                        "the cancel request",
+                        action,
+                        tokio::time::timeout(ANSWER_TIMEOUT, client.async_cancel_goal(goal_id, zero)).await,
+                    )?;
+                }
+            }
+        }
+    };
+    let (status, r) = outcome
+        .map_err(|err| Error::execution(format!("{action}: no result of {name}: {err:?}")))?;
+    pass_outcome(status, &r, name, action)
+}
+
+/// Whether a pass the controller ended with `status` and result `r` succeeded.
+fn pass_outcome(status: GoalStatusEnum, r: &GoalResult, pass: &str, action: &str) -> Result<()> {
+    match status {
+        GoalStatusEnum::Succeeded => Ok(()),
+        GoalStatusEnum::Canceled => Err(Error::execution(format!(
+            "canceled during {pass}: {action} stopped it"
+        ))),
+        GoalStatusEnum::Aborted => Err(Error::execution(format!(
+            "{action} aborted {pass}: error_code {} ({}){}",
+            r.error_code,
+            GoalResult::code_name(r.error_code),
+            if r.error_string.is_empty() {
+                String::new()
+            } else {
+                format!(": {}", r.error_string)
+            }
+        ))),
+        other => Err(Error::execution(format!(
+            "{action} ended {pass} in state {other:?}"
+        ))),
+    }
 }
 
 /// The task executing one machine's jobs one after another.

@@ -5,8 +5,8 @@
 //! following its timing (optionally faster), publishes feedback and
 //! `joint_states` as it goes, and can be told to abort or reject a goal.
 
+use super::dds::{topic_name, RosNode};
 use super::execute::{action_type, server_qos};
-use super::node::{topic_name, RosNode};
 use futures::FutureExt;
 use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus};
 use ros2_client::qos::{Durability, History, WhenFull};
@@ -183,7 +183,7 @@ pub fn spawn(ros: &mut RosNode, options: FakeOptions) -> Result<FakeController> 
             &action_type(),
             server_qos(),
         )
-        .map_err(|e| Error::planning(format!("ROS 2: cannot serve {}: {e:?}", options.action)))?;
+        .map_err(|e| Error::dds(format!("cannot serve {}: {e:?}", options.action)))?;
     let server = Arc::new(AsyncActionServer::new(server));
     let qos = QosProfile::subscription_default()
         .reliability_reliable(WhenFull::Wait(Duration::from_secs(1)))
@@ -202,76 +202,91 @@ pub fn spawn(ros: &mut RosNode, options: FakeOptions) -> Result<FakeController> 
         }
     });
     let behaviour = Arc::new(Mutex::new(options.behaviour.clone()));
-    let (g, p, b) = (
-        Arc::clone(&goals),
-        Arc::clone(&pose),
-        Arc::clone(&behaviour),
-    );
-    tokio::spawn(async move {
-        let mut index = 0usize;
-        loop {
-            let Ok(handle) = server.receive_new_goal().await else {
-                continue;
-            };
-            let Some(goal) = server.get_new_goal(handle.clone()) else {
-                continue;
-            };
-            let at = lock(&p).clone();
-            let checked = validate(&options, &goal, &at);
-            let this = index;
-            index += 1;
-            let now = lock(&b).clone();
-            let points = match checked {
-                Ok(points) if now.reject_goal != Some(this) => points,
-                other => {
-                    let why = other.err().unwrap_or_else(|| "told to reject".into());
-                    lock(&g).push(GoalRecord {
-                        accepted: false,
-                        outcome: why,
-                        points: goal.trajectory.points.len(),
-                        trajectory: convert::trajectory_points(
-                            &goal.trajectory,
-                            &options.joint_names,
-                            &options.limits,
-                        ),
-                    });
-                    let _ = server.reject_goal(handle).await;
-                    continue;
-                }
-            };
-            let Ok(accepted) = server.accept_goal(handle).await else {
-                continue;
-            };
-            let Ok(executing) = server.start_executing_goal(accepted).await else {
-                continue;
-            };
-            let abort_at = (now.abort_goal == Some(this)).then_some(points.times.len() / 2);
-            let end = follow(
-                &server,
-                &executing,
-                &goal,
-                &points,
-                &p,
-                now.time_scale,
-                abort_at,
-            )
-            .await;
-            lock(&g).push(GoalRecord {
-                accepted: true,
-                outcome: end.2.to_string(),
-                points: points.times.len(),
-                trajectory: points,
-            });
-            let _ = tokio::time::timeout(
-                Duration::from_secs(10),
-                server.send_result_response(executing, end.0, end.1),
-            )
-            .await;
-        }
-    });
-    Ok(FakeController {
+    let controller = FakeController {
         goals,
         pose,
         behaviour,
-    })
+    };
+    tokio::spawn(serve_goals(server, options, controller.shared()));
+    Ok(controller)
+}
+
+impl FakeController {
+    fn shared(&self) -> FakeController {
+        FakeController {
+            goals: Arc::clone(&self.goals),
+            pose: Arc::clone(&self.pose),
+            behaviour: Arc::clone(&self.behaviour),
+        }
+    }
+}
+
+/// The goal loop: checks each goal against the pose the controller is at,
+/// rejects it (or as told), else follows it to its end and sends the result.
+async fn serve_goals(server: Arc<Server>, options: FakeOptions, state: FakeController) {
+    let FakeController {
+        goals: g,
+        pose: p,
+        behaviour: b,
+    } = state;
+    let mut index = 0usize;
+    loop {
+        let Ok(handle) = server.receive_new_goal().await else {
+            continue;
+        };
+        let Some(goal) = server.get_new_goal(handle.clone()) else {
+            continue;
+        };
+        let at = lock(&p).clone();
+        let checked = validate(&options, &goal, &at);
+        let this = index;
+        index += 1;
+        let now = lock(&b).clone();
+        let points = match checked {
+            Ok(points) if now.reject_goal != Some(this) => points,
+            other => {
+                let why = other.err().unwrap_or_else(|| "told to reject".into());
+                lock(&g).push(GoalRecord {
+                    accepted: false,
+                    outcome: why,
+                    points: goal.trajectory.points.len(),
+                    trajectory: convert::trajectory_points(
+                        &goal.trajectory,
+                        &options.joint_names,
+                        &options.limits,
+                    ),
+                });
+                let _ = server.reject_goal(handle).await;
+                continue;
+            }
+        };
+        let Ok(accepted) = server.accept_goal(handle).await else {
+            continue;
+        };
+        let Ok(executing) = server.start_executing_goal(accepted).await else {
+            continue;
+        };
+        let abort_at = (now.abort_goal == Some(this)).then_some(points.times.len() / 2);
+        let end = follow(
+            &server,
+            &executing,
+            &goal,
+            &points,
+            &p,
+            now.time_scale,
+            abort_at,
+        )
+        .await;
+        lock(&g).push(GoalRecord {
+            accepted: true,
+            outcome: end.2.to_string(),
+            points: points.times.len(),
+            trajectory: points,
+        });
+        let _ = tokio::time::timeout(
+            Duration::from_secs(10),
+            server.send_result_response(executing, end.0, end.1),
+        )
+        .await;
+    }
 }

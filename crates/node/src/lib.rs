@@ -8,15 +8,18 @@
 //! node's health on `/diagnostics`, `security` DDS Security from an SROS2 enclave.
 
 pub mod config;
+pub mod dds;
 pub mod diagnostics;
 pub mod execute;
 pub mod fake_controller;
 pub mod joint_states;
+mod journal;
 pub mod logging;
 pub mod node;
 pub mod parameter_descriptors;
 pub mod parameters;
 pub mod plan_action;
+pub mod qos;
 pub mod recorder;
 pub mod republish;
 pub mod ros_args;

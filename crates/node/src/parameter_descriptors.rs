@@ -87,6 +87,7 @@ fn range(name: &str, value: &ParameterValue) -> (NumericRange, &'static str) {
         ("node.domain_id", ParameterValue::Integer(_)) => (integer(0, 232), ""),
         ("recording.zstd_level", ParameterValue::Integer(_)) => (integer(0, 19), ""),
         ("recording.chunk_size_kib", ParameterValue::Integer(_)) => (integer(1, i64::MAX), ""),
+        ("journal.keep_finished", ParameterValue::Integer(_)) => (integer(1, i64::MAX), ""),
         (_, ParameterValue::Double(_))
             if leaf.starts_with("max_velocity")
                 || leaf.starts_with("max_acceleration")

@@ -62,7 +62,7 @@ pub(crate) fn read_only_reason(name: &str) -> String {
 /// The config as a YAML tree.
 pub fn to_tree(config: &NodeConfig) -> Result<Value> {
     serde_yaml_ng::to_value(config)
-        .map_err(|e| Error::planning(format!("cannot convert the config: {e}")))
+        .map_err(|e| Error::invalid("config", format!("cannot convert the config: {e}")))
 }
 
 /// Reads a config back from a YAML tree, with the config file's checks;

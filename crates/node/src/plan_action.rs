@@ -14,8 +14,8 @@
 //! This module is the DDS side; [`GoalQueue`] is how it hands jobs to the
 //! node's queue, and [`GoalLink`] how the worker reports back.
 
+use super::dds::{topic_name, RosNode};
 use super::execute::{client_qos, server_qos};
-use super::node::{topic_name, RosNode};
 use ros2_client::action::ActionClient;
 use ros2_client::action::{AsyncActionServer, ExecutingGoalHandle, GoalEndStatus, GoalId};
 use ros2_client::qos::{Durability, History, WhenFull};
@@ -63,11 +63,7 @@ pub fn action_client(ros: &mut RosNode) -> Result<PlanToolpathClient> {
     let name = topic_name(&ros.namespace, ACTION)?;
     ros.node
         .create_action_client(ros.service_mapping, &name, &action_type(), client_qos())
-        .map_err(|e| {
-            Error::planning(format!(
-                "ROS 2: cannot create action client {ACTION}: {e:?}"
-            ))
-        })
+        .map_err(|e| Error::dds(format!("cannot create action client {ACTION}: {e:?}")))
 }
 
 /// A client of the service `plan_toolpath` of a node in `ros`'s namespace.
@@ -81,11 +77,7 @@ pub fn service_client(ros: &mut RosNode) -> Result<Client<Goal, GoalResult>> {
             service_qos(),
             service_qos(),
         )
-        .map_err(|e| {
-            Error::planning(format!(
-                "ROS 2: cannot create service client {SERVICE}: {e:?}"
-            ))
-        })
+        .map_err(|e| Error::dds(format!("cannot create service client {SERVICE}: {e:?}")))
 }
 
 /// What the worker reports to a goal's task.
@@ -101,6 +93,8 @@ pub enum GoalEvent {
 /// the toolpath it published.
 pub struct GoalLink {
     pub job_id: String,
+    /// The goal's id (`None`: a service request).
+    pub goal_id: Option<[u8; 16]>,
     canceled: AtomicBool,
     executing: AtomicBool,
     done: AtomicBool,
@@ -117,9 +111,18 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 
 impl GoalLink {
     pub fn new(job_id: &str) -> (Arc<Self>, tokio::sync::mpsc::UnboundedReceiver<GoalEvent>) {
+        Self::of_goal(job_id, None)
+    }
+
+    /// The link of the goal `goal_id` (`None`: a service request).
+    pub fn of_goal(
+        job_id: &str,
+        goal_id: Option<[u8; 16]>,
+    ) -> (Arc<Self>, tokio::sync::mpsc::UnboundedReceiver<GoalEvent>) {
         let (events, rx) = tokio::sync::mpsc::unbounded_channel();
         let link = Self {
             job_id: job_id.to_string(),
+            goal_id,
             canceled: AtomicBool::new(false),
             executing: AtomicBool::new(false),
             done: AtomicBool::new(false),
@@ -300,7 +303,7 @@ async fn serve_goal(
     toolpath_topic: String,
 ) {
     let goal_id = executing.goal_id();
-    let (link, events) = GoalLink::new(&goal.job.job_id);
+    let (link, events) = GoalLink::of_goal(&goal.job.job_id, Some(goal_id.uuid.into_bytes()));
     lock(&goals).insert(goal_id, Arc::clone(&link));
     let result = run_job(
         queue.as_ref(),
@@ -471,7 +474,7 @@ pub fn serve(ros: &mut RosNode, queue: Arc<dyn GoalQueue>) -> Result<()> {
             &action_type(),
             server_qos(),
         )
-        .map_err(|e| Error::planning(format!("ROS 2: cannot serve action {ACTION}: {e:?}")))?;
+        .map_err(|e| Error::dds(format!("cannot serve action {ACTION}: {e:?}")))?;
     let observer = {
         let queue = Arc::clone(&queue);
         move |a: &ros2_client::action_msgs::GoalStatusArray| {
@@ -489,7 +492,7 @@ pub fn serve(ros: &mut RosNode, queue: Arc<dyn GoalQueue>) -> Result<()> {
             service_qos(),
             service_qos(),
         )
-        .map_err(|e| Error::planning(format!("ROS 2: cannot serve service {SERVICE}: {e:?}")))?;
+        .map_err(|e| Error::dds(format!("cannot serve service {SERVICE}: {e:?}")))?;
     let toolpath_topic = topics::absolute(&ros.namespace, topics::TOOLPATH);
     let goals: Goals = Arc::default();
     tokio::spawn(accept_goals(

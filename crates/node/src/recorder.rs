@@ -39,6 +39,10 @@ enum Entry {
     /// Write what is queued now and answer (a job's final status waits for
     /// it, to report a write error that hit the job's messages).
     Sync(mpsc::Sender<()>),
+    /// Write what is queued now into the file (the chunk handed to the
+    /// operating system) and answer: a status waits for it before it is
+    /// published.
+    Written(mpsc::Sender<()>),
 }
 
 /// Write errors of a recording.
@@ -133,7 +137,7 @@ impl Recorder {
                 let failures = Arc::clone(&failures);
                 move || write_loop(writer, rx, &failures)
             })
-            .map_err(|e| Error::planning(format!("cannot start the recorder thread: {e}")))?;
+            .map_err(|e| Error::system(format!("cannot start the recorder thread: {e}")))?;
         Ok(Recorder {
             failures,
             namespace: namespace.trim_end_matches('/').to_string(),
@@ -180,6 +184,31 @@ impl Recorder {
         });
     }
 
+    /// Records `msg` and waits (up to `timeout`) until it is written to the
+    /// bag's file, handed to the operating system: a message recorded so is
+    /// in the bag of a node killed right after, once `toolpath bag reindex`
+    /// has read its completed chunks. Nothing to wait for while paused or
+    /// while the storage file has failed (the message is not recorded then).
+    pub fn record_written<M: RosMessage>(
+        &self,
+        relative: &str,
+        msg: &M,
+        timeout: std::time::Duration,
+    ) {
+        if self.paused() {
+            return;
+        }
+        self.record(relative, msg);
+        let (tx, rx) = mpsc::channel();
+        self.send(Entry::Written(tx));
+        if rx.recv_timeout(timeout).is_err() {
+            log::warn!(
+                "recording: {relative} not written within {:.0} s; published anyway",
+                timeout.as_secs_f64()
+            );
+        }
+    }
+
     /// A job got its final status: its messages form a unit on disk.
     pub fn job_done(&self) {
         self.send(Entry::JobDone);
@@ -215,7 +244,7 @@ impl Recorder {
         drop(lock(&self.tx).take());
         let handle = lock(&self.thread).take()?;
         Some(handle.join().unwrap_or_else(|_| {
-            Err(Error::planning(
+            Err(Error::shutdown(
                 "the recorder thread panicked (please report)",
             ))
         }))
@@ -270,6 +299,14 @@ fn write_loop(
             }
             Some(Entry::Sync(done)) => {
                 flush(&mut writer, failures);
+                let _ = done.send(());
+            }
+            Some(Entry::Written(done)) => {
+                if !lock(failures).broken {
+                    if let Err(e) = writer.flush() {
+                        failed(failures, format!("recording: {e}"));
+                    }
+                }
                 let _ = done.send(());
             }
             Some(Entry::Message {

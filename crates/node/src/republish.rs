@@ -7,7 +7,8 @@
 //! before this replay started belongs to someone else (the node's results and
 //! statuses are transient-local, a new reader may be handed old ones).
 
-use super::node::{qos, RosNode};
+use super::dds::RosNode;
+use super::qos;
 use futures::StreamExt;
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::ros2::QosProfile;
@@ -123,7 +124,7 @@ impl Link {
         )
         .await
         .map_err(|_| {
-            Error::planning(format!(
+            Error::dds(format!(
                 "no node subscribes to {}job on ROS domain {} within {:.0} s: is `toolpath node` running there (ROS_DOMAIN_ID, namespace)?",
                 options.namespace.trim_end_matches('/').to_string() + "/",
                 options.domain_id,
@@ -135,7 +136,7 @@ impl Link {
             link.status_sub.wait_for_publisher(&link.ros.node),
         )
         .await
-        .map_err(|_| Error::planning("the node's job_status publisher was not discovered"))?;
+        .map_err(|_| Error::dds("the node's job_status publisher was not discovered"))?;
         Ok(link)
     }
 
@@ -146,21 +147,21 @@ impl Link {
             m.header.stamp = since;
             self.surface_pub
                 .publish(m)
-                .map_err(|e| Error::planning(format!("cannot publish surface: {e:?}")))?;
+                .map_err(|e| Error::dds(format!("cannot publish surface: {e:?}")))?;
         }
         for p in &rec.pockets {
             let mut m = p.clone();
             m.header.stamp = since;
             self.pocket_pub
                 .publish(m)
-                .map_err(|e| Error::planning(format!("cannot publish pocket: {e:?}")))?;
+                .map_err(|e| Error::dds(format!("cannot publish pocket: {e:?}")))?;
         }
         for j in &rec.jobs {
             let mut m = j.clone();
             m.header.stamp = since;
             self.job_pub
                 .publish(m)
-                .map_err(|e| Error::planning(format!("cannot publish job {}: {e:?}", j.job_id)))?;
+                .map_err(|e| Error::dds(format!("cannot publish job {}: {e:?}", j.job_id)))?;
         }
         Ok(())
     }

@@ -23,24 +23,24 @@ pub fn qos() -> QosProfile {
 /// Publishes `frames` once on `/tf_static`; the returned publisher keeps the
 /// message for late listeners as long as it lives.
 pub fn publish(node: &mut Node, frames: &Frames) -> Result<Publisher<TfMessage>> {
-    let name = Name::new("/", "tf_static")
-        .map_err(|e| Error::planning(format!("ROS 2: topic {TOPIC}: {e:?}")))?;
+    let name =
+        Name::new("/", "tf_static").map_err(|e| Error::dds(format!("topic {TOPIC}: {e:?}")))?;
     let topic = node
         .create_topic(
             &name,
             MessageTypeName::new(TfMessage::PACKAGE, TfMessage::NAME),
             &qos(),
         )
-        .map_err(|e| Error::planning(format!("ROS 2: cannot create topic {TOPIC}: {e:?}")))?;
+        .map_err(|e| Error::dds(format!("cannot create topic {TOPIC}: {e:?}")))?;
     let publisher = node
         .create_publisher(&topic, Some(qos()))
-        .map_err(|e| Error::planning(format!("ROS 2: cannot publish on {TOPIC}: {e:?}")))?;
+        .map_err(|e| Error::dds(format!("cannot publish on {TOPIC}: {e:?}")))?;
     let stamp = Header {
         stamp: Time::now(),
         frame_id: String::new(),
     };
     publisher
         .publish(frames.tf_static(&stamp))
-        .map_err(|e| Error::planning(format!("ROS 2: cannot publish on {TOPIC}: {e:?}")))?;
+        .map_err(|e| Error::dds(format!("cannot publish on {TOPIC}: {e:?}")))?;
     Ok(publisher)
 }

@@ -238,6 +238,83 @@ fn check_chunk(chunk: &[u8], whole: bool) -> std::result::Result<(), String> {
     Ok(())
 }
 
+/// Schemas and channels of an MCAP file by id, as its records arrive (the
+/// summary section repeats them).
+#[derive(Default)]
+struct Records {
+    schemas: BTreeMap<u16, (String, String, String)>,
+    channels: BTreeMap<u16, String>,
+}
+
+impl Records {
+    /// Takes one record of `shown` into `bag`: a schema, a channel (a topic
+    /// of the bag) or a message.
+    fn take(&mut self, record: mcap::records::Record, bag: &mut Bag, shown: &str) -> Result<()> {
+        match record {
+            mcap::records::Record::Schema { header, data } => {
+                let text = String::from_utf8(data.into_owned()).map_err(|_| {
+                    Error::invalid(
+                        format!("{shown}: schema {}", header.name),
+                        "the definition is not UTF-8 text",
+                    )
+                })?;
+                self.schemas
+                    .insert(header.id, (header.name, header.encoding, text));
+            }
+            mcap::records::Record::Channel(c) => {
+                let (type_name, schema_encoding, definition) =
+                    self.schemas.get(&c.schema_id).cloned().ok_or_else(|| {
+                        Error::invalid(
+                            format!("{shown}: {}", c.topic),
+                            format!("channel refers to unknown schema {}", c.schema_id),
+                        )
+                    })?;
+                let qos = c
+                    .metadata
+                    .get("offered_qos_profiles")
+                    .cloned()
+                    .unwrap_or_default();
+                self.channels.insert(c.id, c.topic.clone());
+                bag.topics.entry(c.topic.clone()).or_insert(RecordedTopic {
+                    topic: c.topic,
+                    type_name,
+                    schema_encoding,
+                    definition,
+                    message_encoding: c.message_encoding,
+                    offered_qos_profiles: qos,
+                    message_count: 0,
+                });
+            }
+            mcap::records::Record::Message { header, data } => {
+                let topic = self
+                    .channels
+                    .get(&header.channel_id)
+                    .cloned()
+                    .ok_or_else(|| {
+                        Error::invalid(
+                            shown,
+                            format!(
+                                "message {} on unknown channel {}",
+                                header.sequence, header.channel_id
+                            ),
+                        )
+                    })?;
+                if let Some(t) = bag.topics.get_mut(&topic) {
+                    t.message_count += 1;
+                }
+                bag.messages.push(RecordedMessage {
+                    topic,
+                    log_time: header.log_time,
+                    sequence: header.sequence,
+                    data: data.into_owned(),
+                });
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+}
+
 fn read_mcap(path: &Path, bag: &mut Bag) -> Result<()> {
     let shown = path.display().to_string();
     let bytes = toolpath_formats::read_file_limited(path, MAX_BAG_BYTES)?;
@@ -257,9 +334,7 @@ fn read_mcap(path: &Path, bag: &mut Bag) -> Result<()> {
         mcap::read::Options::IgnoreEndMagic.into(),
     )
     .map_err(|e| Error::invalid(&shown, format!("cannot read MCAP: {e}")))?;
-    // Schemas and channels by id (the summary section repeats them).
-    let mut schemas: BTreeMap<u16, (String, String, String)> = BTreeMap::new();
-    let mut channels: BTreeMap<u16, String> = BTreeMap::new();
+    let mut records = Records::default();
     let before = bag.messages.len();
     for record in reader {
         let record = match record {
@@ -281,62 +356,7 @@ fn read_mcap(path: &Path, bag: &mut Bag) -> Result<()> {
                 break;
             }
         };
-        match record {
-            mcap::records::Record::Schema { header, data } => {
-                let text = String::from_utf8(data.into_owned()).map_err(|_| {
-                    Error::invalid(
-                        format!("{shown}: schema {}", header.name),
-                        "the definition is not UTF-8 text",
-                    )
-                })?;
-                schemas.insert(header.id, (header.name, header.encoding, text));
-            }
-            mcap::records::Record::Channel(c) => {
-                let (type_name, schema_encoding, definition) =
-                    schemas.get(&c.schema_id).cloned().ok_or_else(|| {
-                        Error::invalid(
-                            format!("{shown}: {}", c.topic),
-                            format!("channel refers to unknown schema {}", c.schema_id),
-                        )
-                    })?;
-                let qos = c
-                    .metadata
-                    .get("offered_qos_profiles")
-                    .cloned()
-                    .unwrap_or_default();
-                channels.insert(c.id, c.topic.clone());
-                bag.topics.entry(c.topic.clone()).or_insert(RecordedTopic {
-                    topic: c.topic,
-                    type_name,
-                    schema_encoding,
-                    definition,
-                    message_encoding: c.message_encoding,
-                    offered_qos_profiles: qos,
-                    message_count: 0,
-                });
-            }
-            mcap::records::Record::Message { header, data } => {
-                let topic = channels.get(&header.channel_id).cloned().ok_or_else(|| {
-                    Error::invalid(
-                        shown.clone(),
-                        format!(
-                            "message {} on unknown channel {}",
-                            header.sequence, header.channel_id
-                        ),
-                    )
-                })?;
-                if let Some(t) = bag.topics.get_mut(&topic) {
-                    t.message_count += 1;
-                }
-                bag.messages.push(RecordedMessage {
-                    topic,
-                    log_time: header.log_time,
-                    sequence: header.sequence,
-                    data: data.into_owned(),
-                });
-            }
-            _ => {}
-        }
+        records.take(record, bag, &shown)?;
     }
     if let Some((at, why)) = damaged {
         let read = bag.messages.len() - before;

@@ -597,61 +597,7 @@ fn compare_toolpath(rec: &msgs::Toolpath, new: &msgs::Toolpath, d: &mut Vec<Stri
         ));
     }
     for (i, (a, b)) in rec.passes.iter().zip(&new.passes).enumerate() {
-        if a.points.len() != b.points.len() {
-            d.push(format!(
-                "pass {i}: recorded {} points, now {}",
-                a.points.len(),
-                b.points.len()
-            ));
-            continue;
-        }
-        if a.region != b.region {
-            d.push(format!(
-                "pass {i}: region recorded {}, now {}",
-                a.region, b.region
-            ));
-        }
-        let before = d.len();
-        let mut extra = 0;
-        for (j, (p, q)) in a.points.iter().zip(&b.points).enumerate() {
-            let mut local = Vec::new();
-            cmp_vec(
-                &format!("pass {i} point {j} cc"),
-                p.cc.to_array(),
-                q.cc.to_array(),
-                POSITION_TOLERANCE_MM,
-                &mut local,
-            );
-            cmp_vec(
-                &format!("pass {i} point {j} cl"),
-                p.cl.to_array(),
-                q.cl.to_array(),
-                POSITION_TOLERANCE_MM,
-                &mut local,
-            );
-            cmp_vec(
-                &format!("pass {i} point {j} axis"),
-                p.axis.to_array(),
-                q.axis.to_array(),
-                VALUE_TOLERANCE,
-                &mut local,
-            );
-            cmp_num(
-                &format!("pass {i} point {j} strip_width"),
-                p.strip_width,
-                q.strip_width,
-                POSITION_TOLERANCE_MM,
-                &mut local,
-            );
-            if d.len() - before + local.len() > MAX_LISTED {
-                extra += local.len();
-            } else {
-                d.extend(local);
-            }
-        }
-        if extra > 0 {
-            d.push(format!("pass {i}: {extra} more point differences"));
-        }
+        compare_pass(i, a, b, d);
     }
     let (a, b) = (&rec.stats, &new.stats);
     cmp_num(
@@ -688,6 +634,65 @@ fn compare_toolpath(rec: &msgs::Toolpath, new: &msgs::Toolpath, d: &mut Vec<Stri
         VALUE_TOLERANCE,
         d,
     );
+}
+
+/// The differences of pass `i`, its points' listed up to [`MAX_LISTED`].
+fn compare_pass(i: usize, a: &msgs::ToolpathPass, b: &msgs::ToolpathPass, d: &mut Vec<String>) {
+    if a.points.len() != b.points.len() {
+        d.push(format!(
+            "pass {i}: recorded {} points, now {}",
+            a.points.len(),
+            b.points.len()
+        ));
+        return;
+    }
+    if a.region != b.region {
+        d.push(format!(
+            "pass {i}: region recorded {}, now {}",
+            a.region, b.region
+        ));
+    }
+    let before = d.len();
+    let mut extra = 0;
+    for (j, (p, q)) in a.points.iter().zip(&b.points).enumerate() {
+        let mut local = Vec::new();
+        cmp_vec(
+            &format!("pass {i} point {j} cc"),
+            p.cc.to_array(),
+            q.cc.to_array(),
+            POSITION_TOLERANCE_MM,
+            &mut local,
+        );
+        cmp_vec(
+            &format!("pass {i} point {j} cl"),
+            p.cl.to_array(),
+            q.cl.to_array(),
+            POSITION_TOLERANCE_MM,
+            &mut local,
+        );
+        cmp_vec(
+            &format!("pass {i} point {j} axis"),
+            p.axis.to_array(),
+            q.axis.to_array(),
+            VALUE_TOLERANCE,
+            &mut local,
+        );
+        cmp_num(
+            &format!("pass {i} point {j} strip_width"),
+            p.strip_width,
+            q.strip_width,
+            POSITION_TOLERANCE_MM,
+            &mut local,
+        );
+        if d.len() - before + local.len() > MAX_LISTED {
+            extra += local.len();
+        } else {
+            d.extend(local);
+        }
+    }
+    if extra > 0 {
+        d.push(format!("pass {i}: {extra} more point differences"));
+    }
 }
 
 fn compare_poses(rec: &msgs::PoseArray, new: &msgs::PoseArray, d: &mut Vec<String>) {

@@ -2,7 +2,10 @@
 //! job goes through the checks and the queue of a job from topic `job`,
 //! bound to its shape (inline, or one received) when it is accepted.
 
-use super::{check_job, Admission, Outputs, Pending, ShapeEntry, Shared};
+use super::outputs::Outputs;
+use super::queue::{Admission, Pending, ReadyShape, ShapeEntry, Shared};
+use super::receive::{check_job, journal_accept, refuse};
+use crate::journal::{GoalEntry, JournalShape, Origin, ShapeMsg};
 use crate::plan_action::{GoalLink, GoalQueue};
 use std::sync::{Arc, Weak};
 use std::time::Instant;
@@ -11,7 +14,7 @@ use toolpath_kernel::error::{Error, Result};
 use toolpath_machines::Machines;
 use toolpath_messages::frames::Frames;
 use toolpath_messages::plan_toolpath::{FeedbackMessage, Goal};
-use toolpath_messages::{self as msgs, convert, final_state, topics};
+use toolpath_messages::{self as msgs, convert, topics};
 
 pub(super) struct NodeQueue {
     pub shared: Arc<Shared>,
@@ -24,14 +27,42 @@ pub(super) struct NodeQueue {
 }
 
 impl NodeQueue {
+    /// A goal sent again by the goal id of a job the journal holds (the
+    /// node restarted since the goal was first sent): it ends with that job,
+    /// at once when the job has ended. `Ok(true)` when so answered.
+    fn answered_from_journal(&self, outputs: &Outputs, link: &Arc<GoalLink>) -> Result<bool> {
+        let (Some(journal), Some(goal_id)) = (&outputs.journal, link.goal_id) else {
+            return Ok(false);
+        };
+        match journal.goal(&goal_id)? {
+            None => Ok(false),
+            Some(GoalEntry::Finished(m)) => {
+                log::info!(
+                    "PlanToolpath goal of job {} sent again: it has ended",
+                    m.job_id
+                );
+                link.finish(m.state, m.message);
+                Ok(true)
+            }
+            Some(GoalEntry::Unfinished(seq)) => {
+                log::info!(
+                    "PlanToolpath goal of job {} sent again: it ends with that job",
+                    link.job_id
+                );
+                outputs.end_with(seq, link);
+                Ok(true)
+            }
+        }
+    }
+
     fn outputs(&self) -> Result<Arc<Outputs>> {
         self.outputs
             .upgrade()
-            .ok_or_else(|| Error::planning("the node is shutting down"))
+            .ok_or_else(|| Error::shutdown("the node is shutting down"))
     }
 
     /// The shape a goal's job plans on: the one inline, else one received.
-    fn shape_of(&self, goal: &Goal) -> Result<Arc<Shape>> {
+    fn shape_of(&self, goal: &Goal, journal: bool) -> Result<Arc<ReadyShape>> {
         let id = &goal.job.surface_id;
         if goal.surface.len() + goal.pocket.len() > 1 {
             return Err(Error::invalid(
@@ -44,16 +75,27 @@ impl NodeQueue {
                 "surface[0].surface_id",
                 format!("\"{}\" differs from job.surface_id \"{id}\"", s.surface_id),
             ))),
-            (Some(s), _) => Some(convert::surface_from_msg(s).map(Shape::Surface)),
+            (Some(s), _) => Some(
+                convert::surface_from_msg(s)
+                    .map(|x| (Shape::Surface(x), ShapeMsg::Surface(s.clone()))),
+            ),
             (_, Some(p)) if p.pocket_id != *id => Some(Err(Error::invalid(
                 "pocket[0].pocket_id",
                 format!("\"{}\" differs from job.surface_id \"{id}\"", p.pocket_id),
             ))),
-            (_, Some(p)) => Some(convert::pocket_from_msg(p).map(Shape::Pocket)),
+            (_, Some(p)) => Some(
+                convert::pocket_from_msg(p)
+                    .map(|x| (Shape::Pocket(x), ShapeMsg::Pocket(p.clone()))),
+            ),
             _ => None,
         };
         if let Some(shape) = inline {
-            return shape.map(Arc::new);
+            return shape.map(|(shape, msg)| {
+                Arc::new(ReadyShape {
+                    shape,
+                    journal: journal.then(|| JournalShape::new(msg)),
+                })
+            });
         }
         let known = self.shared.lock().shapes.get(id).map(|(_, e)| e.clone());
         match known {
@@ -89,10 +131,10 @@ impl NodeQueue {
     }
 
     /// Checks the goal; its shape when the job may be queued.
-    fn admit(&self, goal: &Goal) -> Result<Arc<Shape>> {
+    fn admit(&self, goal: &Goal, journal: bool) -> Result<Arc<ReadyShape>> {
         check_job(&goal.job, &self.machines)?;
-        let shape = self.shape_of(goal)?;
-        convert::job_from_msg(&goal.job, &shape)?;
+        let shape = self.shape_of(goal, journal)?;
+        convert::job_from_msg(&goal.job, &shape.shape)?;
         let mut st = self.shared.lock();
         match st.admit(&goal.job) {
             Admission::New => {}
@@ -124,15 +166,27 @@ impl GoalQueue for NodeQueue {
                 rec.record(topics::POCKET, p);
             }
         }
+        if self.answered_from_journal(&outputs, link)? {
+            return Ok(());
+        }
+        let journal = outputs.journal.is_some();
         let admitted = self
             .in_workpiece(goal)
-            .and_then(|goal| self.admit(&goal).map(|shape| (goal, shape)));
+            .and_then(|goal| self.admit(&goal, journal).map(|shape| (goal, shape)));
         let (goal, shape) = match admitted {
             Ok(s) => s,
             Err(e) => {
-                outputs.status(&job_id, final_state(&e), 0.0, e.to_string());
+                refuse(&self.shared, &outputs, &job_id, &e);
                 return Err(e);
             }
+        };
+        let origin = link.goal_id.map_or(Origin::Service, Origin::Goal);
+        let shape = ShapeEntry::Ready(shape);
+        let Some(seq) = journal_accept(&outputs, origin, &goal.job, Some(&shape)) else {
+            self.shared.lock().active.remove(&job_id);
+            return Err(Error::shutdown(
+                "not accepted: the job journal cannot take it",
+            ));
         };
         // ACCEPTED before the job is queued, so a worker's statuses follow it.
         outputs.status(&job_id, msgs::JobStatus::ACCEPTED, 0.0, String::new());
@@ -141,8 +195,10 @@ impl GoalQueue for NodeQueue {
             msg: goal.job,
             received: now,
             deadline: now,
-            shape: Some(ShapeEntry::Ready(shape)),
+            shape: Some(shape),
             goal: Some(Arc::clone(link)),
+            seq,
+            restarted: false,
         });
         self.shared.wake.notify_all();
         Ok(())
@@ -164,7 +220,13 @@ impl GoalQueue for NodeQueue {
             ))
             .to_string();
             if let Ok(outputs) = self.outputs() {
-                outputs.status(&link.job_id, msgs::JobStatus::CANCELED, 0.0, why.clone());
+                outputs.finish(
+                    &link.job_id,
+                    p.seq,
+                    msgs::JobStatus::CANCELED,
+                    0.0,
+                    why.clone(),
+                );
             }
             link.finish(msgs::JobStatus::CANCELED, why);
             return;
