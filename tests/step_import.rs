@@ -466,7 +466,8 @@ fn the_step_samples_import_with_their_exact_areas() {
         let listed = file.summaries();
         assert_eq!(listed.len(), faces.len(), "{name}");
         for (s, (kind, exact)) in listed.iter().zip(faces) {
-            let (a, lo, hi) = s.imported.clone().unwrap();
+            let extent = s.imported.clone().unwrap();
+            let (a, lo, hi) = (extent.area_mm2, extent.lo, extent.hi);
             eprintln!(
                 "{name} #{}: {kind} {a:.4} mm² (exact {exact:.4}), {lo:?}..{hi:?}",
                 s.id
