@@ -141,6 +141,13 @@ pub(super) fn de_boor(p: usize, knots: &[f64], pts: &[[f64; 4]], t: f64) -> V3 {
     V3::new(h[0] / h[3], h[1] / h[3], h[2] / h[3])
 }
 
+/// Deepest chain of entities wrapping one another (a trimmed curve of a
+/// trimmed curve, an offset of an offset surface) that is followed.
+pub(super) const MAX_NESTING: usize = 8;
+
+/// Curve types an edge may lie on.
+pub const SUPPORTED_CURVES: &str = "LINE, CIRCLE, ELLIPSE, POLYLINE, TRIMMED_CURVE, B_SPLINE_CURVE_WITH_KNOTS, BEZIER_CURVE, UNIFORM_CURVE, QUASI_UNIFORM_CURVE (rational too)";
+
 impl StepFile {
     pub(super) fn curve(&self, id: u64, in_uv: bool) -> Result<Curve> {
         let records = self.records(id)?;
@@ -180,76 +187,55 @@ impl StepFile {
                         b,
                     });
                 }
-                "B_SPLINE_CURVE_WITH_KNOTS" => {
-                    return self.bspline_curve(id, p, p.get(6..).unwrap_or(&[]), 1, None, in_uv);
-                }
+                // The edge's vertices bound it; its basis curve is the
+                // geometry.
+                "TRIMMED_CURVE" => return self.curve(self.trimmed_basis(id, p)?, in_uv),
+                "POLYLINE" => return self.polyline(id, p, in_uv),
                 _ => {}
             }
-        } else if let (Some(core), Some(knots)) = (
-            self.part(id, "B_SPLINE_CURVE"),
-            self.part(id, "B_SPLINE_CURVE_WITH_KNOTS"),
-        ) {
-            let w = match self.part(id, "RATIONAL_B_SPLINE_CURVE") {
-                Some(w) => Some(self.reals(id, w, 0)?),
-                None => None,
-            };
-            return self.bspline_curve(id, core, knots, 0, w, in_uv);
+        }
+        if let Some(c) = self.bspline_curve(id, in_uv)? {
+            return Ok(c);
         }
         Err(self.err(
             id,
-            "is not a supported curve (supported: LINE, CIRCLE, ELLIPSE, B_SPLINE_CURVE_WITH_KNOTS)",
+            format!("is not a supported curve (supported: {SUPPORTED_CURVES})"),
         ))
     }
 
-    pub(super) fn bspline_curve(
-        &self,
-        id: u64,
-        core: &[Parameter],
-        knots: &[Parameter],
-        offset: usize,
-        weights: Option<Vec<f64>>,
-        in_uv: bool,
-    ) -> Result<Curve> {
-        let degree = self.integer(id, core, offset)?;
+    /// The basis curve of a `TRIMMED_CURVE` (`p`: its parameters), through
+    /// trimmed curves of trimmed curves; a chain deeper than
+    /// [`MAX_NESTING`] (a cycle in the file) is refused.
+    fn trimmed_basis(&self, id: u64, p: &[Parameter]) -> Result<u64> {
+        let mut basis = self.reference(id, p, 1)?;
+        for _ in 0..MAX_NESTING {
+            match self.expect(basis, &["TRIMMED_CURVE"]) {
+                Ok((_, bp)) => basis = self.reference(basis, bp, 1)?,
+                Err(_) => return Ok(basis),
+            }
+        }
+        Err(self.err(id, "nests trimmed curves too deeply (a cycle?)"))
+    }
+
+    /// A `POLYLINE` as the degree 1 B-spline through its points, one knot
+    /// per point.
+    fn polyline(&self, id: u64, p: &[Parameter], in_uv: bool) -> Result<Curve> {
         let pts = self
-            .references(id, core, offset + 1)?
+            .references(id, p, 1)?
             .iter()
             .map(|&c| self.point_in(c, in_uv))
             .collect::<Result<Vec<_>>>()?;
-        let m = self.reals(id, knots, 0)?;
-        let k = self.reals(id, knots, 1)?;
-        let mut full = Vec::new();
-        for (&m, &k) in m.iter().zip(&k) {
-            if !(1.0..=64.0).contains(&m) {
-                return Err(self.err(id, format!("has a knot multiplicity {m}")));
-            }
-            full.extend(std::iter::repeat_n(k, m as usize));
+        if pts.len() < 2 {
+            return Err(self.err(id, "has fewer than 2 points"));
         }
-        if degree == 0 || m.len() != k.len() || full.len() != pts.len() + degree + 1 {
-            return Err(self.err(
-                id,
-                format!(
-                    "has {} knots for {} points of degree {degree}",
-                    full.len(),
-                    pts.len()
-                ),
-            ));
-        }
-        if full.windows(2).any(|w| w[1] < w[0]) || full[degree] >= full[pts.len()] {
-            return Err(self.err(id, "has knots that are not non-decreasing"));
-        }
-        let w = weights.unwrap_or_else(|| vec![1.0; pts.len()]);
-        if w.len() != pts.len() || w.iter().any(|&x| x.is_nan() || x <= 0.0) {
-            return Err(self.err(id, "has weights that are not one positive number per point"));
-        }
+        let n = pts.len();
+        let mut knots = vec![0.0];
+        knots.extend((0..n).map(|i| i as f64));
+        knots.push((n - 1) as f64);
         Ok(Curve::Bspline {
-            degree,
-            knots: full,
-            points: pts
-                .iter()
-                .zip(&w)
-                .map(|(p, &w)| [p.x * w, p.y * w, p.z * w, w])
-                .collect(),
+            degree: 1,
+            knots,
+            points: pts.iter().map(|q| [q.x, q.y, q.z, 1.0]).collect(),
         })
     }
 }

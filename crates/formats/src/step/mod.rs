@@ -23,15 +23,22 @@
 //! | `units` | the length and plane angle units |
 //! | `curves` | edge curves (line, conic, B-spline) and their evaluation |
 //! | `surfaces` | the surface a face lies on, as read ([`surfaces::Basis`]) |
+//! | `bspline` | B-spline curves and surfaces in every form STEP writes |
+//! | `offset` | offset surfaces: exact for elementary bases, else fitted within [`OFFSET_FIT_TOLERANCE_MM`] |
 //! | `patches` | that surface as a NURBS patch over the face, with the map of its boundary to (u, v) |
 //! | `loops` | the face's bounds as closed (u, v) polylines |
 
+mod bspline;
 mod curves;
 mod loops;
+mod offset;
 mod patches;
 mod records;
 mod surfaces;
 mod units;
+
+pub use curves::SUPPORTED_CURVES;
+pub use offset::OFFSET_FIT_TOLERANCE_MM;
 
 use super::shape::{SurfaceFile, TrimCurveFile, TrimFile};
 use loops::{Bound, SampledLoop};
@@ -45,7 +52,7 @@ use toolpath_kernel::geometry::NurbsSurface;
 pub const MAX_STEP_BYTES: u64 = 512 << 20;
 
 /// Surface types a face may lie on.
-pub const SUPPORTED_SURFACES: &str = "B_SPLINE_SURFACE_WITH_KNOTS, PLANE, CYLINDRICAL_SURFACE, CONICAL_SURFACE, SPHERICAL_SURFACE, TOROIDAL_SURFACE, SURFACE_OF_REVOLUTION, SURFACE_OF_LINEAR_EXTRUSION";
+pub const SUPPORTED_SURFACES: &str = "B_SPLINE_SURFACE_WITH_KNOTS, BEZIER_SURFACE, UNIFORM_SURFACE, QUASI_UNIFORM_SURFACE (rational too), PLANE, CYLINDRICAL_SURFACE, CONICAL_SURFACE, SPHERICAL_SURFACE, TOROIDAL_SURFACE, SURFACE_OF_REVOLUTION, SURFACE_OF_LINEAR_EXTRUSION, OFFSET_SURFACE, RECTANGULAR_TRIMMED_SURFACE";
 
 /// Grid cells per direction of the area integration of `--list`.
 pub const LIST_CELLS: usize = 128;
@@ -80,6 +87,44 @@ pub struct StepFile {
     entities: BTreeMap<u64, Vec<Record>>,
     mm_per_unit: f64,
     radians_per_unit: f64,
+}
+
+/// A part's faces as one job needs them ([`StepFile::part_faces`]).
+#[derive(Clone, Debug)]
+pub struct PartFaces {
+    /// The faces the job machines, in the order asked for.
+    pub machined: Vec<PartFace>,
+    /// The other faces of the same shells (the whole file's where the
+    /// machined faces are in no shell), ascending by id: the check faces.
+    pub others: Vec<PartFace>,
+    /// Those of the other faces that cannot be read, with the reason.
+    pub unreadable: Vec<UnreadableFace>,
+}
+
+/// One imported face and its STEP entity id.
+#[derive(Clone, Debug)]
+pub struct PartFace {
+    pub id: u64,
+    pub surface: SurfaceFile,
+}
+
+/// A face that cannot be imported: its entity id and the reason.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UnreadableFace {
+    pub id: u64,
+    pub reason: String,
+}
+
+/// `e`, an error of this file's entities, as the error of a job's field
+/// `parent`: `parent (mould.step #788 PLANE): message`.
+pub fn within_field(e: Error, parent: &str) -> Error {
+    match e {
+        Error::Invalid { field, message } => Error::Invalid {
+            field: format!("{parent} ({field})"),
+            message,
+        },
+        other => other,
+    }
 }
 
 impl StepFile {
@@ -208,6 +253,69 @@ impl StepFile {
             .to_surface()
             .map_err(|e| self.err(id, format!("gives an invalid trimmed surface: {e}")))?;
         Ok(surface)
+    }
+
+    /// The faces `machined` (an error names the first that cannot be
+    /// read, its entity and why) and every other face of their shells
+    /// (`CLOSED_SHELL`, `OPEN_SHELL`), of which those that cannot be read
+    /// are listed, not an error: a job plans what it machines whatever the
+    /// rest of the part holds.
+    pub fn part_faces(&self, machined: &[u64]) -> Result<PartFaces> {
+        let machined_faces = machined
+            .iter()
+            .map(|&id| {
+                Ok(PartFace {
+                    id,
+                    surface: self.face(id)?,
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let mut others = Vec::new();
+        let mut unreadable = Vec::new();
+        for id in self.shell_faces(machined) {
+            if machined.contains(&id) {
+                continue;
+            }
+            match self.face(id) {
+                Ok(surface) => others.push(PartFace { id, surface }),
+                Err(e) => unreadable.push(UnreadableFace {
+                    id,
+                    reason: e.to_string(),
+                }),
+            }
+        }
+        Ok(PartFaces {
+            machined: machined_faces,
+            others,
+            unreadable,
+        })
+    }
+
+    /// The faces of every shell holding one of `faces`, ascending; every
+    /// face of the file when none does.
+    fn shell_faces(&self, faces: &[u64]) -> Vec<u64> {
+        let mut out = std::collections::BTreeSet::new();
+        for (&id, records) in &self.entities {
+            let is_shell = records.len() == 1
+                && matches!(records[0].name.as_str(), "CLOSED_SHELL" | "OPEN_SHELL");
+            if !is_shell {
+                continue;
+            }
+            let Some(p) = records::list(&records[0].parameter) else {
+                continue;
+            };
+            let Ok(listed) = self.references(id, p, 1) else {
+                continue;
+            };
+            if listed.iter().any(|f| faces.contains(f)) {
+                out.extend(listed);
+            }
+        }
+        if out.is_empty() {
+            return self.face_ids();
+        }
+        let all: std::collections::BTreeSet<u64> = self.face_ids().into_iter().collect();
+        out.into_iter().filter(|f| all.contains(f)).collect()
     }
 
     fn face_list(&self) -> String {

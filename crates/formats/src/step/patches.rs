@@ -96,6 +96,11 @@ impl StepFile {
             Basis::Plane(f) => self.plane_patch(face, f, coarse),
             Basis::Revolved(f, m, what) => self.revolved_patch(face, f, m, what, coarse),
             Basis::Extruded(f, m) => self.extruded_patch(face, f, m, coarse),
+            Basis::Offset {
+                basis,
+                distance,
+                id,
+            } => self.offset_patch(face, *basis, distance, id, coarse),
         }
     }
 

@@ -84,6 +84,19 @@ pub(super) fn name_of(records: &[Record]) -> String {
     }
 }
 
+/// The entity type an error names: a simple instance's, or a complex
+/// one's rational B-spline part (the rest of its parts say no more), else
+/// all its parts.
+fn message_name(records: &[Record]) -> String {
+    match records
+        .iter()
+        .find(|r| r.name.starts_with("RATIONAL_B_SPLINE_"))
+    {
+        Some(r) if records.len() > 1 => r.name.clone(),
+        _ => name_of(records),
+    }
+}
+
 pub(super) fn list(p: &Parameter) -> Option<&[Parameter]> {
     match p {
         Parameter::List(v) => Some(v),
@@ -93,6 +106,8 @@ pub(super) fn list(p: &Parameter) -> Option<&[Parameter]> {
 
 impl StepFile {
     /// Reads and parses a STEP file.
+    /// Errors name the file by its name (`mould.step #788 ...`), the
+    /// entities by their ids.
     pub fn read(path: &Path) -> Result<Self> {
         let bytes = crate::read_file_limited(path, MAX_STEP_BYTES)?;
         let text = String::from_utf8_lossy(&bytes);
@@ -100,7 +115,11 @@ impl StepFile {
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "step".into());
-        Self::parse(&text, &path.display().to_string(), &stem)
+        let label = path
+            .file_name()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| path.display().to_string());
+        Self::parse(&text, &label, &stem)
     }
 
     /// Parses Part 21 text; `label` names the file in errors.
@@ -156,9 +175,9 @@ impl StepFile {
         let what = self
             .entities
             .get(&id)
-            .map(|r| name_of(r))
+            .map(|r| message_name(r))
             .unwrap_or_else(|| "(undefined)".into());
-        Error::invalid(format!("{}: #{id} {what}", self.label), message)
+        Error::invalid(format!("{} #{id} {what}", self.label), message)
     }
 
     pub(super) fn records(&self, id: u64) -> Result<&[Record]> {

@@ -1,10 +1,11 @@
 //! The surface a face lies on, as the file gives it: a B-spline surface,
 //! a plane, a surface of revolution (cylinder, cone, sphere, torus,
 //! `SURFACE_OF_REVOLUTION`) as its axis frame and meridian, or a
-//! `SURFACE_OF_LINEAR_EXTRUSION` as its section.
+//! `SURFACE_OF_LINEAR_EXTRUSION` as its section; offset surfaces
+//! (`offset`) and B-splines (`bspline`) have their own modules.
 
-use super::curves::{plane_curve, Curve};
-use super::records::{list, name_of, Frame};
+use super::curves::{plane_curve, Curve, MAX_NESTING};
+use super::records::{name_of, Frame};
 use super::{StepFile, SurfaceFile, SUPPORTED_SURFACES, V3};
 use ruststep::ast::{Name, Parameter};
 use std::f64::consts::{PI, TAU};
@@ -20,6 +21,14 @@ pub(super) enum Basis {
     /// A `SURFACE_OF_LINEAR_EXTRUSION` along the frame's z: its swept
     /// curve projected along z onto the frame's (x, y) plane (the section).
     Extruded(Frame, Meridian),
+    /// An `OFFSET_SURFACE` (entity `id`) that is no elementary surface:
+    /// `basis` moved by `distance` mm along its normal, fitted
+    /// ([`StepFile::offset_patch`]).
+    Offset {
+        basis: Box<Basis>,
+        distance: f64,
+        id: u64,
+    },
 }
 
 /// The meridian of a surface of revolution in the frame's (rho, h) half
@@ -66,93 +75,57 @@ impl Meridian {
 }
 
 impl StepFile {
+    /// The surface `id` a face lies on.
     pub(super) fn basis(&self, id: u64) -> Result<Basis> {
+        self.basis_nested(id, 0)
+    }
+
+    /// [`Self::basis`] inside `depth` wrapping entities (offset or trimmed
+    /// surfaces).
+    pub(super) fn basis_nested(&self, id: u64, depth: usize) -> Result<Basis> {
         let records = self.records(id)?;
         let name = name_of(records);
-        if records.len() == 1 && name == "PLANE" {
-            let (_, p) = self.expect(id, &["PLANE"])?;
-            return Ok(Basis::Plane(self.frame(self.reference(id, p, 1)?, false)?));
-        }
-        if records.len() == 1 && name == "SURFACE_OF_LINEAR_EXTRUSION" {
-            return self.linear_extrusion(id);
-        }
         if records.len() == 1 {
-            if let Some(b) = self.revolved(id, &name)? {
-                return Ok(b);
+            match name.as_str() {
+                "PLANE" => {
+                    let (_, p) = self.expect(id, &["PLANE"])?;
+                    return Ok(Basis::Plane(self.frame(self.reference(id, p, 1)?, false)?));
+                }
+                "SURFACE_OF_LINEAR_EXTRUSION" => return self.linear_extrusion(id),
+                "OFFSET_SURFACE" => return self.offset_surface(id, depth),
+                "RECTANGULAR_TRIMMED_SURFACE" => return self.rectangular_trimmed(id, depth),
+                _ => {
+                    if let Some(b) = self.revolved(id, &name)? {
+                        return Ok(b);
+                    }
+                }
             }
         }
-        // B_SPLINE_SURFACE_WITH_KNOTS alone carries the name first; in a
-        // complex instance the B_SPLINE_SURFACE part holds degrees and points.
-        let (core, knots, offset) = if records.len() == 1 && name == "B_SPLINE_SURFACE_WITH_KNOTS" {
-            let p = list(&records[0].parameter).unwrap_or(&[]);
-            (p, p.get(8..).unwrap_or(&[]), 1)
-        } else if let (Some(core), Some(knots)) = (
-            self.part(id, "B_SPLINE_SURFACE"),
-            self.part(id, "B_SPLINE_SURFACE_WITH_KNOTS"),
-        ) {
-            (core, knots, 0)
-        } else {
-            return Err(self.err(
+        match self.bspline_surface(id)? {
+            Some(s) => Ok(Basis::Bspline(s)),
+            None => Err(self.err(
                 id,
                 format!("is not a supported surface (supported: {SUPPORTED_SURFACES})"),
-            ));
-        };
-        let degree_u = self.integer(id, core, offset)?;
-        let degree_v = self.integer(id, core, offset + 1)?;
-        let rows = list(self.arg(id, core, offset + 2)?)
-            .ok_or_else(|| self.err(id, "control points should be a list of lists"))?;
-        let mut control_points = Vec::new();
-        for row in rows {
-            let ids = self.references(id, std::slice::from_ref(row), 0)?;
-            control_points.push(
-                ids.iter()
-                    .map(|&c| self.point3(c).map(|v| [v.x, v.y, v.z]))
-                    .collect::<Result<Vec<_>>>()?,
-            );
+            )),
         }
-        let expand = |mi: usize, ki: usize| -> Result<Vec<f64>> {
-            let m = self.reals(id, knots, mi)?;
-            let k = self.reals(id, knots, ki)?;
-            if m.len() != k.len() {
-                return Err(self.err(id, "has knot and multiplicity lists of different lengths"));
-            }
-            let mut out = Vec::new();
-            for (&m, &k) in m.iter().zip(&k) {
-                if !(1.0..=64.0).contains(&m) {
-                    return Err(self.err(id, format!("has a knot multiplicity {m}")));
-                }
-                out.extend(std::iter::repeat_n(k, m as usize));
-            }
-            Ok(out)
-        };
-        let knots_u = expand(0, 2)?;
-        let knots_v = expand(1, 3)?;
-        let weights = match self.part(id, "RATIONAL_B_SPLINE_SURFACE") {
-            Some(w) => {
-                let rows = list(self.arg(id, w, 0)?)
-                    .ok_or_else(|| self.err(id, "weights should be a list of lists"))?;
-                Some(
-                    rows.iter()
-                        .map(|r| self.reals(id, std::slice::from_ref(r), 0))
-                        .collect::<Result<Vec<_>>>()?,
-                )
-            }
-            None => None,
-        };
-        let s = SurfaceFile {
-            kind: "nurbs".into(),
-            name: None,
-            degree_u,
-            degree_v,
-            knots_u,
-            knots_v,
-            control_points,
-            weights,
-            trim: None,
-        };
-        s.to_surface()
-            .map_err(|e| self.err(id, format!("is not a valid B-spline surface: {e}")))?;
-        Ok(Basis::Bspline(s))
+    }
+
+    /// A `RECTANGULAR_TRIMMED_SURFACE`: its basis surface (the face's
+    /// bounds trim it). Only the form whose parameters run as the basis's
+    /// (both senses .T.) is read, so the basis's pcurves and normal are the
+    /// face's.
+    fn rectangular_trimmed(&self, id: u64, depth: usize) -> Result<Basis> {
+        if depth >= MAX_NESTING {
+            return Err(self.err(id, "nests surfaces too deeply (a cycle?)"));
+        }
+        let (_, p) = self.expect(id, &["RECTANGULAR_TRIMMED_SURFACE"])?;
+        if !(self.boolean(id, p, 6)? && self.boolean(id, p, 7)?) {
+            return Err(self.err(
+                id,
+                "runs against its basis surface's parameters (usense or vsense .F.): not supported",
+            ));
+        }
+        self.basis_nested(self.reference(id, p, 1)?, depth + 1)
     }
 
     /// A cylinder, cone, sphere, torus or surface of revolution as its

@@ -3,15 +3,28 @@
 //!
 //! Written by hand (see docs/architecture.md): the planners evaluate surfaces
 //! millions of times, so evaluation works on fixed-size stack arrays and never
-//! allocates. Algorithms follow Piegl & Tiller, *The NURBS Book*
+//! allocates. The arrays' size is a const parameter: degree + 1 for the
+//! bicubic surface most parts are, [`TABULATED_MAX_DEGREE`] + 1 for the other
+//! common degrees, [`MAX_DEGREE`] + 1 for the high degrees CAD writes
+//! (rational fillets of degree 11 to 14 and above), so a bicubic evaluation
+//! never clears or walks arrays sized for degree 25. Algorithms follow Piegl & Tiller, *The NURBS Book*
 //! (A2.1 span search, A2.3 basis derivatives, A4.4 rational derivatives).
 
 use crate::error::{Error, Result};
 use nalgebra::{Point3, Vector3};
 
-/// Highest supported degree in either direction.
-pub const MAX_DEGREE: usize = 9;
+/// Highest supported degree in either direction: above what CAD systems
+/// write (OpenCASCADE's fillets and blends reach degree 14; the STEP files
+/// of common CAD systems stay at or below 25).
+pub const MAX_DEGREE: usize = 25;
 const MAXP1: usize = MAX_DEGREE + 1;
+
+/// Highest degree whose basis is tabulated per span ([`SpanBasis`]) and
+/// evaluated on arrays of [`TABULATED_MAX_DEGREE`] + 1: above it the
+/// power-basis coefficients of a span grow like binomials (cancellation
+/// past 1e-12 relative), so The NURBS Book's A2.3 evaluates instead.
+pub const TABULATED_MAX_DEGREE: usize = 9;
+const TABP1: usize = TABULATED_MAX_DEGREE + 1;
 
 /// Position and partial derivatives up to second order at one (u, v).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -446,34 +459,39 @@ impl NurbsSurface {
 
     fn derivs_exact(&self, u: f64, v: f64, order: usize) -> SurfaceDerivs {
         match (self.degree_u, self.degree_v, order) {
-            (3, 3, 2) => self.derivs_with(u, v, 3, 3, 2, false),
-            (3, 3, 1) => self.derivs_with(u, v, 3, 3, 1, false),
-            (3, 3, 0) => self.derivs_with(u, v, 3, 3, 0, false),
+            (3, 3, 2) => self.derivs_with::<4>(u, v, 3, 3, 2, false),
+            (3, 3, 1) => self.derivs_with::<4>(u, v, 3, 3, 1, false),
+            (3, 3, 0) => self.derivs_with::<4>(u, v, 3, 3, 0, false),
             (pu, pv, order) => self.derivs_any(u, v, pu, pv, order),
         }
     }
 
-    /// [`Self::derivs_with`] for any degrees, as one out-of-line copy.
+    /// [`Self::derivs_with`] for any degrees, as one out-of-line copy per
+    /// array size.
     #[inline(never)]
     fn derivs_any(&self, u: f64, v: f64, pu: usize, pv: usize, order: usize) -> SurfaceDerivs {
-        self.derivs_with(u, v, pu, pv, order, false)
+        if pu.max(pv) <= TABULATED_MAX_DEGREE {
+            self.derivs_with::<TABP1>(u, v, pu, pv, order, false)
+        } else {
+            self.derivs_with::<MAXP1>(u, v, pu, pv, order, false)
+        }
     }
 
     /// Position and derivatives up to second order from the basis of The
     /// NURBS Book's A2.3 (with its divisions) instead of the tabulated span
     /// polynomials: the reference the tables are tested against.
     pub fn derivs_reference(&self, u: f64, v: f64) -> SurfaceDerivs {
-        self.derivs_with(u, v, self.degree_u, self.degree_v, 2, true)
+        self.derivs_with::<MAXP1>(u, v, self.degree_u, self.degree_v, 2, true)
     }
 
     /// Position and derivatives up to `order` (<= 2) for degrees `pu`, `pv`
-    /// (this surface's): the basis in each direction from the span
-    /// polynomials ([`SpanBasis`]; A2.3 when `reference` or untabulated),
-    /// then A4.4 when rational.
+    /// (this surface's, both below `N`): the basis in each direction from
+    /// the span polynomials ([`SpanBasis`]; A2.3 when `reference` or
+    /// untabulated), then A4.4 when rational.
     // Index loops mirror The NURBS Book's algorithms; iterators would obscure them.
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn derivs_with(
+    fn derivs_with<const N: usize>(
         &self,
         u: f64,
         v: f64,
@@ -488,12 +506,12 @@ impl NurbsSurface {
         let du = order.min(pu);
         let dv = order.min(pv);
         let nu = match &self.basis_u {
-            Some(b) if !reference => b.ders(su, u, pu, du),
-            _ => basis_ders(su, u, pu, du, &self.knots_u),
+            Some(b) if !reference => b.ders::<N>(su, u, pu, du),
+            _ => basis_ders::<N>(su, u, pu, du, &self.knots_u),
         };
         let nv = match &self.basis_v {
-            Some(b) if !reference => b.ders(sv, v, pv, dv),
-            _ => basis_ders(sv, v, pv, dv, &self.knots_v),
+            Some(b) if !reference => b.ders::<N>(sv, v, pv, dv),
+            _ => basis_ders::<N>(sv, v, pv, dv, &self.knots_v),
         };
         // a[k][l]: homogeneous derivative d^(k+l)/du^k dv^l, k + l <= order.
         let mut a = [[[0.0f64; 4]; 3]; 3];
@@ -648,10 +666,11 @@ pub struct SpanBasis {
 
 impl SpanBasis {
     /// The tables of a valid knot vector (as [`NurbsSurface::new`] checks);
-    /// `None` beyond [`SPAN_BASIS_MAX_SPANS`] spans.
+    /// `None` beyond [`SPAN_BASIS_MAX_SPANS`] spans or
+    /// [`TABULATED_MAX_DEGREE`].
     pub fn new(degree: usize, count: usize, knots: &[f64]) -> Option<Self> {
         let spans = count - degree;
-        if spans > SPAN_BASIS_MAX_SPANS || degree > MAX_DEGREE {
+        if spans > SPAN_BASIS_MAX_SPANS || degree > TABULATED_MAX_DEGREE {
             return None;
         }
         let p1 = degree + 1;
@@ -667,10 +686,10 @@ impl SpanBasis {
                 continue;
             }
             // n[r]: N_(s-d+r, d) as coefficients of x^0..x^d, degree d = 0..=p.
-            let mut n = [[0.0f64; MAXP1]; MAXP1];
+            let mut n = [[0.0f64; TABP1]; TABP1];
             n[0][0] = 1.0;
             for d in 1..=degree {
-                let mut next = [[0.0f64; MAXP1]; MAXP1];
+                let mut next = [[0.0f64; TABP1]; TABP1];
                 for (r, out) in next.iter_mut().enumerate().take(d + 1) {
                     let i = s + r - d;
                     // (t - t_i) / (t_(i+d) - t_i) N_(i, d-1), N_(i, d-1) = n[r - 1].
@@ -725,15 +744,15 @@ impl SpanBasis {
 
     /// [`basis_ders`] from the tables: derivatives up to `nd` (<= 2) of the
     /// basis functions of span `span` at `t` (in that span; `p` is the
-    /// degree, a constant where the caller's is).
+    /// degree, a constant where the caller's is; `N` > `p` the arrays' size).
     #[inline(always)]
-    fn ders(&self, span: usize, t: f64, p: usize, nd: usize) -> [[f64; MAXP1]; 3] {
+    fn ders<const N: usize>(&self, span: usize, t: f64, p: usize, nd: usize) -> [[f64; N]; 3] {
         debug_assert_eq!(p, self.degree);
         let k = span - p;
         let x = ((t - self.start[k]) * self.inv_len[k]).clamp(0.0, 1.0);
         let p1 = p + 1;
         let table = &self.coef[k * 3 * p1 * p1..(k + 1) * 3 * p1 * p1];
-        let mut ders = [[0.0f64; MAXP1]; 3];
+        let mut ders = [[0.0f64; N]; 3];
         for (order, row) in ders.iter_mut().enumerate().take(nd.min(p) + 1) {
             let top = p - order;
             for (j, out) in row.iter_mut().enumerate().take(p1) {
@@ -757,7 +776,7 @@ pub fn basis_functions(degree: usize, knots: &[f64], t: f64) -> (usize, [f64; MA
     let count = knots.len() - degree - 1;
     let t = t.clamp(knots[degree], knots[count]);
     let span = find_span(degree, count, knots, t);
-    (span, basis_ders(span, t, degree, 0, knots)[0])
+    (span, basis_ders::<MAXP1>(span, t, degree, 0, knots)[0])
 }
 
 /// A2.1: the knot span index `s` with `knots[s] <= t < knots[s+1]`
@@ -793,13 +812,20 @@ fn find_span(degree: usize, count: usize, knots: &[f64], t: f64) -> usize {
 }
 
 /// A2.3: basis functions and their derivatives up to `nd` (<= 2) at `t`
-/// in span `span`. Result `[k][j]`: k-th derivative of N_{span-p+j}.
-/// Inlined so that a constant degree unrolls it (see `derivs_order`).
+/// in span `span`. Result `[k][j]`: k-th derivative of N_{span-p+j}; `N` >
+/// `p` is the arrays' size. Inlined so that a constant degree unrolls it
+/// (see `derivs_order`).
 #[inline(always)]
-fn basis_ders(span: usize, t: f64, p: usize, nd: usize, knots: &[f64]) -> [[f64; MAXP1]; 3] {
-    let mut ndu = [[0.0f64; MAXP1]; MAXP1];
-    let mut left = [0.0f64; MAXP1];
-    let mut right = [0.0f64; MAXP1];
+fn basis_ders<const N: usize>(
+    span: usize,
+    t: f64,
+    p: usize,
+    nd: usize,
+    knots: &[f64],
+) -> [[f64; N]; 3] {
+    let mut ndu = [[0.0f64; N]; N];
+    let mut left = [0.0f64; N];
+    let mut right = [0.0f64; N];
     ndu[0][0] = 1.0;
     for j in 1..=p {
         left[j] = t - knots[span + 1 - j];
@@ -813,11 +839,11 @@ fn basis_ders(span: usize, t: f64, p: usize, nd: usize, knots: &[f64]) -> [[f64;
         }
         ndu[j][j] = saved;
     }
-    let mut ders = [[0.0f64; MAXP1]; 3];
+    let mut ders = [[0.0f64; N]; 3];
     for j in 0..=p {
         ders[0][j] = ndu[j][p];
     }
-    let mut a = [[0.0f64; MAXP1]; 2];
+    let mut a = [[0.0f64; N]; 2];
     for r in 0..=p {
         let (mut s1, mut s2) = (0usize, 1usize);
         a[0][0] = 1.0;
@@ -912,7 +938,7 @@ mod tests {
         let b = SpanBasis::new(3, 8, &knots).unwrap();
         for x in [0.0, 0.25, 0.5, 0.9, 1.0] {
             let t = 8.0 + 2.0 * x;
-            let d = b.ders(4, t, 3, 2);
+            let d = b.ders::<4>(4, t, 3, 2);
             let n = [
                 (1.0 - x).powi(3) / 6.0,
                 (3.0 * x * x * x - 6.0 * x * x + 4.0) / 6.0,
@@ -954,8 +980,8 @@ mod tests {
                 };
                 let span = find_span(degree, count, &knots, t);
                 let nd = degree.min(2);
-                let exact = basis_ders(span, t, degree, nd, &knots);
-                let got = b.ders(span, t, degree, nd);
+                let exact = basis_ders::<TABP1>(span, t, degree, nd, &knots);
+                let got = b.ders::<TABP1>(span, t, degree, nd);
                 for order in 0..=nd {
                     let scale: f64 = exact[order].iter().map(|x| x.abs()).sum();
                     for j in 0..=degree {
@@ -1040,5 +1066,144 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Point of a rational tensor B-spline by de Boor's algorithm on the
+    /// homogeneous points (along v on each row of the span, then along u):
+    /// an evaluation that shares nothing with A2.3's basis functions.
+    fn de_boor_point(s: &NurbsSurface, u: f64, v: f64) -> [f64; 3] {
+        fn de_boor(p: usize, knots: &[f64], pts: &[[f64; 4]], t: f64) -> [f64; 4] {
+            let n = pts.len();
+            let mut k = p;
+            while k + 1 < n && knots[k + 1] <= t {
+                k += 1;
+            }
+            let mut d: Vec<[f64; 4]> = (0..=p).map(|j| pts[j + k - p]).collect();
+            for r in 1..=p {
+                for j in (r..=p).rev() {
+                    let i = j + k - p;
+                    let a = (t - knots[i]) / (knots[i + p + 1 - r] - knots[i]);
+                    let prev = d[j - 1];
+                    for (c, x) in d[j].iter_mut().enumerate() {
+                        *x = (1.0 - a) * prev[c] + a * *x;
+                    }
+                }
+            }
+            d[p]
+        }
+        let rows: Vec<[f64; 4]> = (0..s.count_u)
+            .map(|i| {
+                let row: Vec<[f64; 4]> = (0..s.count_v)
+                    .map(|j| s.homogeneous[i * s.count_v + j])
+                    .collect();
+                de_boor(s.degree_v, &s.knots_v, &row, v)
+            })
+            .collect();
+        let h = de_boor(s.degree_u, &s.knots_u, &rows, u);
+        [h[0] / h[3], h[1] / h[3], h[2] / h[3]]
+    }
+
+    #[test]
+    fn high_degree_surfaces_agree_with_de_boor_and_finite_differences() {
+        let mut rng = Rng(0x5eed_0fde_6202_5a17);
+        let mut tested = [false; MAXP1];
+        for case in 0..48 {
+            // Every degree from 10 to MAX_DEGREE in u, the other direction
+            // low or high; a third of the cases on a single span (Bezier).
+            let pu = 10 + case % (MAX_DEGREE - 9);
+            let pv = [1, 3, 7, 12, MAX_DEGREE][case % 5];
+            tested[pu] = true;
+            let spans = |rng: &mut Rng| if case % 3 == 0 { 0 } else { 1 + rng.below(3) };
+            let (cu, cv) = (pu + 1 + spans(&mut rng), pv + 1 + spans(&mut rng));
+            // Clamped, simple interior knots (the surface is C^(p-1), smooth
+            // under the difference stencils), spans within 10 x of each other.
+            let knots = |rng: &mut Rng, p: usize, count: usize| {
+                let (a, len) = (100.0 * rng.next() - 50.0, 0.5 + 50.0 * rng.next());
+                let mut t: Vec<f64> = vec![0.0];
+                for _ in 0..count - p {
+                    t.push(t.last().unwrap() + 1.0 + 9.0 * rng.next());
+                }
+                let end = *t.last().unwrap();
+                let mut k = vec![a; p];
+                k.extend(t.iter().map(|x| a + len * x / end));
+                let last = *k.last().unwrap();
+                k.extend(std::iter::repeat_n(last, p));
+                k
+            };
+            let ku = knots(&mut rng, pu, cu);
+            let kv = knots(&mut rng, pv, cv);
+            let cps: Vec<Vec<[f64; 3]>> = (0..cu)
+                .map(|i| {
+                    (0..cv)
+                        .map(|j| {
+                            [
+                                5.0 * i as f64 + rng.next(),
+                                5.0 * j as f64 + rng.next(),
+                                20.0 * rng.next(),
+                            ]
+                        })
+                        .collect()
+                })
+                .collect();
+            let w: Vec<Vec<f64>> = (0..cu)
+                .map(|_| (0..cv).map(|_| 0.5 + rng.next()).collect())
+                .collect();
+            let s = NurbsSurface::new(
+                pu,
+                pv,
+                ku,
+                kv,
+                &cps,
+                (case % 2 == 0).then_some(w.as_slice()),
+            )
+            .unwrap();
+            let ((u0, u1), (v0, v1)) = s.domain();
+            for _ in 0..20 {
+                let (u, v) = (
+                    u0 + (u1 - u0) * (0.05 + 0.9 * rng.next()),
+                    v0 + (v1 - v0) * (0.05 + 0.9 * rng.next()),
+                );
+                let d = s.derivs(u, v);
+                let p = de_boor_point(&s, u, v);
+                let err = (d.p.coords - Vector3::from(p)).norm();
+                assert!(
+                    err <= 1e-9,
+                    "case {case} ({pu}, {pv}) at ({u}, {v}): point off by {err}"
+                );
+                // Central differences of the de Boor points, O(h^2); the
+                // step's share of the domain balances truncation against
+                // rounding (1e-16 / h^2 in the second derivatives).
+                let (hu, hv) = (1e-4 * (u1 - u0), 1e-4 * (v1 - v0));
+                let at = |du: f64, dv: f64| Vector3::from(de_boor_point(&s, u + du, v + dv));
+                let c = at(0.0, 0.0);
+                let fd = [
+                    (d.su, (at(hu, 0.0) - at(-hu, 0.0)) / (2.0 * hu), hu),
+                    (d.sv, (at(0.0, hv) - at(0.0, -hv)) / (2.0 * hv), hv),
+                    (
+                        d.suu,
+                        (at(hu, 0.0) - c * 2.0 + at(-hu, 0.0)) / (hu * hu),
+                        hu,
+                    ),
+                    (
+                        d.svv,
+                        (at(0.0, hv) - c * 2.0 + at(0.0, -hv)) / (hv * hv),
+                        hv,
+                    ),
+                    (
+                        d.suv,
+                        (at(hu, hv) - at(hu, -hv) - at(-hu, hv) + at(-hu, -hv)) / (4.0 * hu * hv),
+                        hu.min(hv),
+                    ),
+                ];
+                for (k, (got, want, _)) in fd.iter().enumerate() {
+                    let err = (got - want).norm() / want.norm().max(1.0);
+                    assert!(
+                        err <= 1e-3,
+                        "case {case} ({pu}, {pv}) at ({u}, {v}) derivative {k}: {got:?} vs {want:?}"
+                    );
+                }
+            }
+        }
+        assert!(tested[10..].iter().all(|&t| t), "a degree was never tested");
     }
 }
