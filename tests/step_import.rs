@@ -16,6 +16,11 @@ use toolpath_planner::pipeline::{self, RunOptions};
 use toolpath_planner::planners::NoProgress;
 use toolpath_planner::samples::step_parts;
 
+/// Offsets, the B-spline forms, periodic surfaces, errors in a job and a
+/// part's unreadable faces.
+#[path = "step_import/forms.rs"]
+mod forms;
+
 /// Relative area error the integration over the trimmed face may make: its
 /// boundary cells are counted by subcell (docs/methods.md, "Trimmed faces").
 const AREA_REL: f64 = 5e-4;
@@ -277,15 +282,37 @@ fn bad_step_input_is_a_clear_error_naming_the_entity() {
     );
     assert!(parse(&fraction).is_ok());
     // An unsupported surface.
+    let unsupported = text.replacen(
+        "CYLINDRICAL_SURFACE('',#34,20.)",
+        "CURVE_BOUNDED_SURFACE('',#34,(#34),.F.)",
+        1,
+    );
+    let f = parse(&unsupported).unwrap();
+    let e = invalid_message(f.face(17).err().unwrap());
+    assert!(
+        e.contains("#33 CURVE_BOUNDED_SURFACE") && e.contains("not a supported surface"),
+        "{e}"
+    );
+    // An offset of something that is no surface names that entity.
     let offset = text.replacen(
         "CYLINDRICAL_SURFACE('',#34,20.)",
         "OFFSET_SURFACE('',#34,20.,.F.)",
         1,
     );
-    let f = parse(&offset).unwrap();
-    let e = invalid_message(f.face(17).err().unwrap());
+    let e = invalid_message(parse(&offset).unwrap().face(17).err().unwrap());
     assert!(
-        e.contains("#33 OFFSET_SURFACE") && e.contains("not a supported surface"),
+        e.contains("#34 AXIS2_PLACEMENT_3D") && e.contains("not a supported surface"),
+        "{e}"
+    );
+    // An offset of an offset of ... itself: a cycle, refused.
+    let cycle = text.replacen(
+        "CYLINDRICAL_SURFACE('',#34,20.)",
+        "OFFSET_SURFACE('',#33,1.,.F.)",
+        1,
+    );
+    let e = invalid_message(parse(&cycle).unwrap().face(17).err().unwrap());
+    assert!(
+        e.contains("#33 OFFSET_SURFACE") && e.contains("too deeply"),
         "{e}"
     );
     // A sphere of no radius.
@@ -466,7 +493,8 @@ fn the_step_samples_import_with_their_exact_areas() {
         let listed = file.summaries();
         assert_eq!(listed.len(), faces.len(), "{name}");
         for (s, (kind, exact)) in listed.iter().zip(faces) {
-            let (a, lo, hi) = s.imported.clone().unwrap();
+            let extent = s.imported.clone().unwrap();
+            let (a, lo, hi) = (extent.area_mm2, extent.lo, extent.hi);
             eprintln!(
                 "{name} #{}: {kind} {a:.4} mm² (exact {exact:.4}), {lo:?}..{hi:?}",
                 s.id

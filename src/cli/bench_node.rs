@@ -516,6 +516,65 @@ where
     })
 }
 
+/// Waits for job `id`'s toolpath and its final status (which must be
+/// SUCCEEDED), at most `timeout`; returns when the toolpath arrived, from `t0`.
+async fn answer<S, T, E1, E2>(
+    id: &str,
+    statuses: &mut S,
+    toolpaths: &mut T,
+    timeout: Duration,
+    t0: Instant,
+) -> Result<Duration>
+where
+    S: futures::Stream<Item = std::result::Result<(JobStatus, MessageInfo), E1>> + Unpin,
+    T: futures::Stream<Item = std::result::Result<(msgs::Toolpath, MessageInfo), E2>> + Unpin,
+{
+    let deadline = Instant::now() + timeout;
+    let mut received = None;
+    let mut final_status = None;
+    while final_status.is_none() || received.is_none() {
+        let left = deadline.saturating_duration_since(Instant::now());
+        tokio::select! {
+            Some(Ok((m, _))) = toolpaths.next() => {
+                if m.job_id == id {
+                    received = Some(t0.elapsed());
+                }
+            }
+            Some(Ok((m, _))) = statuses.next() => {
+                if m.job_id == id && m.is_final() {
+                    if m.state != JobStatus::SUCCEEDED {
+                        return Err(Error::planning(format!(
+                            "bench job {id} ended {}: {}",
+                            JobStatus::state_name(m.state),
+                            m.message
+                        )));
+                    }
+                    final_status = Some(m);
+                }
+            }
+            _ = tokio::time::sleep(left) => {
+                return Err(Error::planning(format!("bench job {id}: no answer within {} s", timeout.as_secs())));
+            }
+        }
+    }
+    Ok(received.unwrap_or_default())
+}
+
+/// The node's timing line for job `id` (earlier jobs' lines are skipped).
+fn timing_line(timings: &mpsc::Receiver<(String, Timing)>, id: &str) -> Result<Timing> {
+    loop {
+        match timings.recv_timeout(Duration::from_secs(10)) {
+            Ok((jid, t)) if jid == id => return Ok(t),
+            Ok(_) => continue,
+            Err(_) => {
+                return Err(Error::planning(format!(
+                    "the node logged no timing line for {id}"
+                )))
+            }
+        }
+    }
+}
+
 async fn client(
     domain: u16,
     surface: NurbsSurface,
@@ -551,49 +610,12 @@ async fn client(
         c.job_pub
             .publish(convert::job_to_msg(&job, "bench_rect", header()))
             .map_err(send_error)?;
-        let deadline = Instant::now() + job_timeout;
-        let mut received = None;
-        let mut final_status = None;
-        while final_status.is_none() || received.is_none() {
-            let left = deadline.saturating_duration_since(Instant::now());
-            tokio::select! {
-                Some(Ok((m, _))) = toolpaths.next() => {
-                    if m.job_id == id {
-                        received = Some(t0.elapsed());
-                    }
-                }
-                Some(Ok((m, _))) = statuses.next() => {
-                    if m.job_id == id && m.is_final() {
-                        if m.state != JobStatus::SUCCEEDED {
-                            return Err(Error::planning(format!(
-                                "bench job {id} ended {}: {}",
-                                JobStatus::state_name(m.state),
-                                m.message
-                            )));
-                        }
-                        final_status = Some(m);
-                    }
-                }
-                _ = tokio::time::sleep(left) => {
-                    return Err(Error::planning(format!("bench job {id}: no answer within {} s", job_timeout.as_secs())));
-                }
-            }
-        }
-        let timing = loop {
-            match timings.recv_timeout(Duration::from_secs(10)) {
-                Ok((jid, t)) if jid == id => break t,
-                Ok(_) => continue,
-                Err(_) => {
-                    return Err(Error::planning(format!(
-                        "the node logged no timing line for {id}"
-                    )))
-                }
-            }
-        };
+        let received = answer(&id, &mut statuses, &mut toolpaths, job_timeout, t0).await?;
+        let timing = timing_line(&timings, &id)?;
         if k < warmup {
             continue;
         }
-        let e2e_ms = received.unwrap_or_default().as_secs_f64() * 1e3;
+        let e2e_ms = received.as_secs_f64() * 1e3;
         figures.planning_ms.push(timing.planning_ms);
         figures
             .node_overhead_ms

@@ -127,6 +127,24 @@ fn checks(name: &str, job: &Job, row: &Row, over_h: &mut Vec<String>) -> Checks 
     c
 }
 
+/// The suite's figures summed over its rows.
+#[derive(Default)]
+struct Totals {
+    to_shorter: Vec<f64>,
+    to_bound: Vec<f64>,
+    /// Surfaces whose shorter baseline is at least [`ROOM`] x the bound, and
+    /// of them those where tensor_regions meets [`ROOM_TARGET`].
+    room: (usize, usize),
+    /// Of the surfaces with room: those where the target lies above the
+    /// spacing bound (reachable at all by passes spaced for 0.9 h), and met.
+    reachable: (usize, usize),
+    worst_scallop: f64,
+    worst_gouge: f64,
+    over_h: Vec<String>,
+    crossing_pairs: usize,
+    plans: usize,
+}
+
 /// Prints the suite's table; `scallop` (mm) replaces every job's height.
 pub fn run(only: Option<&str>, scallop: Option<f64>) -> Result<()> {
     if let Some(h) = scallop {
@@ -141,16 +159,7 @@ pub fn run(only: Option<&str>, scallop: Option<f64>) -> Result<()> {
         "| surface | umbilics | lower bound mm | iso_parametric mm | iso_scallop mm | tensor_regions mm | tensor / shorter | shorter / bound | shorter / bound at 0.9 h | tensor / bound | max scallop mm (ip, is, tr) | max gouge mm | uncovered mm2 | crossing pairs (ip, is, tr) | regions | plan | repair mm | s |"
     );
     println!("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | --- | ---: | --- | ---: | ---: |");
-    let mut to_shorter = Vec::new();
-    let mut to_bound = Vec::new();
-    let mut room = (0usize, 0usize);
-    // Of the surfaces with room: those where the target lies above the
-    // spacing bound (reachable at all by passes spaced for 0.9 h), and met.
-    let mut reachable = (0usize, 0usize);
-    let mut worst_scallop: f64 = 0.0;
-    let mut worst_gouge: f64 = 0.0;
-    let mut over_h = Vec::new();
-    let (mut crossing_pairs, mut plans) = (0usize, 0usize);
+    let mut totals = Totals::default();
     for (name, mut job) in jobs()? {
         if only.is_some_and(|o| !name.contains(o)) {
             continue;
@@ -158,109 +167,123 @@ pub fn run(only: Option<&str>, scallop: Option<f64>) -> Result<()> {
         if scallop.is_some() {
             job.scallop = scallop;
         }
-        let row = plan_surface(&job);
-        let len = |k: usize| row.results[k].as_ref().ok().map(|r| r.stats.path_length_mm);
-        let fmt = |x: Option<f64>, p: usize| x.map_or("error".to_string(), |x| format!("{x:.p$}"));
-        let tr = row.results[2].as_ref().ok();
-        let bound = row
-            .results
-            .iter()
-            .flatten()
-            .find_map(|r| r.stats.path_length_lower_bound_mm);
-        let shorter = match (len(0), len(1)) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        };
-        let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
-            (Some(a), Some(b)) => Some(a / b),
-            _ => None,
-        };
-        let r_short = ratio(len(2), shorter);
-        let r_bound = ratio(len(2), bound);
-        let s_bound = ratio(shorter, bound);
-        let spacing_bound = lower_bound::job_spacing_lower_bound(&job).ok();
-        let s_spacing = ratio(shorter, spacing_bound);
-        if let Some(x) = r_short {
-            to_shorter.push(x);
-            if s_bound.is_some_and(|s| s >= ROOM) {
-                room.0 += 1;
+        suite_row(&name, &job, &mut totals);
+    }
+    print_totals(&mut totals);
+    Ok(())
+}
+
+/// Plans one surface of the suite, prints its row and adds it to `t`.
+fn suite_row(name: &str, job: &Job, t: &mut Totals) {
+    let row = plan_surface(job);
+    let len = |k: usize| row.results[k].as_ref().ok().map(|r| r.stats.path_length_mm);
+    let fmt = |x: Option<f64>, p: usize| x.map_or("error".to_string(), |x| format!("{x:.p$}"));
+    let tr = row.results[2].as_ref().ok();
+    let bound = row
+        .results
+        .iter()
+        .flatten()
+        .find_map(|r| r.stats.path_length_lower_bound_mm);
+    let shorter = match (len(0), len(1)) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    };
+    let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (Some(a), Some(b)) => Some(a / b),
+        _ => None,
+    };
+    let r_short = ratio(len(2), shorter);
+    let r_bound = ratio(len(2), bound);
+    let s_bound = ratio(shorter, bound);
+    let spacing_bound = lower_bound::job_spacing_lower_bound(job).ok();
+    let s_spacing = ratio(shorter, spacing_bound);
+    if let Some(x) = r_short {
+        t.to_shorter.push(x);
+        if s_bound.is_some_and(|s| s >= ROOM) {
+            t.room.0 += 1;
+            if x <= ROOM_TARGET {
+                t.room.1 += 1;
+            }
+            if s_spacing.is_some_and(|s| s * ROOM_TARGET >= 1.0) {
+                t.reachable.0 += 1;
                 if x <= ROOM_TARGET {
-                    room.1 += 1;
-                }
-                if s_spacing.is_some_and(|s| s * ROOM_TARGET >= 1.0) {
-                    reachable.0 += 1;
-                    if x <= ROOM_TARGET {
-                        reachable.1 += 1;
-                    }
+                    t.reachable.1 += 1;
                 }
             }
         }
-        if let Some(x) = r_bound {
-            to_bound.push(x);
-        }
-        let Checks {
-            scallops,
-            worst_scallop: row_scallop,
-            gouge,
-            uncovered,
-            crossings,
-            crossing_total,
-        } = checks(&name, &job, &row, &mut over_h);
-        crossing_pairs += crossing_total;
-        plans += row.results.iter().flatten().count();
-        worst_scallop = worst_scallop.max(row_scallop);
-        worst_gouge = worst_gouge.max(gouge);
-        println!(
-            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {gouge:.4} | {uncovered:.2} | {} | {} | {} | {} | {:.1} |",
-            tr.and_then(|r| r.degenerate_points.as_ref())
-                .map_or("-".into(), |d| d.len().to_string()),
-            fmt(bound, 0),
-            fmt(len(0), 0),
-            fmt(len(1), 0),
-            fmt(len(2), 0),
-            fmt(r_short, 3),
-            fmt(s_bound, 3),
-            fmt(s_spacing, 3),
-            fmt(r_bound, 3),
-            scallops.join(", "),
-            crossings.join(", "),
-            tr.and_then(|r| r.regions.as_ref())
-                .map_or("-".into(), |x| x.len().to_string()),
-            tr.and_then(|r| r.plan_choice.as_deref())
-                .and_then(|c| c.split(':').next())
-                .unwrap_or("-"),
-            tr.and_then(|r| r.stats.extra.get("repair_length_mm"))
-                .map_or("-".into(), |x| format!("{x:.0}")),
-            row.seconds,
-        );
     }
+    if let Some(x) = r_bound {
+        t.to_bound.push(x);
+    }
+    let Checks {
+        scallops,
+        worst_scallop: row_scallop,
+        gouge,
+        uncovered,
+        crossings,
+        crossing_total,
+    } = checks(name, job, &row, &mut t.over_h);
+    t.crossing_pairs += crossing_total;
+    t.plans += row.results.iter().flatten().count();
+    t.worst_scallop = t.worst_scallop.max(row_scallop);
+    t.worst_gouge = t.worst_gouge.max(gouge);
+    println!(
+        "| {name} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {gouge:.4} | {uncovered:.2} | {} | {} | {} | {} | {:.1} |",
+        tr.and_then(|r| r.degenerate_points.as_ref())
+            .map_or("-".into(), |d| d.len().to_string()),
+        fmt(bound, 0),
+        fmt(len(0), 0),
+        fmt(len(1), 0),
+        fmt(len(2), 0),
+        fmt(r_short, 3),
+        fmt(s_bound, 3),
+        fmt(s_spacing, 3),
+        fmt(r_bound, 3),
+        scallops.join(", "),
+        crossings.join(", "),
+        tr.and_then(|r| r.regions.as_ref())
+            .map_or("-".into(), |x| x.len().to_string()),
+        tr.and_then(|r| r.plan_choice.as_deref())
+            .and_then(|c| c.split(':').next())
+            .unwrap_or("-"),
+        tr.and_then(|r| r.stats.extra.get("repair_length_mm"))
+            .map_or("-".into(), |x| format!("{x:.0}")),
+        row.seconds,
+    );
+}
+
+/// Prints the lines under the table.
+fn print_totals(t: &mut Totals) {
     let worst = |v: &[f64]| v.iter().copied().fold(f64::NAN, f64::max);
     println!();
     println!(
         "tensor / shorter baseline: median {:.3}, worst {:.3} over {} surfaces",
-        median(&mut to_shorter.clone()),
-        worst(&to_shorter),
-        to_shorter.len()
+        median(&mut t.to_shorter.clone()),
+        worst(&t.to_shorter),
+        t.to_shorter.len()
     );
     println!(
         "tensor / lower bound: median {:.3}, worst {:.3}",
-        median(&mut to_bound.clone()),
-        worst(&to_bound)
+        median(&mut t.to_bound.clone()),
+        worst(&t.to_bound)
     );
     println!(
         "surfaces with shorter baseline >= {ROOM} x bound: {}, of them tensor <= {ROOM_TARGET} x shorter: {}",
-        room.0, room.1
+        t.room.0, t.room.1
     );
     println!(
         "of those, reachable by passes spaced for 0.9 h ({ROOM_TARGET} x shorter >= bound at 0.9 h): {}, met: {}",
-        reachable.0, reachable.1
+        t.reachable.0, t.reachable.1
     );
-    println!("max scallop over all plans {worst_scallop:.4} mm, max gouge {worst_gouge:.4} mm");
     println!(
-        "pairs of passes crossing each other (in uv, off the domain edge, repair passes left out): {crossing_pairs} over {plans} plans"
+        "max scallop over all plans {:.4} mm, max gouge {:.4} mm",
+        t.worst_scallop, t.worst_gouge
     );
-    if !over_h.is_empty() {
-        println!("above h: {}", over_h.join("; "));
+    println!(
+        "pairs of passes crossing each other (in uv, off the domain edge, repair passes left out): {} over {} plans",
+        t.crossing_pairs, t.plans
+    );
+    if !t.over_h.is_empty() {
+        println!("above h: {}", t.over_h.join("; "));
     }
-    Ok(())
 }

@@ -242,6 +242,15 @@ pub fn run(out: &Path, record: bool) -> Result<()> {
     drop(runtime);
     // SIGTERM: the node writes the bag's summary and metadata.yaml.
     node.stop(Duration::from_secs(30));
+    print_table(&rows, domain);
+    if record {
+        println!("bag of the run: {}", bag.display());
+    }
+    write_outputs(&rows, out)
+}
+
+/// The results table of the demo's jobs.
+fn print_table(rows: &[Row], domain: u16) {
     println!(
         "{:<18} {:<20} {:<6} {:<10} {:>6} {:>7} {:>10} {:>9} {:>11} {:>9} {:>9}",
         "sample",
@@ -257,7 +266,7 @@ pub fn run(out: &Path, record: bool) -> Result<()> {
         "plan_ms"
     );
     let mut failed = 0;
-    for r in &rows {
+    for r in rows {
         let state = r
             .status
             .as_ref()
@@ -298,12 +307,13 @@ pub fn run(out: &Path, record: bool) -> Result<()> {
     println!(
         "(node and client on ROS domain {domain}, loopback; {failed} job(s) without a toolpath)"
     );
-    if record {
-        println!("bag of the run: {}", bag.display());
-    }
+}
+
+/// A picture per sample and a program per milling or pocket sample, in `out`.
+fn write_outputs(rows: &[Row], out: &Path) -> Result<()> {
     let mut pictures = 0;
     let mut programs = 0;
-    for r in &rows {
+    for r in rows {
         let path = out.join(format!("{}.png", r.sample));
         let job = samples::job(r.sample)?;
         let points = r.toolpath.as_ref().map(|t| t.stats.points);

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 use toolpath_formats as formats;
-use toolpath_formats::step::StepFile;
+use toolpath_formats::step::{FaceExtent, StepFile};
 use toolpath_kernel::error::{Error, Result};
 
 pub fn run(step: &Path, list: bool, faces: &[u64], output: &Path) -> Result<()> {
@@ -28,11 +28,11 @@ pub fn run(step: &Path, list: bool, faces: &[u64], output: &Path) -> Result<()> 
         );
         for s in &summaries {
             match &s.imported {
-                Ok((area, lo, hi)) => println!(
+                Ok(FaceExtent { area_mm2, lo, hi }) => println!(
                     "{:>8}  {:<28} {:>12.3}  [{:.3}, {:.3}, {:.3}] .. [{:.3}, {:.3}, {:.3}]",
                     format!("#{}", s.id),
                     s.surface_type,
-                    area,
+                    area_mm2,
                     lo[0],
                     lo[1],
                     lo[2],

@@ -582,7 +582,9 @@ fn face_id(field: String, face: &serde_json::Value) -> Result<u64> {
 
 /// Face `id` of a read STEP file as a job's shape.
 fn face_shape(step: &super::step::StepFile, id: u64) -> Result<Shape> {
-    let surface = step.face(id).map_err(|e| e.within("surface"))?;
+    let surface = step
+        .face(id)
+        .map_err(|e| super::step::within_field(e, "surface"))?;
     let value =
         serde_json::to_value(surface).map_err(|e| Error::invalid("surface.face", e.to_string()))?;
     shape_from_value(value).map_err(|e| e.within("surface"))
@@ -604,7 +606,7 @@ fn surface_file(
 }
 
 fn read_step(path: &Path) -> Result<super::step::StepFile> {
-    super::step::StepFile::read(path).map_err(|e| e.within("surface"))
+    super::step::StepFile::read(path).map_err(|e| super::step::within_field(e, "surface"))
 }
 
 /// The STEP face ids of a job whose surface is `{"file": STEP path,

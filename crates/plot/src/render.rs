@@ -513,44 +513,8 @@ impl Scene {
         }
         self.panels.push(d);
 
-        // Panel 2: tool-centre paths and the medial axis.
-        let panel = Panel::fit(w, y0, w, h, Projection::Top, &extent);
-        let mut d = PanelDrawing {
-            title: "tool-centre paths and medial axis".into(),
-            frame: (w, y0, w, h),
-            ..Default::default()
-        };
-        for l in &loops {
-            d.lines.push(Line {
-                points: l.iter().map(|p| panel.px(*p)).collect(),
-                color: OUTLINE,
-                width: 1,
-            });
-        }
-        for branch in r.medial_axis.iter().flatten() {
-            d.lines.push(Line {
-                points: branch
-                    .points
-                    .iter()
-                    .map(|q| panel.px([q[0], q[1], 0.0]))
-                    .collect(),
-                color: OUTLINE,
-                width: 1,
-            });
-        }
-        for (k, t) in tools.iter().enumerate() {
-            let c = TOOL_COLORS[k % TOOL_COLORS.len()];
-            // Darker than the fill so thin lines stay visible.
-            let dark = (c.0 / 2, c.1 / 2, c.2 / 2);
-            for pass in &t.passes {
-                d.lines.push(Line {
-                    points: pass.iter().map(|q| panel.px([q[0], q[1], 0.0])).collect(),
-                    color: dark,
-                    width: 1,
-                });
-            }
-        }
-        self.panels.push(d);
+        self.panels
+            .push(centre_paths_panel(input, &extent, &loops, (w, y0, w, h)));
         for (k, t) in tools.iter().enumerate() {
             self.legend.push((
                 TOOL_COLORS[k % TOOL_COLORS.len()],
@@ -568,19 +532,7 @@ impl Scene {
     ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
         let text = font_available();
         root.fill(&WHITE)?;
-        let label = |s: &str,
-                     at: (i32, i32),
-                     size: u32|
-         -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-            if text {
-                root.draw(&Text::new(
-                    s.to_string(),
-                    at,
-                    ("sans-serif", size).into_font().color(&BLACK),
-                ))?;
-            }
-            Ok(())
-        };
+        let label = |s: &str, at: (i32, i32), size: u32| label(root, text, s, at, size);
         label(&self.title, (12, 10), 20)?;
         for d in &self.panels {
             let (x, y, w, h) = d.frame;
@@ -613,46 +565,11 @@ impl Scene {
                     root.draw(&Rectangle::new([(mx - 6, my - 6), (mx + 6, my + 6)], style))?;
                 }
             }
-            if let Some(((bx, by), len, ref s)) = d.scale_bar {
-                root.draw(&PathElement::new(
-                    vec![(bx, by), (bx + len, by)],
-                    BLACK.stroke_width(3),
-                ))?;
-                root.draw(&PathElement::new(
-                    vec![(bx, by - 5), (bx, by + 5)],
-                    BLACK.stroke_width(2),
-                ))?;
-                root.draw(&PathElement::new(
-                    vec![(bx + len, by - 5), (bx + len, by + 5)],
-                    BLACK.stroke_width(2),
-                ))?;
-                label(s, (bx + len + 8, by - 8), 14)?;
+            if let Some((at, len, s)) = &d.scale_bar {
+                draw_scale_bar(root, text, *at, *len, s)?;
             }
             if let Some(cs) = &d.color_scale {
-                let steps = 64;
-                for i in 0..steps {
-                    let t = i as f64 / (steps - 1) as f64;
-                    let ya = cs.y + cs.h - ((i + 1) * cs.h) / steps;
-                    let yb = cs.y + cs.h - (i * cs.h) / steps;
-                    root.draw(&Rectangle::new(
-                        [(cs.x, ya), (cs.x + 16, yb)],
-                        rgb(colormap(t)).filled(),
-                    ))?;
-                }
-                root.draw(&Rectangle::new(
-                    [(cs.x, cs.y), (cs.x + 16, cs.y + cs.h)],
-                    BLACK.stroke_width(1),
-                ))?;
-                for k in 0..=4 {
-                    let t = k as f64 / 4.0;
-                    let ty = cs.y + cs.h - (t * cs.h as f64).round() as i32;
-                    root.draw(&PathElement::new(
-                        vec![(cs.x + 16, ty), (cs.x + 21, ty)],
-                        BLACK.stroke_width(1),
-                    ))?;
-                    label(&format!("{:.4}", t * cs.max), (cs.x + 23, ty - 6), 11)?;
-                }
-                label("mm", (cs.x, cs.y - 20), 12)?;
+                draw_color_scale(root, text, cs)?;
             }
             if let Some(n) = &d.note {
                 label(n, (x + 30, y + h / 2), 16)?;
@@ -678,6 +595,142 @@ impl Scene {
         }
         Ok(())
     }
+}
+
+/// The pocket's second panel: its outline, the medial axis and each tool's
+/// centre paths (`extent`: the points the panel must show; `frame`: x, y,
+/// width, height in px).
+fn centre_paths_panel(
+    input: &PlotInput,
+    extent: &[[f64; 3]],
+    loops: &[Vec<[f64; 3]>],
+    frame: (i32, i32, i32, i32),
+) -> PanelDrawing {
+    let r = input.result;
+    let tools = r.tools.as_deref().unwrap_or(&[]);
+    let (x, y, w, h) = frame;
+    let panel = Panel::fit(x, y, w, h, Projection::Top, extent);
+    let mut d = PanelDrawing {
+        title: "tool-centre paths and medial axis".into(),
+        frame,
+        ..Default::default()
+    };
+    for l in loops {
+        d.lines.push(Line {
+            points: l.iter().map(|p| panel.px(*p)).collect(),
+            color: OUTLINE,
+            width: 1,
+        });
+    }
+    for branch in r.medial_axis.iter().flatten() {
+        d.lines.push(Line {
+            points: branch
+                .points
+                .iter()
+                .map(|q| panel.px([q[0], q[1], 0.0]))
+                .collect(),
+            color: OUTLINE,
+            width: 1,
+        });
+    }
+    for (k, t) in tools.iter().enumerate() {
+        let c = TOOL_COLORS[k % TOOL_COLORS.len()];
+        // Darker than the fill so thin lines stay visible.
+        let dark = (c.0 / 2, c.1 / 2, c.2 / 2);
+        for pass in &t.passes {
+            d.lines.push(Line {
+                points: pass.iter().map(|q| panel.px([q[0], q[1], 0.0])).collect(),
+                color: dark,
+                width: 1,
+            });
+        }
+    }
+    d
+}
+
+/// What drawing on a plotters area returns.
+type Drawn<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+
+/// Text `s` at `at` in black, `size` px; nothing where no font is
+/// available (`text` false).
+fn label<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    text: bool,
+    s: &str,
+    at: (i32, i32),
+    size: u32,
+) -> Drawn<DB> {
+    if text {
+        root.draw(&Text::new(
+            s.to_string(),
+            at,
+            ("sans-serif", size).into_font().color(&BLACK),
+        ))?;
+    }
+    Ok(())
+}
+
+/// A scale bar of `len` px from `(bx, by)` with ticks at its ends and its
+/// length `s` beside it.
+fn draw_scale_bar<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    text: bool,
+    (bx, by): (i32, i32),
+    len: i32,
+    s: &str,
+) -> Drawn<DB> {
+    root.draw(&PathElement::new(
+        vec![(bx, by), (bx + len, by)],
+        BLACK.stroke_width(3),
+    ))?;
+    root.draw(&PathElement::new(
+        vec![(bx, by - 5), (bx, by + 5)],
+        BLACK.stroke_width(2),
+    ))?;
+    root.draw(&PathElement::new(
+        vec![(bx + len, by - 5), (bx + len, by + 5)],
+        BLACK.stroke_width(2),
+    ))?;
+    label(root, text, s, (bx + len + 8, by - 8), 14)
+}
+
+/// The colour scale of a map: the colormap from 0 (bottom) to `cs.max`
+/// (top) with five labelled ticks, in mm.
+fn draw_color_scale<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    text: bool,
+    cs: &ColorScale,
+) -> Drawn<DB> {
+    let steps = 64;
+    for i in 0..steps {
+        let t = i as f64 / (steps - 1) as f64;
+        let ya = cs.y + cs.h - ((i + 1) * cs.h) / steps;
+        let yb = cs.y + cs.h - (i * cs.h) / steps;
+        root.draw(&Rectangle::new(
+            [(cs.x, ya), (cs.x + 16, yb)],
+            rgb(colormap(t)).filled(),
+        ))?;
+    }
+    root.draw(&Rectangle::new(
+        [(cs.x, cs.y), (cs.x + 16, cs.y + cs.h)],
+        BLACK.stroke_width(1),
+    ))?;
+    for k in 0..=4 {
+        let t = k as f64 / 4.0;
+        let ty = cs.y + cs.h - (t * cs.h as f64).round() as i32;
+        root.draw(&PathElement::new(
+            vec![(cs.x + 16, ty), (cs.x + 21, ty)],
+            BLACK.stroke_width(1),
+        ))?;
+        label(
+            root,
+            text,
+            &format!("{:.4}", t * cs.max),
+            (cs.x + 23, ty - 6),
+            11,
+        )?;
+    }
+    label(root, text, "mm", (cs.x, cs.y - 20), 12)
 }
 
 /// The four boundary curves of the surface and a few iso-lines.

@@ -3,15 +3,28 @@
 //!
 //! Written by hand (see docs/architecture.md): the planners evaluate surfaces
 //! millions of times, so evaluation works on fixed-size stack arrays and never
-//! allocates. Algorithms follow Piegl & Tiller, *The NURBS Book*
+//! allocates. The arrays' size is a const parameter: degree + 1 for the
+//! bicubic surface most parts are, [`TABULATED_MAX_DEGREE`] + 1 for the other
+//! common degrees, [`MAX_DEGREE`] + 1 for the high degrees CAD writes
+//! (rational fillets of degree 11 to 14 and above), so a bicubic evaluation
+//! never clears or walks arrays sized for degree 25. Algorithms follow Piegl & Tiller, *The NURBS Book*
 //! (A2.1 span search, A2.3 basis derivatives, A4.4 rational derivatives).
 
 use crate::error::{Error, Result};
 use nalgebra::{Point3, Vector3};
 
-/// Highest supported degree in either direction.
-pub const MAX_DEGREE: usize = 9;
+/// Highest supported degree in either direction: above what CAD systems
+/// write (OpenCASCADE's fillets and blends reach degree 14; the STEP files
+/// of common CAD systems stay at or below 25).
+pub const MAX_DEGREE: usize = 25;
 const MAXP1: usize = MAX_DEGREE + 1;
+
+/// Highest degree whose basis is tabulated per span ([`SpanBasis`]) and
+/// evaluated on arrays of [`TABULATED_MAX_DEGREE`] + 1: above it the
+/// power-basis coefficients of a span grow like binomials (cancellation
+/// past 1e-12 relative), so The NURBS Book's A2.3 evaluates instead.
+pub const TABULATED_MAX_DEGREE: usize = 9;
+const TABP1: usize = TABULATED_MAX_DEGREE + 1;
 
 /// Position and partial derivatives up to second order at one (u, v).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -466,34 +479,39 @@ impl NurbsSurface {
 
     fn derivs_exact(&self, u: f64, v: f64, order: usize) -> SurfaceDerivs {
         match (self.degree_u, self.degree_v, order) {
-            (3, 3, 2) => self.derivs_with(u, v, 3, 3, 2, false),
-            (3, 3, 1) => self.derivs_with(u, v, 3, 3, 1, false),
-            (3, 3, 0) => self.derivs_with(u, v, 3, 3, 0, false),
+            (3, 3, 2) => self.derivs_with::<4>(u, v, 3, 3, 2, false),
+            (3, 3, 1) => self.derivs_with::<4>(u, v, 3, 3, 1, false),
+            (3, 3, 0) => self.derivs_with::<4>(u, v, 3, 3, 0, false),
             (pu, pv, order) => self.derivs_any(u, v, pu, pv, order),
         }
     }
 
-    /// [`Self::derivs_with`] for any degrees, as one out-of-line copy.
+    /// [`Self::derivs_with`] for any degrees, as one out-of-line copy per
+    /// array size.
     #[inline(never)]
     fn derivs_any(&self, u: f64, v: f64, pu: usize, pv: usize, order: usize) -> SurfaceDerivs {
-        self.derivs_with(u, v, pu, pv, order, false)
+        if pu.max(pv) <= TABULATED_MAX_DEGREE {
+            self.derivs_with::<TABP1>(u, v, pu, pv, order, false)
+        } else {
+            self.derivs_with::<MAXP1>(u, v, pu, pv, order, false)
+        }
     }
 
     /// Position and derivatives up to second order from the basis of The
     /// NURBS Book's A2.3 (with its divisions) instead of the tabulated span
     /// polynomials: the reference the tables are tested against.
     pub fn derivs_reference(&self, u: f64, v: f64) -> SurfaceDerivs {
-        self.derivs_with(u, v, self.degree_u, self.degree_v, 2, true)
+        self.derivs_with::<MAXP1>(u, v, self.degree_u, self.degree_v, 2, true)
     }
 
     /// Position and derivatives up to `order` (<= 2) for degrees `pu`, `pv`
-    /// (this surface's): the basis in each direction from the span
-    /// polynomials ([`SpanBasis`]; A2.3 when `reference` or untabulated),
-    /// then A4.4 when rational.
+    /// (this surface's, both below `N`): the basis in each direction from
+    /// the span polynomials ([`SpanBasis`]; A2.3 when `reference` or
+    /// untabulated), then A4.4 when rational.
     // Index loops mirror The NURBS Book's algorithms; iterators would obscure them.
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn derivs_with(
+    fn derivs_with<const N: usize>(
         &self,
         u: f64,
         v: f64,
@@ -508,12 +526,12 @@ impl NurbsSurface {
         let du = order.min(pu);
         let dv = order.min(pv);
         let nu = match &self.basis_u {
-            Some(b) if !reference => b.ders(su, u, pu, du),
-            _ => basis_ders(su, u, pu, du, &self.knots_u),
+            Some(b) if !reference => b.ders::<N>(su, u, pu, du),
+            _ => basis_ders::<N>(su, u, pu, du, &self.knots_u),
         };
         let nv = match &self.basis_v {
-            Some(b) if !reference => b.ders(sv, v, pv, dv),
-            _ => basis_ders(sv, v, pv, dv, &self.knots_v),
+            Some(b) if !reference => b.ders::<N>(sv, v, pv, dv),
+            _ => basis_ders::<N>(sv, v, pv, dv, &self.knots_v),
         };
         // a[k][l]: homogeneous derivative d^(k+l)/du^k dv^l, k + l <= order.
         let mut a = [[[0.0f64; 4]; 3]; 3];
@@ -668,10 +686,11 @@ pub struct SpanBasis {
 
 impl SpanBasis {
     /// The tables of a valid knot vector (as [`NurbsSurface::new`] checks);
-    /// `None` beyond [`SPAN_BASIS_MAX_SPANS`] spans.
+    /// `None` beyond [`SPAN_BASIS_MAX_SPANS`] spans or
+    /// [`TABULATED_MAX_DEGREE`].
     pub fn new(degree: usize, count: usize, knots: &[f64]) -> Option<Self> {
         let spans = count - degree;
-        if spans > SPAN_BASIS_MAX_SPANS || degree > MAX_DEGREE {
+        if spans > SPAN_BASIS_MAX_SPANS || degree > TABULATED_MAX_DEGREE {
             return None;
         }
         let p1 = degree + 1;
@@ -687,10 +706,10 @@ impl SpanBasis {
                 continue;
             }
             // n[r]: N_(s-d+r, d) as coefficients of x^0..x^d, degree d = 0..=p.
-            let mut n = [[0.0f64; MAXP1]; MAXP1];
+            let mut n = [[0.0f64; TABP1]; TABP1];
             n[0][0] = 1.0;
             for d in 1..=degree {
-                let mut next = [[0.0f64; MAXP1]; MAXP1];
+                let mut next = [[0.0f64; TABP1]; TABP1];
                 for (r, out) in next.iter_mut().enumerate().take(d + 1) {
                     let i = s + r - d;
                     // (t - t_i) / (t_(i+d) - t_i) N_(i, d-1), N_(i, d-1) = n[r - 1].
@@ -745,15 +764,15 @@ impl SpanBasis {
 
     /// [`basis_ders`] from the tables: derivatives up to `nd` (<= 2) of the
     /// basis functions of span `span` at `t` (in that span; `p` is the
-    /// degree, a constant where the caller's is).
+    /// degree, a constant where the caller's is; `N` > `p` the arrays' size).
     #[inline(always)]
-    fn ders(&self, span: usize, t: f64, p: usize, nd: usize) -> [[f64; MAXP1]; 3] {
+    fn ders<const N: usize>(&self, span: usize, t: f64, p: usize, nd: usize) -> [[f64; N]; 3] {
         debug_assert_eq!(p, self.degree);
         let k = span - p;
         let x = ((t - self.start[k]) * self.inv_len[k]).clamp(0.0, 1.0);
         let p1 = p + 1;
         let table = &self.coef[k * 3 * p1 * p1..(k + 1) * 3 * p1 * p1];
-        let mut ders = [[0.0f64; MAXP1]; 3];
+        let mut ders = [[0.0f64; N]; 3];
         for (order, row) in ders.iter_mut().enumerate().take(nd.min(p) + 1) {
             let top = p - order;
             for (j, out) in row.iter_mut().enumerate().take(p1) {
@@ -777,7 +796,7 @@ pub fn basis_functions(degree: usize, knots: &[f64], t: f64) -> (usize, [f64; MA
     let count = knots.len() - degree - 1;
     let t = t.clamp(knots[degree], knots[count]);
     let span = find_span(degree, count, knots, t);
-    (span, basis_ders(span, t, degree, 0, knots)[0])
+    (span, basis_ders::<MAXP1>(span, t, degree, 0, knots)[0])
 }
 
 /// A2.1: the knot span index `s` with `knots[s] <= t < knots[s+1]`
@@ -813,13 +832,20 @@ fn find_span(degree: usize, count: usize, knots: &[f64], t: f64) -> usize {
 }
 
 /// A2.3: basis functions and their derivatives up to `nd` (<= 2) at `t`
-/// in span `span`. Result `[k][j]`: k-th derivative of N_{span-p+j}.
-/// Inlined so that a constant degree unrolls it (see `derivs_order`).
+/// in span `span`. Result `[k][j]`: k-th derivative of N_{span-p+j}; `N` >
+/// `p` is the arrays' size. Inlined so that a constant degree unrolls it
+/// (see `derivs_order`).
 #[inline(always)]
-fn basis_ders(span: usize, t: f64, p: usize, nd: usize, knots: &[f64]) -> [[f64; MAXP1]; 3] {
-    let mut ndu = [[0.0f64; MAXP1]; MAXP1];
-    let mut left = [0.0f64; MAXP1];
-    let mut right = [0.0f64; MAXP1];
+fn basis_ders<const N: usize>(
+    span: usize,
+    t: f64,
+    p: usize,
+    nd: usize,
+    knots: &[f64],
+) -> [[f64; N]; 3] {
+    let mut ndu = [[0.0f64; N]; N];
+    let mut left = [0.0f64; N];
+    let mut right = [0.0f64; N];
     ndu[0][0] = 1.0;
     for j in 1..=p {
         left[j] = t - knots[span + 1 - j];
@@ -833,11 +859,11 @@ fn basis_ders(span: usize, t: f64, p: usize, nd: usize, knots: &[f64]) -> [[f64;
         }
         ndu[j][j] = saved;
     }
-    let mut ders = [[0.0f64; MAXP1]; 3];
+    let mut ders = [[0.0f64; N]; 3];
     for j in 0..=p {
         ders[0][j] = ndu[j][p];
     }
-    let mut a = [[0.0f64; MAXP1]; 2];
+    let mut a = [[0.0f64; N]; 2];
     for r in 0..=p {
         let (mut s1, mut s2) = (0usize, 1usize);
         a[0][0] = 1.0;
@@ -932,7 +958,7 @@ mod tests {
         let b = SpanBasis::new(3, 8, &knots).unwrap();
         for x in [0.0, 0.25, 0.5, 0.9, 1.0] {
             let t = 8.0 + 2.0 * x;
-            let d = b.ders(4, t, 3, 2);
+            let d = b.ders::<4>(4, t, 3, 2);
             let n = [
                 (1.0 - x).powi(3) / 6.0,
                 (3.0 * x * x * x - 6.0 * x * x + 4.0) / 6.0,
@@ -974,8 +1000,8 @@ mod tests {
                 };
                 let span = find_span(degree, count, &knots, t);
                 let nd = degree.min(2);
-                let exact = basis_ders(span, t, degree, nd, &knots);
-                let got = b.ders(span, t, degree, nd);
+                let exact = basis_ders::<TABP1>(span, t, degree, nd, &knots);
+                let got = b.ders::<TABP1>(span, t, degree, nd);
                 for order in 0..=nd {
                     let scale: f64 = exact[order].iter().map(|x| x.abs()).sum();
                     for j in 0..=degree {
