@@ -10,7 +10,11 @@ if ls tests/python/test_*.py >/dev/null 2>&1; then
   # `cargo test` has just built target/debug/toolpath for the integration tests (dependencies
   # at opt-level 3, this crate at 1): the Python tests drive that binary, which spares CI a
   # second build of the stack (a plain `cargo build` resolves other dependency features).
-  TOOLPATH_BIN="${TOOLPATH_BIN:-$PWD/target/debug/toolpath}" "$(bash .ci/python)" -m pytest -q tests/python
+  # `cargo test` also builds the crates' examples: the pinocchio check drives the kinematics
+  # crate's ik_json from there rather than building it once more in release.
+  TOOLPATH_BIN="${TOOLPATH_BIN:-$PWD/target/debug/toolpath}" \
+    IK_JSON_BIN="${IK_JSON_BIN:-$PWD/target/debug/examples/ik_json}" \
+    "$(bash .ci/python)" -m pytest -q --durations=15 tests/python
 fi
 # DDS Security through the node (tests/node_secure.rs) needs the `security` feature, which
 # rebuilds RustDDS, ros2-client and this crate once more with the security plugins (OpenSSL).

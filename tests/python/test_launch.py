@@ -30,7 +30,11 @@ def test_package_xml_is_an_ament_cargo_package_named_like_the_crate():
     pkg.validate()
     manifest = cargo()
     assert pkg.name == manifest["package"]["name"]
-    assert pkg.version == manifest["package"]["version"]
+    # The root package takes its version from the workspace (`version.workspace = true`).
+    version = manifest["package"]["version"]
+    if version == {"workspace": True}:
+        version = manifest["workspace"]["package"]["version"]
+    assert pkg.version == version
     assert [e.content for e in pkg.exports if e.tagname == "build_type"] == ["ament_cargo"]
     assert {d.name for d in pkg.exec_depends} >= {"toolpath_msgs", "ros2launch"}
     # cargo ament-build copies these into share/<package>, where ros2 launch looks.
