@@ -41,7 +41,7 @@ pub fn part(name: &str) -> Option<StepPart> {
 
 /// Control heights (mm) of the freeform sample's bicubic patch, `[i][j]`
 /// with x = 40 i, y = 30 j.
-pub(crate) const FREEFORM_Z: [[f64; 4]; 4] = [
+pub const FREEFORM_Z: [[f64; 4]; 4] = [
     [0.0, 3.0, 5.0, 2.0],
     [4.0, 10.0, 7.0, 1.0],
     [2.0, 8.0, 12.0, 5.0],
@@ -49,17 +49,17 @@ pub(crate) const FREEFORM_Z: [[f64; 4]; 4] = [
 ];
 
 /// Extent of the freeform sample's patch, mm (x = 120 u, y = 90 v).
-pub(crate) const FREEFORM_SIZE: [f64; 2] = [120.0, 90.0];
+pub const FREEFORM_SIZE: [f64; 2] = [120.0, 90.0];
 
 /// The freeform sample's outer loop: the ellipse centre, semi-axes (u, v).
-pub(crate) const FREEFORM_OUTER: ([f64; 2], [f64; 2]) = ([0.5, 0.5], [0.46, 0.42]);
+pub const FREEFORM_OUTER: ([f64; 2], [f64; 2]) = ([0.5, 0.5], [0.46, 0.42]);
 
 /// The freeform sample's hole: the circle centre and radius in (u, v).
-pub(crate) const FREEFORM_HOLE: ([f64; 2], f64) = ([0.62, 0.44], 0.13);
+pub const FREEFORM_HOLE: ([f64; 2], f64) = ([0.62, 0.44], 0.13);
 
 /// Control heights (mm) of the multi-face part's bicubic face, `[i][j]` with
 /// x = 100 i / 3, y = 80 j / 3; the rows i = 0 and 3 are flat at z = 0.
-pub(crate) const MULTI_Z: [[f64; 4]; 4] = [
+pub const MULTI_Z: [[f64; 4]; 4] = [
     [0.0, 0.0, 0.0, 0.0],
     [4.0, 12.0, 8.0, 2.0],
     [-3.0, 6.0, 14.0, 5.0],
@@ -68,11 +68,11 @@ pub(crate) const MULTI_Z: [[f64; 4]; 4] = [
 
 /// The multi-face part's dimensions, mm: the freeform face's x and y extent,
 /// the plane's width before it, the cylinder's radius and the wall's depth.
-pub(crate) const MULTI_X: f64 = 100.0;
-pub(crate) const MULTI_Y: f64 = 80.0;
-pub(crate) const MULTI_PLANE_W: f64 = 40.0;
-pub(crate) const MULTI_R: f64 = 30.0;
-pub(crate) const MULTI_WALL: f64 = 20.0;
+pub const MULTI_X: f64 = 100.0;
+pub const MULTI_Y: f64 = 80.0;
+pub const MULTI_PLANE_W: f64 = 40.0;
+pub const MULTI_R: f64 = 30.0;
+pub const MULTI_WALL: f64 = 20.0;
 
 /// A real as Part 21 writes it: always with a decimal point.
 fn real(x: f64) -> String {
@@ -370,12 +370,12 @@ fn grid(size: [f64; 2], z: &[[f64; 4]; 4]) -> [[[f64; 3]; 4]; 4] {
 }
 
 /// The freeform sample's control points.
-pub(crate) fn freeform_control_points() -> [[[f64; 3]; 4]; 4] {
+pub fn freeform_control_points() -> [[[f64; 3]; 4]; 4] {
     grid(FREEFORM_SIZE, &FREEFORM_Z)
 }
 
 /// The multi-face part's freeform control points.
-pub(crate) fn multi_control_points() -> [[[f64; 3]; 4]; 4] {
+pub fn multi_control_points() -> [[[f64; 3]; 4]; 4] {
     grid([MULTI_X, MULTI_Y], &MULTI_Z)
 }
 
