@@ -107,7 +107,7 @@ pub fn inverse(
             unwrap_near(b2, pb),
             unwrap_near(c1 + PI, pc),
         );
-        let lim_b = cfg.b.limit("B");
+        let lim_b = cfg.b.axis("B");
         let fits = |s: &(f64, f64, f64)| s.1 >= lim_b.min - 1e-12 && s.1 <= lim_b.max + 1e-12;
         let dist = |s: &(f64, f64, f64)| (s.0 - pa).abs() + (s.1 - pb).abs() + (s.2 - pc).abs();
         match (fits(&first), fits(&second)) {

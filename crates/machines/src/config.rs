@@ -1,8 +1,10 @@
 //! Machine geometry and joint limits as written in launch_configs/*.yaml.
 //! Lengths in mm, angles in degrees at this edge (`_deg` fields); converted to
-//! mm and radians by [`JointLimit`].
+//! mm and radians in [`Axis`].
 
+use super::axes::{Axis, AxisSet};
 use super::controller::ControllerConfig;
+use super::machine::Machine;
 use super::placement::Placement;
 use serde::{Deserialize, Serialize};
 use toolpath_kernel::error::{Error, Result};
@@ -27,17 +29,6 @@ pub struct RotaryAxis {
     pub max_acceleration_deg_s2: f64,
 }
 
-/// Limits of one joint in internal units (mm or rad).
-#[derive(Clone, Debug, PartialEq)]
-pub struct JointLimit {
-    pub name: &'static str,
-    pub rotary: bool,
-    pub min: f64,
-    pub max: f64,
-    pub max_velocity: f64,
-    pub max_acceleration: f64,
-}
-
 impl LinearAxis {
     pub const fn new(
         min_mm: f64,
@@ -52,14 +43,16 @@ impl LinearAxis {
             max_acceleration_mm_s2,
         }
     }
-    pub fn limit(&self, name: &'static str) -> JointLimit {
-        JointLimit {
-            name,
+    /// The axis `name` in internal units (mm).
+    pub fn axis(&self, name: &str) -> Axis {
+        Axis {
+            name: name.to_string(),
             rotary: false,
             min: self.min_mm,
             max: self.max_mm,
             max_velocity: self.max_velocity_mm_s,
             max_acceleration: self.max_acceleration_mm_s2,
+            max_jerk: None,
         }
     }
     pub(super) fn validate(&self, field: &str) -> Result<()> {
@@ -89,14 +82,16 @@ impl RotaryAxis {
             max_acceleration_deg_s2,
         }
     }
-    pub fn limit(&self, name: &'static str) -> JointLimit {
-        JointLimit {
-            name,
+    /// The axis `name` in internal units (rad).
+    pub fn axis(&self, name: &str) -> Axis {
+        Axis {
+            name: name.to_string(),
             rotary: true,
             min: self.min_deg.to_radians(),
             max: self.max_deg.to_radians(),
             max_velocity: self.max_velocity_deg_s.to_radians(),
             max_acceleration: self.max_acceleration_deg_s2.to_radians(),
+            max_jerk: None,
         }
     }
     pub(super) fn validate(&self, field: &str) -> Result<()> {
@@ -109,6 +104,29 @@ impl RotaryAxis {
             &format!("{field}.max_acceleration_deg_s2"),
             self.max_acceleration_deg_s2,
         )
+    }
+}
+
+/// One axis of a config as written: linear (mm) or rotary (degrees).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum AxisConfig<'a> {
+    Linear(&'a LinearAxis),
+    Rotary(&'a RotaryAxis),
+}
+
+impl AxisConfig<'_> {
+    pub(crate) fn axis(&self, name: &str) -> Axis {
+        match self {
+            AxisConfig::Linear(a) => a.axis(name),
+            AxisConfig::Rotary(a) => a.axis(name),
+        }
+    }
+
+    pub(crate) fn validate(&self, field: &str) -> Result<()> {
+        match self {
+            AxisConfig::Linear(a) => a.validate(field),
+            AxisConfig::Rotary(a) => a.validate(field),
+        }
     }
 }
 
@@ -139,6 +157,88 @@ fn check_range(field: &str, lo_name: &str, lo: f64, hi_name: &str, hi: f64) -> R
         ));
     }
     Ok(())
+}
+
+/// What a machine section of a cell config holds besides its geometry, read
+/// from its named fields: the axes in joint order (by YAML key; the axis
+/// name is the key in capitals), the workpiece placement, feed and retract
+/// limits and the controller. Validation, the axis set and the home pose are
+/// written once here for every such section.
+pub(crate) struct CellMachine<'a> {
+    /// The section's key, "mill5" or "belt6".
+    pub key: &'static str,
+    pub axes: Vec<(&'static str, AxisConfig<'a>)>,
+    pub workpiece_origin_mm: [f64; 3],
+    pub workpiece_rpy_deg: [f64; 3],
+    pub max_feed_rate_mm_min: f64,
+    pub retract_mm: f64,
+    pub controller: &'a ControllerConfig,
+}
+
+impl CellMachine<'_> {
+    pub fn axis_set(&self) -> AxisSet {
+        AxisSet::new(
+            self.axes
+                .iter()
+                .map(|(key, a)| a.axis(&key.to_uppercase()))
+                .collect(),
+        )
+    }
+
+    /// The pose of the workpiece frame in the machine frame.
+    pub fn placement(&self) -> Placement {
+        Placement::new(
+            self.workpiece_origin_mm,
+            self.workpiece_rpy_deg.map(f64::to_radians),
+        )
+    }
+
+    /// X Y Z of the home pose when none is configured: above the workpiece
+    /// origin at the top of the third (Z) axis.
+    pub fn default_home_mm(&self) -> [f64; 3] {
+        let o = self.workpiece_origin_mm;
+        let top = match self.axes.get(2) {
+            Some((_, AxisConfig::Linear(z))) => z.max_mm,
+            _ => o[2],
+        };
+        [o[0], o[1], top]
+    }
+
+    /// The home pose (mm, rad).
+    pub fn home(&self) -> Vec<f64> {
+        self.controller
+            .home(&self.axis_set(), self.default_home_mm())
+    }
+
+    /// The shared fields, every axis and the controller (with its home
+    /// pose inside the travel); errors name the dotted field.
+    pub fn validate(&self) -> Result<()> {
+        let key = self.key;
+        for (k, v) in self.workpiece_origin_mm.iter().enumerate() {
+            finite(&format!("{key}.workpiece_origin_mm[{k}]"), *v)?;
+        }
+        for (k, v) in self.workpiece_rpy_deg.iter().enumerate() {
+            finite(&format!("{key}.workpiece_rpy_deg[{k}]"), *v)?;
+        }
+        positive(
+            &format!("{key}.max_feed_rate_mm_min"),
+            self.max_feed_rate_mm_min,
+        )?;
+        if !self.retract_mm.is_finite() || self.retract_mm < 0.0 {
+            return Err(Error::invalid(
+                format!("{key}.retract_mm"),
+                "must be a finite number >= 0",
+            ));
+        }
+        for (axis_key, a) in &self.axes {
+            a.validate(&format!("{key}.{axis_key}"))?;
+        }
+        self.controller.validate_with_home(
+            &format!("{key}.controller"),
+            &self.axis_set(),
+            self.default_home_mm(),
+        )
+    }
 }
 
 /// The 5-axis gantry mill with an A/C swivel head (joints X Y Z A C).
@@ -186,39 +286,33 @@ impl Default for Mill5Config {
 }
 
 impl Mill5Config {
+    pub(crate) fn cell(&self) -> CellMachine<'_> {
+        use AxisConfig::{Linear, Rotary};
+        CellMachine {
+            key: "mill5",
+            axes: vec![
+                ("x", Linear(&self.x)),
+                ("y", Linear(&self.y)),
+                ("z", Linear(&self.z)),
+                ("a", Rotary(&self.a)),
+                ("c", Rotary(&self.c)),
+            ],
+            workpiece_origin_mm: self.workpiece_origin_mm,
+            workpiece_rpy_deg: self.workpiece_rpy_deg,
+            max_feed_rate_mm_min: self.max_feed_rate_mm_min,
+            retract_mm: self.retract_mm,
+            controller: &self.controller,
+        }
+    }
+
     /// The pose of the workpiece frame in the machine frame.
     pub fn placement(&self) -> Placement {
-        Placement::new(
-            self.workpiece_origin_mm,
-            self.workpiece_rpy_deg.map(f64::to_radians),
-        )
+        self.cell().placement()
     }
 
     pub fn validate(&self) -> Result<()> {
         positive("mill5.pivot_length_mm", self.pivot_length_mm)?;
-        for (k, v) in self.workpiece_origin_mm.iter().enumerate() {
-            finite(&format!("mill5.workpiece_origin_mm[{k}]"), *v)?;
-        }
-        for (k, v) in self.workpiece_rpy_deg.iter().enumerate() {
-            finite(&format!("mill5.workpiece_rpy_deg[{k}]"), *v)?;
-        }
-        positive("mill5.max_feed_rate_mm_min", self.max_feed_rate_mm_min)?;
-        if !self.retract_mm.is_finite() || self.retract_mm < 0.0 {
-            return Err(Error::invalid(
-                "mill5.retract_mm",
-                "must be a finite number >= 0",
-            ));
-        }
-        self.x.validate("mill5.x")?;
-        self.y.validate("mill5.y")?;
-        self.z.validate("mill5.z")?;
-        self.a.validate("mill5.a")?;
-        self.c.validate("mill5.c")?;
-        self.controller.validate_with_home(
-            "mill5.controller",
-            &self.limits(),
-            self.default_home_mm(),
-        )
+        self.cell().validate()
     }
     /// The controller's joint names, in axis order.
     pub fn joint_names(&self) -> Vec<String> {
@@ -227,22 +321,11 @@ impl Mill5Config {
     /// The home pose (mm, rad); by default above the workpiece origin at the
     /// top of Z, tool vertical.
     pub fn home(&self) -> Vec<f64> {
-        self.controller.home(&self.limits(), self.default_home_mm())
+        self.cell().home()
     }
-    /// X Y Z of the home pose when none is configured: above the workpiece
-    /// origin at the top of Z.
-    fn default_home_mm(&self) -> [f64; 3] {
-        let o = self.workpiece_origin_mm;
-        [o[0], o[1], self.z.max_mm]
-    }
-    pub fn limits(&self) -> Vec<JointLimit> {
-        vec![
-            self.x.limit("X"),
-            self.y.limit("Y"),
-            self.z.limit("Z"),
-            self.a.limit("A"),
-            self.c.limit("C"),
-        ]
+    /// The axes X Y Z A C.
+    pub fn limits(&self) -> Vec<Axis> {
+        self.cell().axis_set().into_vec()
     }
 }
 
@@ -288,39 +371,33 @@ impl Default for Belt6Config {
 }
 
 impl Belt6Config {
+    pub(crate) fn cell(&self) -> CellMachine<'_> {
+        use AxisConfig::{Linear, Rotary};
+        CellMachine {
+            key: "belt6",
+            axes: vec![
+                ("x", Linear(&self.x)),
+                ("y", Linear(&self.y)),
+                ("z", Linear(&self.z)),
+                ("a", Rotary(&self.a)),
+                ("b", Rotary(&self.b)),
+                ("c", Rotary(&self.c)),
+            ],
+            workpiece_origin_mm: self.workpiece_origin_mm,
+            workpiece_rpy_deg: self.workpiece_rpy_deg,
+            max_feed_rate_mm_min: self.max_feed_rate_mm_min,
+            retract_mm: self.retract_mm,
+            controller: &self.controller,
+        }
+    }
+
     /// The pose of the workpiece frame in the machine frame.
     pub fn placement(&self) -> Placement {
-        Placement::new(
-            self.workpiece_origin_mm,
-            self.workpiece_rpy_deg.map(f64::to_radians),
-        )
+        self.cell().placement()
     }
 
     pub fn validate(&self) -> Result<()> {
-        for (k, v) in self.workpiece_origin_mm.iter().enumerate() {
-            finite(&format!("belt6.workpiece_origin_mm[{k}]"), *v)?;
-        }
-        for (k, v) in self.workpiece_rpy_deg.iter().enumerate() {
-            finite(&format!("belt6.workpiece_rpy_deg[{k}]"), *v)?;
-        }
-        positive("belt6.max_feed_rate_mm_min", self.max_feed_rate_mm_min)?;
-        if !self.retract_mm.is_finite() || self.retract_mm < 0.0 {
-            return Err(Error::invalid(
-                "belt6.retract_mm",
-                "must be a finite number >= 0",
-            ));
-        }
-        self.x.validate("belt6.x")?;
-        self.y.validate("belt6.y")?;
-        self.z.validate("belt6.z")?;
-        self.a.validate("belt6.a")?;
-        self.b.validate("belt6.b")?;
-        self.c.validate("belt6.c")?;
-        self.controller.validate_with_home(
-            "belt6.controller",
-            &self.limits(),
-            self.default_home_mm(),
-        )
+        self.cell().validate()
     }
     /// The controller's joint names, in axis order.
     pub fn joint_names(&self) -> Vec<String> {
@@ -329,23 +406,11 @@ impl Belt6Config {
     /// The home pose (mm, rad); by default above the workpiece origin at the
     /// top of Z, wheel frame parallel to the machine's.
     pub fn home(&self) -> Vec<f64> {
-        self.controller.home(&self.limits(), self.default_home_mm())
+        self.cell().home()
     }
-    /// X Y Z of the home pose when none is configured: above the workpiece
-    /// origin at the top of Z.
-    fn default_home_mm(&self) -> [f64; 3] {
-        let o = self.workpiece_origin_mm;
-        [o[0], o[1], self.z.max_mm]
-    }
-    pub fn limits(&self) -> Vec<JointLimit> {
-        vec![
-            self.x.limit("X"),
-            self.y.limit("Y"),
-            self.z.limit("Z"),
-            self.a.limit("A"),
-            self.b.limit("B"),
-            self.c.limit("C"),
-        ]
+    /// The axes X Y Z A B C.
+    pub fn limits(&self) -> Vec<Axis> {
+        self.cell().axis_set().into_vec()
     }
 }
 
@@ -361,28 +426,29 @@ pub struct Machines {
 pub struct MachineAxes<'a> {
     /// The controller's joint names, in axis order.
     pub joint_names: Vec<String>,
-    pub limits: Vec<JointLimit>,
+    pub limits: Vec<Axis>,
     /// The start pose when no joint state is known.
     pub home: Vec<f64>,
     pub controller: &'a ControllerConfig,
 }
 
 impl Machines {
+    /// The machine a job names.
+    pub fn machine(&self, machine: toolpath_formats::Machine) -> &dyn Machine {
+        match machine {
+            toolpath_formats::Machine::Mill5 => &self.mill5,
+            toolpath_formats::Machine::Belt6 => &self.belt6,
+        }
+    }
+
     /// The joint names, limits, home pose and controller of `machine`.
     pub fn axes(&self, machine: toolpath_formats::Machine) -> MachineAxes<'_> {
-        match machine {
-            toolpath_formats::Machine::Mill5 => MachineAxes {
-                joint_names: self.mill5.joint_names(),
-                limits: self.mill5.limits(),
-                home: self.mill5.home(),
-                controller: &self.mill5.controller,
-            },
-            toolpath_formats::Machine::Belt6 => MachineAxes {
-                joint_names: self.belt6.joint_names(),
-                limits: self.belt6.limits(),
-                home: self.belt6.home(),
-                controller: &self.belt6.controller,
-            },
+        let m = self.machine(machine);
+        MachineAxes {
+            joint_names: m.joint_names(),
+            limits: m.axes().into_vec(),
+            home: m.home(),
+            controller: m.controller(),
         }
     }
 
@@ -395,10 +461,7 @@ impl Machines {
     /// Whether `machine`'s trajectories go to its controller by default
     /// (`controller.execute`; a job may say otherwise).
     pub fn executes_by_default(&self, machine: toolpath_formats::Machine) -> bool {
-        match machine {
-            toolpath_formats::Machine::Mill5 => self.mill5.controller.execute,
-            toolpath_formats::Machine::Belt6 => self.belt6.controller.execute,
-        }
+        self.machine(machine).controller().execute
     }
 
     /// Checks that a job may execute on `machine` (the job asks for it): when

@@ -4,7 +4,8 @@
 //! pose, and the timed move from where the machine is to the first approach
 //! (docs/methods.md, "Machine kinematics and timing").
 
-use super::config::{finite, JointLimit};
+use super::axes::Axis;
+use super::config::finite;
 use serde::{Deserialize, Serialize};
 use toolpath_kernel::error::{Error, Result};
 
@@ -70,7 +71,7 @@ impl ControllerConfig {
         }
     }
 
-    pub(super) fn validate(&self, field: &str, axes: &[JointLimit]) -> Result<()> {
+    pub(super) fn validate(&self, field: &str, axes: &[Axis]) -> Result<()> {
         if let Some(names) = &self.joint_names {
             if names.len() != axes.len() {
                 return Err(Error::invalid(
@@ -79,7 +80,10 @@ impl ControllerConfig {
                         "has {} names, the machine has {} axes ({})",
                         names.len(),
                         axes.len(),
-                        axes.iter().map(|l| l.name).collect::<Vec<_>>().join(" ")
+                        axes.iter()
+                            .map(|l| l.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(" ")
                     ),
                 ));
             }
@@ -144,7 +148,7 @@ impl ControllerConfig {
     pub(super) fn validate_with_home(
         &self,
         field: &str,
-        axes: &[JointLimit],
+        axes: &[Axis],
         default_mm: [f64; 3],
     ) -> Result<()> {
         self.validate(field, axes)?;
@@ -165,14 +169,14 @@ impl ControllerConfig {
     }
 
     /// The controller's joint names (the axis letters unless configured).
-    pub fn joint_names(&self, axes: &[JointLimit]) -> Vec<String> {
+    pub fn joint_names(&self, axes: &[Axis]) -> Vec<String> {
         self.joint_names
             .clone()
-            .unwrap_or_else(|| axes.iter().map(|l| l.name.to_string()).collect())
+            .unwrap_or_else(|| axes.iter().map(|l| l.name.clone()).collect())
     }
 
     /// The home pose in internal units (mm, rad), given the default X Y Z.
-    pub fn home(&self, axes: &[JointLimit], default_mm: [f64; 3]) -> Vec<f64> {
+    pub fn home(&self, axes: &[Axis], default_mm: [f64; 3]) -> Vec<f64> {
         let mm = self.home_mm.unwrap_or(default_mm);
         let mut deg = self.home_deg.clone().unwrap_or_default().into_iter();
         let mut k = 0;
@@ -217,7 +221,7 @@ pub const MIN_START_MOVE_S: f64 = 0.1;
 /// distance d in time T peaks at 1.5 d / T in velocity (mid-way) and at
 /// 6 d / T^2 in acceleration (at both ends), so T is the smallest time that
 /// keeps both peaks within every joint's limits.
-pub fn start_move_time(start: &[f64], target: &[f64], limits: &[JointLimit]) -> f64 {
+pub fn start_move_time(start: &[f64], target: &[f64], limits: &[Axis]) -> f64 {
     limits
         .iter()
         .enumerate()
@@ -264,27 +268,13 @@ fn list(names: &[String]) -> String {
     }
 }
 
-/// A joint value in its unit for messages: degrees for rotary joints.
-pub(super) fn shown(l: &JointLimit, x: f64) -> (f64, f64, f64, &'static str) {
-    if l.rotary {
-        (
-            x.to_degrees(),
-            l.min.to_degrees(),
-            l.max.to_degrees(),
-            "deg",
-        )
-    } else {
-        (x, l.min, l.max, "mm")
-    }
-}
-
 /// Checks a start pose (mm, rad) against the travel; `what` says where it
 /// comes from ("the joint state", "the home pose").
-pub fn check_start(what: &str, q: &[f64], limits: &[JointLimit], names: &[String]) -> Result<()> {
+pub fn check_start(what: &str, q: &[f64], limits: &[Axis], names: &[String]) -> Result<()> {
     for (j, l) in limits.iter().enumerate() {
         let x = q[j];
         if !x.is_finite() || x < l.min - 1e-9 || x > l.max + 1e-9 {
-            let (v, lo, hi, unit) = shown(l, x);
+            let (v, lo, hi, unit) = l.shown(x);
             return Err(Error::planning(format!(
                 "{what} has joint {} (axis {}) at {v:.3} {unit}, outside its range {lo}..{hi} {unit}: \
                  the trajectory cannot start there",

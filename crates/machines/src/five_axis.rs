@@ -20,7 +20,8 @@
 //! C) and (-tilt, C + 180 deg) the one nearer the previous pose is taken
 //! ([`super::mill5::tilt_and_turn`]).
 
-use super::config::{finite, positive, JointLimit, LinearAxis, Mill5Config, RotaryAxis};
+use super::axes::Axis;
+use super::config::{finite, positive, LinearAxis, Mill5Config, RotaryAxis};
 use super::mill5;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -29,7 +30,7 @@ use toolpath_kernel::error::{Error, Result};
 /// Kinematic type of a five-axis mill.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Kinematics {
+pub enum FiveAxisKind {
     /// A/C swivel head on an X Y Z gantry (mill5).
     AcHead,
     /// A/C trunnion table: A tilts the cradle about x, C turns the table on it.
@@ -38,23 +39,23 @@ pub enum Kinematics {
     BcTable,
 }
 
-impl Kinematics {
+impl FiveAxisKind {
     pub fn name(self) -> &'static str {
         match self {
-            Kinematics::AcHead => "ac_head",
-            Kinematics::AcTable => "ac_table",
-            Kinematics::BcTable => "bc_table",
+            FiveAxisKind::AcHead => "ac_head",
+            FiveAxisKind::AcTable => "ac_table",
+            FiveAxisKind::BcTable => "bc_table",
         }
     }
     /// Joint names in joint order (X Y Z tilt turn).
     pub fn joint_names(self) -> [&'static str; 5] {
         match self {
-            Kinematics::AcHead | Kinematics::AcTable => ["X", "Y", "Z", "A", "C"],
-            Kinematics::BcTable => ["X", "Y", "Z", "B", "C"],
+            FiveAxisKind::AcHead | FiveAxisKind::AcTable => ["X", "Y", "Z", "A", "C"],
+            FiveAxisKind::BcTable => ["X", "Y", "Z", "B", "C"],
         }
     }
     pub fn is_table(self) -> bool {
-        self != Kinematics::AcHead
+        self != FiveAxisKind::AcHead
     }
 }
 
@@ -64,7 +65,7 @@ impl Kinematics {
 #[serde(deny_unknown_fields)]
 pub struct FiveAxisConfig {
     pub name: String,
-    pub kinematics: Kinematics,
+    pub kinematics: FiveAxisKind,
     /// `ac_head`: A/C pivot to the spindle gauge line (the tool length is added per job).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pivot_length_mm: Option<f64>,
@@ -101,7 +102,7 @@ impl FiveAxisConfig {
     pub fn from_mill5(name: &str, cfg: &Mill5Config) -> Self {
         Self {
             name: name.to_string(),
-            kinematics: Kinematics::AcHead,
+            kinematics: FiveAxisKind::AcHead,
             pivot_length_mm: Some(cfg.pivot_length_mm),
             workpiece_origin_mm: cfg.workpiece_origin_mm,
             tilt_axis_point_mm: None,
@@ -158,11 +159,11 @@ impl FiveAxisConfig {
     }
     /// The five axes' limits: x, y, z, the tilt (a or b) and c; an axis the
     /// kinematics lacks is refused by name.
-    fn axis_limits(&self) -> Result<[JointLimit; 5]> {
+    fn axis_limits(&self) -> Result<[Axis; 5]> {
         let k = self.kinematics;
         let axes = match k {
-            Kinematics::AcHead | Kinematics::AcTable => "x, y, z, a, c",
-            Kinematics::BcTable => "x, y, z, b, c",
+            FiveAxisKind::AcHead | FiveAxisKind::AcTable => "x, y, z, a, c",
+            FiveAxisKind::BcTable => "x, y, z, b, c",
         };
         let missing = |field: &str| {
             Error::invalid(
@@ -170,17 +171,17 @@ impl FiveAxisConfig {
                 format!("missing: {} kinematics needs the axes {axes}", k.name()),
             )
         };
-        let linear = |field: &'static str, axis: &Option<LinearAxis>| -> Result<JointLimit> {
+        let linear = |field: &'static str, axis: &Option<LinearAxis>| -> Result<Axis> {
             let a = axis.as_ref().ok_or_else(|| missing(field))?;
             a.validate(field)?;
-            Ok(a.limit(match field {
+            Ok(a.axis(match field {
                 "x" => "X",
                 "y" => "Y",
                 _ => "Z",
             }))
         };
         let (tilt_field, tilt, extra_field, extra) = match k {
-            Kinematics::BcTable => ("b", &self.b, "a", &self.a),
+            FiveAxisKind::BcTable => ("b", &self.b, "a", &self.a),
             _ => ("a", &self.a, "b", &self.b),
         };
         if extra.is_some() {
@@ -192,10 +193,10 @@ impl FiveAxisConfig {
                 ),
             ));
         }
-        let rotary = |field: &'static str, axis: &Option<RotaryAxis>| -> Result<JointLimit> {
+        let rotary = |field: &'static str, axis: &Option<RotaryAxis>| -> Result<Axis> {
             let a = axis.as_ref().ok_or_else(|| missing(field))?;
             a.validate(field)?;
-            Ok(a.limit(match field {
+            Ok(a.axis(match field {
                 "a" => "A",
                 "b" => "B",
                 _ => "C",
@@ -268,7 +269,7 @@ fn missing_pivot(kind: &str) -> Error {
 #[derive(Clone, Debug, PartialEq)]
 pub struct FiveAxis {
     pub name: String,
-    pub kinematics: Kinematics,
+    pub kinematics: FiveAxisKind,
     /// Head: pivot to the spindle gauge line; 0 on tables.
     pub pivot_length: f64,
     pub workpiece_origin: [f64; 3],
@@ -277,7 +278,7 @@ pub struct FiveAxis {
     pub retract: f64,
     pub max_feed_rate_mm_min: f64,
     /// X Y Z tilt C.
-    pub limits: [JointLimit; 5],
+    pub limits: [Axis; 5],
     /// The head's geometry as mill5 takes it (only the origin is read).
     head: Mill5Config,
 }
@@ -305,9 +306,9 @@ impl FiveAxis {
     /// (identity on a head).
     pub fn part_rotation(&self, r: [f64; 2]) -> Matrix3<f64> {
         let tilt_axis = match self.kinematics {
-            Kinematics::AcHead => return Matrix3::identity(),
-            Kinematics::AcTable => Vector3::x_axis(),
-            Kinematics::BcTable => Vector3::y_axis(),
+            FiveAxisKind::AcHead => return Matrix3::identity(),
+            FiveAxisKind::AcTable => Vector3::x_axis(),
+            FiveAxisKind::BcTable => Vector3::y_axis(),
         };
         let rt = Rotation3::from_axis_angle(&tilt_axis, r[0]);
         let rc = Rotation3::from_axis_angle(&Vector3::z_axis(), r[1]);
@@ -339,7 +340,7 @@ impl FiveAxis {
     /// Unit direction from the tool tip to the spindle in the machine frame.
     pub fn spindle_direction(&self, r: [f64; 2]) -> [f64; 3] {
         match self.kinematics {
-            Kinematics::AcHead => {
+            FiveAxisKind::AcHead => {
                 let (sa, ca) = r[0].sin_cos();
                 let (sc, cc) = r[1].sin_cos();
                 [sa * sc, -sa * cc, ca]
@@ -369,11 +370,11 @@ impl FiveAxis {
     /// C of the positive-tilt solution for a unit workpiece axis.
     pub fn turn_of(&self, a: [f64; 3]) -> f64 {
         match self.kinematics {
-            Kinematics::AcHead => mill5::head_turn(a),
+            FiveAxisKind::AcHead => mill5::head_turn(a),
             // R^T z = (sin A sin C, sin A cos C, cos A).
-            Kinematics::AcTable => a[0].atan2(a[1]),
+            FiveAxisKind::AcTable => a[0].atan2(a[1]),
             // R^T z = (-sin B cos C, sin B sin C, cos B).
-            Kinematics::BcTable => a[1].atan2(-a[0]),
+            FiveAxisKind::BcTable => a[1].atan2(-a[0]),
         }
     }
 
@@ -456,7 +457,7 @@ mod tests {
     use super::*;
     use nalgebra::{Matrix4, Translation3, Vector4};
 
-    fn table(k: Kinematics) -> FiveAxis {
+    fn table(k: FiveAxisKind) -> FiveAxis {
         let rot = RotaryAxis::new(-120.0, 120.0, 90.0, 360.0);
         let lin = Some(LinearAxis::new(-2000.0, 2000.0, 500.0, 2000.0));
         FiveAxisConfig {
@@ -471,8 +472,8 @@ mod tests {
             x: lin,
             y: lin,
             z: lin,
-            a: (k == Kinematics::AcTable).then_some(rot),
-            b: (k == Kinematics::BcTable).then_some(rot),
+            a: (k == FiveAxisKind::AcTable).then_some(rot),
+            b: (k == FiveAxisKind::BcTable).then_some(rot),
             c: Some(RotaryAxis::new(-400.0, 400.0, 90.0, 360.0)),
         }
         .build()
@@ -485,7 +486,7 @@ mod tests {
     fn fk_matrices(m: &FiveAxis, l: f64, q: &[f64; 5]) -> ([f64; 3], [f64; 3]) {
         let t = |p: [f64; 3]| Translation3::new(p[0], p[1], p[2]).to_homogeneous();
         let neg = |p: [f64; 3]| [-p[0], -p[1], -p[2]];
-        let tilt_axis = if m.kinematics == Kinematics::AcTable {
+        let tilt_axis = if m.kinematics == FiveAxisKind::AcTable {
             Vector3::x_axis()
         } else {
             Vector3::y_axis()
@@ -512,7 +513,7 @@ mod tests {
 
     #[test]
     fn table_forward_matches_composed_transforms_and_inverse_round_trips() {
-        for k in [Kinematics::AcTable, Kinematics::BcTable] {
+        for k in [FiveAxisKind::AcTable, FiveAxisKind::BcTable] {
             let m = table(k);
             let l = 60.0;
             let mut prev: Option<[f64; 5]> = None;
@@ -560,7 +561,7 @@ mod tests {
         let (tip, axis) = m.forward(30.0, &q);
         let back = m.inverse(30.0, tip, axis, Some(&q), 0.0).unwrap();
         assert!((0..5).all(|k| (back[k] - q[k]).abs() < 1e-9), "{back:?}");
-        assert_eq!(m.limits, <[JointLimit; 5]>::try_from(cfg.limits()).unwrap());
+        assert_eq!(m.limits, <[Axis; 5]>::try_from(cfg.limits()).unwrap());
     }
 
     #[test]
@@ -577,7 +578,7 @@ mod tests {
         let e = cfg.build().unwrap_err().to_string();
         assert!(e.contains("b: ac_head kinematics has no b axis"), "{e}");
         let mut cfg = FiveAxisConfig::from_mill5("m", &Mill5Config::default());
-        cfg.kinematics = Kinematics::BcTable;
+        cfg.kinematics = FiveAxisKind::BcTable;
         let e = cfg.build().unwrap_err().to_string();
         assert!(e.contains("a: bc_table kinematics has no a axis"), "{e}");
     }

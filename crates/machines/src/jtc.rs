@@ -13,8 +13,8 @@
 //! a rotary joint never turns further between two points than it can in that
 //! time (a C unwrapped the wrong way or a spin at the A = 0 singularity).
 
-use super::config::JointLimit;
-use super::controller::{match_joints, shown};
+use super::axes::Axis;
+use super::controller::match_joints;
 use super::timing::hermite_peaks;
 use toolpath_kernel::error::{Error, Result};
 
@@ -42,7 +42,7 @@ pub const LIMIT_SLACK: f64 = 1e-4;
 pub fn check(
     p: &Points,
     names: &[String],
-    limits: &[JointLimit],
+    limits: &[Axis],
     start: Option<&[f64]>,
 ) -> Result<Points> {
     let cols = match_joints("joint_names", &p.joint_names, names)?;
@@ -167,7 +167,7 @@ struct Joints<'a> {
 impl Joints<'_> {
     /// Joint `j` at every point: at rest at the end, within its travel,
     /// velocity and acceleration limits.
-    fn check_points(&self, j: usize, l: &JointLimit) -> Result<()> {
+    fn check_points(&self, j: usize, l: &Axis) -> Result<()> {
         let (n, name, slack) = (self.t.len(), &self.names[j], 1.0 + LIMIT_SLACK);
         if self.v[n - 1][j] != 0.0 || self.a.last().is_some_and(|r| r[j] != 0.0) {
             return Err(Error::invalid(
@@ -177,7 +177,7 @@ impl Joints<'_> {
         }
         for (k, row) in self.q.iter().enumerate() {
             if row[j] < l.min - 1e-6 || row[j] > l.max + 1e-6 {
-                let (x, lo, hi, unit) = shown(l, row[j]);
+                let (x, lo, hi, unit) = l.shown(row[j]);
                 return Err(Error::invalid(
                     format!("points[{k}].positions"),
                     format!("joint {name} at {x:.4} {unit} is outside its range {lo}..{hi} {unit}"),
@@ -212,7 +212,7 @@ impl Joints<'_> {
     /// Joint `j` between consecutive points, and from `start` (at rest, time
     /// 0) to the first: finite-difference velocity and acceleration, the
     /// turn of a rotary axis, and the peaks of the cubic JTC interpolates.
-    fn check_segments(&self, j: usize, l: &JointLimit, start: Option<f64>) -> Result<()> {
+    fn check_segments(&self, j: usize, l: &Axis, start: Option<f64>) -> Result<()> {
         let (t, q, v) = (self.t, self.q, self.v);
         let (name, slack) = (&self.names[j], 1.0 + LIMIT_SLACK);
         let first = start.map(|s| (None, (s, 0.0, 0.0)));
@@ -228,12 +228,12 @@ impl Joints<'_> {
             };
             let dq = q[k][j] - q0;
             if l.rotary && dq.abs() > l.max_velocity * dt * slack {
-                let (d, _, _, unit) = shown(l, dq);
+                let (d, _, _, unit) = l.shown(dq);
                 return Err(Error::invalid(
                     format!("points[{k}].positions"),
                     format!(
                         "joint {name} turns {d:.3} {unit} between {at}, more than the {:.3} {unit} it can turn in that time",
-                        shown(l, l.max_velocity * dt).0
+                        l.shown(l.max_velocity * dt).0
                     ),
                 ));
             }

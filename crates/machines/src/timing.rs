@@ -11,7 +11,7 @@
 //! time scaling guarantees the bounds (it scales velocities by 1/k and
 //! accelerations by 1/k^2).
 
-use super::config::JointLimit;
+use super::axes::Axis;
 
 /// One segment's speed cap: mm/s of tool motion, or `None` (rapid: joints only).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,7 +82,7 @@ fn worst_acceleration(
     q: &[Vec<f64>],
     v: &[Vec<f64>],
     dt: &[f64],
-    limits: &[JointLimit],
+    limits: &[Axis],
 ) -> (f64, Vec<f64>) {
     let per_segment: Vec<f64> = (0..dt.len())
         .map(|k| segment_ratio(q, v, dt, limits, k))
@@ -95,13 +95,7 @@ fn worst_of(per_segment: &[f64]) -> f64 {
 }
 
 /// [`worst_acceleration`]'s ratio of segment `k` (waypoints k and k + 1).
-fn segment_ratio(
-    q: &[Vec<f64>],
-    v: &[Vec<f64>],
-    dt: &[f64],
-    limits: &[JointLimit],
-    k: usize,
-) -> f64 {
+fn segment_ratio(q: &[Vec<f64>], v: &[Vec<f64>], dt: &[f64], limits: &[Axis], k: usize) -> f64 {
     let d = dt[k];
     limits
         .iter()
@@ -125,7 +119,7 @@ fn stretch_over_limit(
     v: &mut [Vec<f64>],
     dt: &mut [f64],
     stops: &[bool],
-    limits: &[JointLimit],
+    limits: &[Axis],
     per_segment: &mut [f64],
 ) {
     let over: Vec<usize> = (0..dt.len()).filter(|&k| per_segment[k] > 1.0).collect();
@@ -150,7 +144,7 @@ fn stretch_over_limit(
 
 /// Each segment's first duration: the longer of its Cartesian feed time and
 /// the slowest joint's time at its velocity limit, at least [`MIN_DT`].
-fn initial_durations(q: &[Vec<f64>], segments: &[Segment], limits: &[JointLimit]) -> Vec<f64> {
+fn initial_durations(q: &[Vec<f64>], segments: &[Segment], limits: &[Axis]) -> Vec<f64> {
     segments
         .iter()
         .enumerate()
@@ -172,7 +166,7 @@ pub fn parameterise(
     q: Vec<Vec<f64>>,
     segments: &[Segment],
     stops: &[bool],
-    limits: &[JointLimit],
+    limits: &[Axis],
 ) -> Timed {
     let n = q.len();
     if n == 0 {
@@ -212,14 +206,15 @@ pub fn parameterise(
 mod tests {
     use super::*;
 
-    fn limit(name: &'static str, v: f64, a: f64) -> JointLimit {
-        JointLimit {
-            name,
+    fn limit(name: &'static str, v: f64, a: f64) -> Axis {
+        Axis {
+            name: name.to_string(),
             rotary: false,
             min: -1e9,
             max: 1e9,
             max_velocity: v,
             max_acceleration: a,
+            max_jerk: None,
         }
     }
 
@@ -287,7 +282,7 @@ mod tests {
         q: &[Vec<f64>],
         segments: &[Segment],
         stops: &[bool],
-        limits: &[JointLimit],
+        limits: &[Axis],
     ) -> (Vec<f64>, Vec<Vec<f64>>) {
         let mut dt = initial_durations(q, segments, limits);
         let mut v = waypoint_velocities(q, &dt, stops);

@@ -32,6 +32,6 @@ pub use check::{check, KindReport, Planned, Report, Tolerance};
 pub use error::{Error, Result};
 pub use jtc::{Interpolation, JointState, Trajectory};
 pub use path::{Kinematics, Limits, Parameter, Path, Segment, SegmentKind, Tips, ToolPose};
-pub use place::{place, plan, Follow, Plan};
+pub use place::{place, plan, plan_timed, Follow, Plan};
 pub use timing::{parameterise, GridPoint, PathState, Profile, Timing};
 pub use topp::{Options, PieceProfile};

@@ -11,7 +11,7 @@
 //! or is shorter than [`MIN_INTERVAL`].
 
 use crate::check::{check, measure, segment_of, Planned, Report, Tolerance};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::jtc::{cubic, quintic, JointState, Trajectory};
 use crate::path::{Limits, Path, Tips, ToolPose};
 use crate::timing::{parameterise, PathState, Timing};
@@ -51,7 +51,30 @@ pub fn plan(
     options: &Options,
     follow: Option<Follow>,
 ) -> Result<Plan> {
-    let mut timing = parameterise(path, limits, options)?;
+    let timing = parameterise(path, limits, options)?;
+    plan_timed(timing, path, limits, options, follow)
+}
+
+/// [`plan`] from a timing of `path` the caller has made (with
+/// [`parameterise`]) and perhaps stretched piece by piece (a shortest
+/// duration of its own, say).
+pub fn plan_timed(
+    mut timing: Timing,
+    path: &Path,
+    limits: &Limits,
+    options: &Options,
+    follow: Option<Follow>,
+) -> Result<Plan> {
+    if timing.s.len() != path.positions.len() {
+        return Err(Error::invalid(
+            "timing",
+            format!(
+                "times {} waypoints, the path has {}",
+                timing.s.len(),
+                path.positions.len()
+            ),
+        ));
+    }
     let s_wp = timing.s.clone();
     // The tip is checked wherever kinematics are known: the follow's, else
     // the path's own (then for the tip speed caps; no tolerance applies).
@@ -72,9 +95,9 @@ pub fn plan(
         kinematics: fk,
     });
     let tol = follow.map(|f| f.tolerance);
-    for _ in 0..4 {
+    let placed = |timing: &Timing| {
         let traj = place(
-            &timing,
+            timing,
             limits,
             path,
             planned.as_ref(),
@@ -89,6 +112,10 @@ pub fn plan(
             planned.as_ref(),
             options.sample_period,
         );
+        (traj, report)
+    };
+    for _ in 0..4 {
+        let (traj, report) = placed(&timing);
         let over = pieces_over(&timing, &report);
         if over.is_empty() {
             return Ok(Plan {
@@ -101,22 +128,7 @@ pub fn plan(
             timing.stretch_piece(p, k * (1.0 + 1e-6));
         }
     }
-    let traj = place(
-        &timing,
-        limits,
-        path,
-        planned.as_ref(),
-        tol.as_ref(),
-        options,
-    );
-    let report = check(
-        &traj,
-        limits,
-        path.segments,
-        &s_wp,
-        planned.as_ref(),
-        options.sample_period,
-    );
+    let (traj, report) = placed(&timing);
     Ok(Plan {
         timing,
         trajectory: traj,

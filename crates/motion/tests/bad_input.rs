@@ -1,8 +1,8 @@
 //! Bad input gets an error naming what is wrong and where, never a panic.
 
 use toolpath_motion::{
-    check::check, parameterise, Error, Limits, Options, Parameter, Path, Segment, SegmentKind,
-    Tips, Trajectory,
+    check::check, parameterise, plan, plan_timed, Error, Limits, Options, Parameter, Path, Segment,
+    SegmentKind, Tips, Trajectory,
 };
 
 fn segs(n: usize, cap: Option<f64>) -> Vec<Segment> {
@@ -184,4 +184,38 @@ fn a_bad_trajectory_is_named_and_checking_an_empty_one_is_harmless() {
     let limits = Limits::new(vec![1.0], vec![1.0]);
     let r = check(&Trajectory::default(), &limits, &[], &[], None, 1e-3);
     assert!(r.kinds.is_empty());
+}
+
+#[test]
+fn plan_timed_refuses_a_timing_of_another_path_and_repeats_plan_on_its_own() {
+    let limits = Limits::new(vec![10.0, 5.0], vec![20.0, 8.0]);
+    let q3 = [vec![0.0, 0.0], vec![3.0, 1.0], vec![4.0, -2.0]];
+    let (s2, s1) = (segs(2, None), segs(1, None));
+    let long = Path {
+        positions: &q3,
+        segments: &s2,
+        stops: &[],
+        tips: Tips::None,
+        parameter: &Parameter::ScaledJointChord,
+    };
+    let short = Path {
+        positions: &q3[..2],
+        segments: &s1,
+        ..long
+    };
+    let o = Options::default();
+    let timing = parameterise(&short, &limits, &o).unwrap();
+    let e = plan_timed(timing, &long, &limits, &o, None)
+        .err()
+        .expect("accepted a timing of 2 waypoints for 3")
+        .to_string();
+    assert!(
+        e.contains("timing: times 2 waypoints, the path has 3"),
+        "{e}"
+    );
+    let own = parameterise(&long, &limits, &o).unwrap();
+    let a = plan_timed(own, &long, &limits, &o, None).unwrap();
+    let b = plan(&long, &limits, &o, None).unwrap();
+    assert_eq!(a.trajectory, b.trajectory);
+    assert_eq!(a.timing.s, b.timing.s);
 }

@@ -15,7 +15,7 @@ use ros2_client::Publisher;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use toolpath_kernel::error::{Error, Result};
-use toolpath_machines::{jtc, JointLimit};
+use toolpath_machines::{jtc, Axis};
 use toolpath_messages::follow_joint_trajectory::{Feedback, Goal, GoalResult};
 use toolpath_messages::{self as msgs, convert, topics};
 
@@ -25,7 +25,7 @@ pub struct FakeOptions {
     /// Action name (relative names go under the namespace).
     pub action: String,
     pub joint_names: Vec<String>,
-    pub limits: Vec<JointLimit>,
+    pub limits: Vec<Axis>,
     /// The pose it starts at (mm, rad).
     pub start: Vec<f64>,
     pub behaviour: Behaviour,

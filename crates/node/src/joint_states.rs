@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 use toolpath_kernel::error::{Error, Result};
-use toolpath_machines::{controller, JointLimit};
+use toolpath_machines::{controller, Axis};
 use toolpath_messages as msgs;
 
 /// Metres per mm: JointState carries metres and radians (REP 103).
@@ -46,7 +46,7 @@ impl JointStates {
         &self,
         machine: &str,
         names: &[String],
-        limits: &[JointLimit],
+        limits: &[Axis],
         max_age: Duration,
         now: Instant,
     ) -> Result<Option<Vec<f64>>> {

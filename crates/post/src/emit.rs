@@ -204,7 +204,7 @@ impl<'a> Writer<'a> {
         let names = self.names();
         let frame = if f.is_joint() {
             match m.kinematics {
-                toolpath_machines::Kinematics::AcHead => {
+                toolpath_machines::FiveAxisKind::AcHead => {
                     "X Y Z = the A/C pivot in machine coordinates (zero work offset)"
                 }
                 _ => "X Y Z = the spindle gauge point in machine coordinates (zero work offset)",

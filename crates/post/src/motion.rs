@@ -526,8 +526,41 @@ pub fn plan(job: &Job, result: &PlanResult, pm: &PostMachine) -> Result<Motion> 
     }
     let (tools, passes) = passes_of(job, result, pm.nc.tool_number)?;
     let bbox = part_bbox(job, result);
-    let (lo, hi) = bbox;
-    let corners: Vec<[f64; 3]> = (0..8)
+    let planner = Planner {
+        m,
+        tool_length: job.tool_length(),
+        corners: box_corners(bbox),
+    };
+    let z_top = m.limits[2].max;
+    let mut program = Program {
+        planner: &planner,
+        z_top,
+        steps: Vec::new(),
+        current: None,
+        current_tool: None,
+    };
+    let mut prev_rot: Option<(f64, f64)> = None;
+    for (p, pass) in passes.iter().enumerate() {
+        let q = planner.pose_pass(pass, prev_rot, &what)?;
+        program.cut(p, pass, &q);
+        let last = q[q.len() - 1];
+        prev_rot = Some((last[3], last[4]));
+    }
+    let steps = program.finish();
+    check_limits(m, &steps, &what)?;
+    Ok(Motion {
+        steps,
+        tools,
+        bbox,
+        z_top,
+        passes: passes.len(),
+        cut_points: passes.iter().map(|p| p.poses.len()).sum(),
+    })
+}
+
+/// The eight corners of a box.
+fn box_corners((lo, hi): ([f64; 3], [f64; 3])) -> Vec<[f64; 3]> {
+    (0..8)
         .map(|i| {
             [
                 if i & 1 == 0 { lo[0] } else { hi[0] },
@@ -535,59 +568,86 @@ pub fn plan(job: &Job, result: &PlanResult, pm: &PostMachine) -> Result<Motion> 
                 if i & 4 == 0 { lo[2] } else { hi[2] },
             ]
         })
-        .collect();
-    let tool_length = job.tool_length();
-    let planner = Planner {
-        m,
-        tool_length,
-        corners,
-    };
-    let z_top = m.limits[2].max;
-    let mut steps = Vec::new();
-    let mut current: Option<[f64; 5]> = None;
-    let mut current_tool: Option<usize> = None;
-    let mut prev_rot: Option<(f64, f64)> = None;
-    for (p, pass) in passes.iter().enumerate() {
+        .collect()
+}
+
+impl Planner<'_> {
+    /// The joints of a pass: posed by the inverse kinematics, fitted to the
+    /// travel nearest to `prev_rot` (the previous pass's last tilt and C),
+    /// X Y Z recomputed for the rotaries chosen.
+    fn pose_pass(
+        &self,
+        pass: &PassPoses,
+        prev_rot: Option<(f64, f64)>,
+        what: &str,
+    ) -> Result<Vec<[f64; 5]>> {
+        let m = self.m;
         let mut q = m
-            .inverse_path(tool_length, &pass.poses)
+            .inverse_path(self.tool_length, &pass.poses)
             .map_err(|e| Error::invalid(pass.labels[0].clone(), e.to_string()))?;
-        fit_pass(&mut q, m, prev_rot).ok_or_else(|| limit_error(m, &q, &pass.labels, &what))?;
+        fit_pass(&mut q, m, prev_rot).ok_or_else(|| limit_error(m, &q, &pass.labels, what))?;
         for (qk, pose) in q.iter_mut().zip(&pass.poses) {
-            *qk = m.joints_at(tool_length, pose.0, [qk[3], qk[4]]);
+            *qk = m.joints_at(self.tool_length, pose.0, [qk[3], qk[4]]);
         }
-        let first = q[0];
-        let last = q[q.len() - 1];
-        if current_tool != Some(pass.tool) {
-            if current_tool.is_some() {
-                if let Some(c) = current {
-                    let mut top = c;
-                    top[2] = z_top;
-                    steps.push(Step::Move(planner.waypoint(Kind::Rapid, top, Origin::End)));
-                }
-                steps.push(Step::ToolEnd);
+        Ok(q)
+    }
+}
+
+/// The steps written so far and where the machine is.
+struct Program<'a> {
+    planner: &'a Planner<'a>,
+    z_top: f64,
+    steps: Vec<Step>,
+    current: Option<[f64; 5]>,
+    current_tool: Option<usize>,
+}
+
+impl Program<'_> {
+    /// Changes to the pass's tool when it is another: the previous tool up
+    /// to the top of Z travel and off, the new one on with the rotaries of
+    /// the pass's first pose, above its approach at the top of Z.
+    fn tool_change(&mut self, p: usize, tool: usize, first: [f64; 5]) {
+        if self.current_tool == Some(tool) {
+            return;
+        }
+        let planner = self.planner;
+        if self.current_tool.is_some() {
+            if let Some(c) = self.current {
+                let mut top = c;
+                top[2] = self.z_top;
+                self.steps
+                    .push(Step::Move(planner.waypoint(Kind::Rapid, top, Origin::End)));
             }
-            steps.push(Step::ToolStart {
-                tool: pass.tool,
-                rotaries: [first[3], first[4]],
-            });
-            let approach = planner.along_axis(first, m.retract);
-            let start = [approach[0], approach[1], z_top, first[3], first[4]];
-            steps.push(Step::Move(planner.waypoint(
-                Kind::Rapid,
-                start,
-                Origin::Link(p),
-            )));
-            current = Some(start);
-            current_tool = Some(pass.tool);
+            self.steps.push(Step::ToolEnd);
         }
-        let from = current.expect("a tool start sets the position");
-        steps.push(Step::Pass(p));
-        planner.link(from, first, p, &mut steps);
+        self.steps.push(Step::ToolStart {
+            tool,
+            rotaries: [first[3], first[4]],
+        });
+        let approach = planner.along_axis(first, planner.m.retract);
+        let start = [approach[0], approach[1], self.z_top, first[3], first[4]];
+        self.steps.push(Step::Move(planner.waypoint(
+            Kind::Rapid,
+            start,
+            Origin::Link(p),
+        )));
+        self.current = Some(start);
+        self.current_tool = Some(tool);
+    }
+
+    /// Pass `p` with joints `q`: the tool, the link onto it, its points and
+    /// the leave.
+    fn cut(&mut self, p: usize, pass: &PassPoses, q: &[[f64; 5]]) {
+        let (first, last) = (q[0], q[q.len() - 1]);
+        self.tool_change(p, pass.tool, first);
+        let from = self.current.expect("a tool start sets the position");
+        self.steps.push(Step::Pass(p));
+        self.planner.link(from, first, p, &mut self.steps);
         for (k, qk) in q.iter().enumerate() {
             // Cut points carry the result's own tip and unit axis.
             let (tip, axis) = pass.poses[k];
             let n = norm(axis);
-            steps.push(Step::Move(Waypoint {
+            self.steps.push(Step::Move(Waypoint {
                 kind: Kind::Feed,
                 q: *qk,
                 tip,
@@ -598,24 +658,23 @@ pub fn plan(job: &Job, result: &PlanResult, pm: &PostMachine) -> Result<Motion> 
                 },
             }));
         }
-        current = Some(planner.leave(last, p, &mut steps));
-        prev_rot = Some((last[3], last[4]));
+        self.current = Some(self.planner.leave(last, p, &mut self.steps));
     }
-    if let Some(c) = current {
-        let mut top = c;
-        top[2] = top[2].max(z_top);
-        if top != c {
-            steps.push(Step::Move(planner.waypoint(Kind::Rapid, top, Origin::End)));
+
+    /// The final rise to the top of Z travel and the tool's end.
+    fn finish(mut self) -> Vec<Step> {
+        if let Some(c) = self.current {
+            let mut top = c;
+            top[2] = top[2].max(self.z_top);
+            if top != c {
+                self.steps.push(Step::Move(self.planner.waypoint(
+                    Kind::Rapid,
+                    top,
+                    Origin::End,
+                )));
+            }
         }
+        self.steps.push(Step::ToolEnd);
+        self.steps
     }
-    steps.push(Step::ToolEnd);
-    check_limits(m, &steps, &what)?;
-    Ok(Motion {
-        steps,
-        tools,
-        bbox,
-        z_top,
-        passes: passes.len(),
-        cut_points: passes.iter().map(|p| p.poses.len()).sum(),
-    })
 }

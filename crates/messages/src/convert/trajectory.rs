@@ -89,7 +89,7 @@ pub fn trajectory_chunks(
 pub fn trajectory_points(
     m: &msgs::JointTrajectory,
     names: &[String],
-    limits: &[machines::JointLimit],
+    limits: &[machines::Axis],
 ) -> machines::jtc::Points {
     let scale: Vec<f64> = m
         .joint_names
