@@ -324,7 +324,7 @@ fn bad_degrees() {
         &["surface.degree_u", "at least 1"],
     );
     rejects(
-        &with(job.clone(), "/surface/degree_v", json!(10)),
+        &with(job.clone(), "/surface/degree_v", json!(26)),
         &["surface.degree_v", "maximum"],
     );
     rejects(
