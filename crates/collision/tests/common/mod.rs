@@ -11,12 +11,12 @@ impl Rng {
     pub fn new(seed: u64) -> Self {
         Self(seed)
     }
+    /// SplitMix64's next output ([`toolpath_kernel::rng::SplitMix64`]).
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        let mut g = toolpath_kernel::rng::SplitMix64(self.0);
+        let x = g.next_u64();
+        self.0 = g.0;
+        x
     }
     /// Uniform in [lo, hi).
     pub fn range(&mut self, lo: f64, hi: f64) -> f64 {

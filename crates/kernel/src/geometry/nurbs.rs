@@ -908,14 +908,15 @@ fn basis_ders<const N: usize>(
 mod tests {
     use super::*;
 
-    /// xorshift64*: a fixed, seeded sequence in [0, 1).
+    /// xorshift64* ([`crate::rng::XorShiftStar`]): a fixed, seeded sequence.
     struct Rng(u64);
     impl Rng {
+        /// The next number in [0, 1).
         fn next(&mut self) -> f64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
+            let mut g = crate::rng::XorShiftStar(self.0);
+            let x = g.unit();
+            self.0 = g.0;
+            x
         }
         fn below(&mut self, n: usize) -> usize {
             ((self.next() * n as f64) as usize).min(n - 1)
