@@ -210,9 +210,8 @@ pub fn run(
         std::fs::write(&config, text).map_err(|e| Error::io(config.display().to_string(), e))
     });
     let domain = demo_domain();
-    let started = written.and_then(|_| {
-        start_node_with(domain, Some(&config), "off,toolpath_node=debug", true)
-    });
+    let started = written
+        .and_then(|_| start_node_with(domain, Some(&config), "off,toolpath_node=debug", true));
     let _ = std::fs::remove_dir_all(&dir);
     let (mut node, stderr) = started?;
     let (timing_tx, timing_rx) = mpsc::channel();
