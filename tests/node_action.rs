@@ -180,65 +180,7 @@ fn action_and_service_plan_cancel_and_refuse_with_reasons() {
         let pass_lens: Vec<usize> = r.toolpath.passes.iter().map(|p| p.points.len()).collect();
         assert_eq!(lens, pass_lens);
 
-        // Two goals for one worker: the second, canceled while it waits,
-        // ends CANCELED and is never planned; the first runs through.
-        let (busy_id, busy_response) = action.async_send_goal(goal(&job, "busy")).await.unwrap();
-        let (late_id, late_response) = action
-            .async_send_goal(goal(&job, "canceled"))
-            .await
-            .unwrap();
-        assert!(busy_response.accepted && late_response.accepted);
-        let cancel = action.async_cancel_goal(late_id, Time::ZERO).await.unwrap();
-        assert_eq!(cancel.return_code, CancelGoalResponseEnum::None);
-        assert_eq!(cancel.goals_canceling.len(), 1);
-        assert_eq!(cancel.goals_canceling[0].goal_id, late_id);
-        let (status, r) = tokio::time::timeout(WAIT, action.async_request_result(late_id))
-            .await
-            .unwrap()
-            .unwrap();
-        assert_eq!(status, GoalStatusEnum::Canceled, "{}", r.reason);
-        assert_eq!(r.status, msgs::JobStatus::CANCELED);
-        assert!(
-            r.reason.starts_with("canceled: job canceled"),
-            "{}",
-            r.reason
-        );
-        assert!(r.toolpath.passes.is_empty());
-        let (status, r) = tokio::time::timeout(WAIT, action.async_request_result(busy_id))
-            .await
-            .unwrap()
-            .unwrap();
-        assert_eq!(status, GoalStatusEnum::Succeeded, "{}", r.reason);
-
-        // A cancel naming no goal of the node is refused; nothing changes.
-        let cancel = action
-            .async_cancel_goal(UUID::new_random(), Time::ZERO)
-            .await
-            .unwrap();
-        assert_eq!(cancel.return_code, CancelGoalResponseEnum::Rejected);
-        assert!(cancel.goals_canceling.is_empty());
-
-        // Bad goals end at once with the reason.
-        let mut bad = goal(&job, "bad_tool");
-        bad.job.tool.radius = -1.0;
-        let (_, status, r) = run_goal(&action, bad).await;
-        assert_eq!(status, GoalStatusEnum::Aborted);
-        assert_eq!(r.status, msgs::JobStatus::REJECTED);
-        assert_eq!(
-            r.reason,
-            "invalid input: tool.radius: must be positive, got -1"
-        );
-        let mut unknown = goal(&job, "unknown_shape");
-        unknown.job.surface_id = "never_sent".into();
-        let (_, status, r) = run_goal(&action, unknown).await;
-        assert_eq!(status, GoalStatusEnum::Aborted);
-        assert_eq!(r.status, msgs::JobStatus::REJECTED);
-        assert!(
-            r.reason
-                .contains("no surface or pocket \"never_sent\" has been received"),
-            "{}",
-            r.reason
-        );
+        cancels_and_bad_goals_end_with_their_reasons(&action, &job).await;
 
         // The service, with the shape inline: the same toolpath again, and
         // the worker is free after the cancel.
@@ -266,4 +208,68 @@ fn action_and_service_plan_cancel_and_refuse_with_reasons() {
         }
         assert!(!published.iter().any(|j| j == "canceled"), "{published:?}");
     });
+}
+
+/// Two goals for one worker, the second canceled while it waits; a cancel
+/// naming no goal; goals the node must refuse with their reason.
+async fn cancels_and_bad_goals_end_with_their_reasons(
+    action: &PlanToolpathClient,
+    job: &msgs::Job,
+) {
+    // Two goals for one worker: the second, canceled while it waits,
+    // ends CANCELED and is never planned; the first runs through.
+    let (busy_id, busy_response) = action.async_send_goal(goal(job, "busy")).await.unwrap();
+    let (late_id, late_response) = action.async_send_goal(goal(job, "canceled")).await.unwrap();
+    assert!(busy_response.accepted && late_response.accepted);
+    let cancel = action.async_cancel_goal(late_id, Time::ZERO).await.unwrap();
+    assert_eq!(cancel.return_code, CancelGoalResponseEnum::None);
+    assert_eq!(cancel.goals_canceling.len(), 1);
+    assert_eq!(cancel.goals_canceling[0].goal_id, late_id);
+    let (status, r) = tokio::time::timeout(WAIT, action.async_request_result(late_id))
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(status, GoalStatusEnum::Canceled, "{}", r.reason);
+    assert_eq!(r.status, msgs::JobStatus::CANCELED);
+    assert!(
+        r.reason.starts_with("canceled: job canceled"),
+        "{}",
+        r.reason
+    );
+    assert!(r.toolpath.passes.is_empty());
+    let (status, r) = tokio::time::timeout(WAIT, action.async_request_result(busy_id))
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(status, GoalStatusEnum::Succeeded, "{}", r.reason);
+
+    // A cancel naming no goal of the node is refused; nothing changes.
+    let cancel = action
+        .async_cancel_goal(UUID::new_random(), Time::ZERO)
+        .await
+        .unwrap();
+    assert_eq!(cancel.return_code, CancelGoalResponseEnum::Rejected);
+    assert!(cancel.goals_canceling.is_empty());
+
+    // Bad goals end at once with the reason.
+    let mut bad = goal(job, "bad_tool");
+    bad.job.tool.radius = -1.0;
+    let (_, status, r) = run_goal(&action, bad).await;
+    assert_eq!(status, GoalStatusEnum::Aborted);
+    assert_eq!(r.status, msgs::JobStatus::REJECTED);
+    assert_eq!(
+        r.reason,
+        "invalid input: tool.radius: must be positive, got -1"
+    );
+    let mut unknown = goal(job, "unknown_shape");
+    unknown.job.surface_id = "never_sent".into();
+    let (_, status, r) = run_goal(&action, unknown).await;
+    assert_eq!(status, GoalStatusEnum::Aborted);
+    assert_eq!(r.status, msgs::JobStatus::REJECTED);
+    assert!(
+        r.reason
+            .contains("no surface or pocket \"never_sent\" has been received"),
+        "{}",
+        r.reason
+    );
 }

@@ -141,30 +141,7 @@ fn jobs_execute_pass_by_pass_and_stop_on_abort_reject_and_cancel() {
         // A mill5 job runs through, one accepted goal per pass.
         let st = run("mill_ok", &plane, "plane_shape", None).await;
         assert_eq!(st.state, msgs::JobStatus::SUCCEEDED, "{}", st.message);
-        let goals = mill.goals();
-        let passes = goals.len();
-        assert!(passes >= 2, "{goals:?}");
-        assert!(
-            goals.iter().all(|g| g.accepted && g.outcome == "succeeded"),
-            "{goals:?}"
-        );
-        assert!(
-            st.message.contains(&format!(
-                "executed {passes} passes on mill5_controller/follow_joint_trajectory"
-            )),
-            "{}",
-            st.message
-        );
-        // Every goal's first point comes after 0 and its last is at rest
-        // (the fake checked all rules on receipt).
-        assert!(goals.iter().all(|g| g.trajectory.times[0] > 0.0));
-        assert!(goals.iter().all(|g| g
-            .trajectory
-            .velocities
-            .last()
-            .unwrap()
-            .iter()
-            .all(|v| *v == 0.0)));
+        let passes = assert_ran_pass_by_pass(&st, &mill);
 
         // A belt6 job runs through on its own controller.
         let st = run("belt_ok", &sine, "sine_shape", None).await;
@@ -175,17 +152,7 @@ fn jobs_execute_pass_by_pass_and_stop_on_abort_reject_and_cancel() {
             st.message,
             belt.goals()
         );
-        let bg = belt.goals();
-        assert!(
-            !bg.is_empty() && bg.iter().all(|g| g.accepted && g.outcome == "succeeded"),
-            "{bg:?}"
-        );
-        assert!(
-            st.message
-                .contains(&format!("executed {} passes on belt6_controller", bg.len())),
-            "{}",
-            st.message
-        );
+        assert_ran_on_belt6(&st, &belt);
 
         // Aborted in its second pass: FAILED with the controller's error code.
         mill.set(Behaviour {
@@ -380,4 +347,49 @@ fn a_goal_executes_or_plans_only_whatever_its_machine_default() {
         );
         assert_eq!(mill.goals().len(), passes);
     });
+}
+
+/// A job that ran through mill5: one accepted goal per pass, each starting
+/// after 0 and ending at rest, and a status naming them; the pass count.
+fn assert_ran_pass_by_pass(st: &msgs::JobStatus, mill: &FakeController) -> usize {
+    let goals = mill.goals();
+    let passes = goals.len();
+    assert!(passes >= 2, "{goals:?}");
+    assert!(
+        goals.iter().all(|g| g.accepted && g.outcome == "succeeded"),
+        "{goals:?}"
+    );
+    assert!(
+        st.message.contains(&format!(
+            "executed {passes} passes on mill5_controller/follow_joint_trajectory"
+        )),
+        "{}",
+        st.message
+    );
+    // Every goal's first point comes after 0 and its last is at rest
+    // (the fake checked all rules on receipt).
+    assert!(goals.iter().all(|g| g.trajectory.times[0] > 0.0));
+    assert!(goals.iter().all(|g| g
+        .trajectory
+        .velocities
+        .last()
+        .unwrap()
+        .iter()
+        .all(|v| *v == 0.0)));
+    passes
+}
+
+/// A job that ran through belt6 on its own controller.
+fn assert_ran_on_belt6(st: &msgs::JobStatus, belt: &FakeController) {
+    let bg = belt.goals();
+    assert!(
+        !bg.is_empty() && bg.iter().all(|g| g.accepted && g.outcome == "succeeded"),
+        "{bg:?}"
+    );
+    assert!(
+        st.message
+            .contains(&format!("executed {} passes on belt6_controller", bg.len())),
+        "{}",
+        st.message
+    );
 }

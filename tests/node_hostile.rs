@@ -130,76 +130,7 @@ fn hostile_jobs_fail_with_a_reason_and_the_node_keeps_serving() {
                 }
             }
         };
-        let message = |job: &Job, shape: &str, id: &str| {
-            let mut m = convert::job_to_msg(job, shape, msgs::Header::default());
-            m.job_id = id.into();
-            m
-        };
-
-        let mut over_budget = message(&wing, "wing_shape", "over_budget");
-        over_budget.scallop = 1e-6;
-        let mut bad = message(&plane, "plane_shape", "bad_message");
-        bad.scallop = f64::NAN;
-        // Several times the limit's work: a finer scallop within the budget
-        // (wing_mould at h = 0.015 plans in about 2 s in the test profile
-        // since the planning speed-ups of 2026-11-27; h = 0.002 has about
-        // 2.7 times its passes and points).
-        let mut over_time = message(&wing, "wing_shape", "over_time");
-        over_time.scallop = 0.002;
-        // The job's own limit, shorter than the node's: the job's wins.
-        let mut over_own_time = message(&wing, "wing_shape", "over_own_time");
-        over_own_time.scallop = 0.002;
-        over_own_time.time_limit_s = 1.0;
-        let cases: Vec<(&str, msgs::Job, bool, u8, Vec<String>)> = vec![
-            (
-                "over budget",
-                over_budget,
-                false,
-                msgs::JobStatus::FAILED,
-                vec!["refused before planning".into(), "raise scallop".into()],
-            ),
-            (
-                "huge pocket",
-                message(&rect, "huge_pocket", "huge_pocket_job"),
-                false,
-                msgs::JobStatus::FAILED,
-                vec!["refused before planning".into(), "split the pocket".into()],
-            ),
-            (
-                "bad message",
-                bad,
-                false,
-                msgs::JobStatus::REJECTED,
-                vec!["scallop".into()],
-            ),
-            (
-                "over the time limit",
-                over_time,
-                false,
-                msgs::JobStatus::FAILED,
-                vec![
-                    format!("over its time limit of {TIME_LIMIT_S} s"),
-                    "node.job_time_limit_s".into(),
-                ],
-            ),
-            (
-                "over the job's own time limit",
-                over_own_time,
-                false,
-                msgs::JobStatus::FAILED,
-                vec![
-                    "over its time limit of 1 s".into(),
-                    "the job's time_limit_s".into(),
-                ],
-            ),
-            (
-                "canceled while planning",
-                message(&wing, "wing_shape", "canceled"),
-                true,
-                msgs::JobStatus::CANCELED,
-                vec!["canceled on topic cancel while planning".into()],
-            ),
-        ];
+        let cases = hostile_cases(&plane, &wing, &rect);
         for (k, (what, msg, cancel_running, state, expect)) in cases.into_iter().enumerate() {
             let (st, secs, etas) = run(msg, cancel_running).await;
             assert_eq!(st.state, state, "{what}: {}", st.message);
@@ -301,4 +232,82 @@ fn a_small_job_overtakes_a_heavy_one_with_two_workers() {
         assert_eq!(finals, ["small", "heavy"], "the small job waited");
     });
     drop(node);
+}
+
+/// A job message for `job` on the shape `shape`, under the id `id`.
+fn message(job: &Job, shape: &str, id: &str) -> msgs::Job {
+    let mut m = convert::job_to_msg(job, shape, msgs::Header::default());
+    m.job_id = id.into();
+    m
+}
+
+/// A hostile case: what it is, its message, whether to cancel it once it
+/// runs, the final state it must reach and what its reason must say.
+type HostileCase = (&'static str, msgs::Job, bool, u8, Vec<String>);
+
+/// Jobs over the memory budget, over the time limits, malformed, or
+/// canceled while planning.
+fn hostile_cases(plane: &Job, wing: &Job, rect: &Job) -> Vec<HostileCase> {
+    let mut over_budget = message(wing, "wing_shape", "over_budget");
+    over_budget.scallop = 1e-6;
+    let mut bad = message(plane, "plane_shape", "bad_message");
+    bad.scallop = f64::NAN;
+    // Several times the limit's work within the budget: a scallop finer
+    // than wing_mould's h = 0.015, which plans well inside the limit.
+    let mut over_time = message(wing, "wing_shape", "over_time");
+    over_time.scallop = 0.002;
+    // The job's own limit, shorter than the node's: the job's wins.
+    let mut over_own_time = message(wing, "wing_shape", "over_own_time");
+    over_own_time.scallop = 0.002;
+    over_own_time.time_limit_s = 1.0;
+    vec![
+        (
+            "over budget",
+            over_budget,
+            false,
+            msgs::JobStatus::FAILED,
+            vec!["refused before planning".into(), "raise scallop".into()],
+        ),
+        (
+            "huge pocket",
+            message(rect, "huge_pocket", "huge_pocket_job"),
+            false,
+            msgs::JobStatus::FAILED,
+            vec!["refused before planning".into(), "split the pocket".into()],
+        ),
+        (
+            "bad message",
+            bad,
+            false,
+            msgs::JobStatus::REJECTED,
+            vec!["scallop".into()],
+        ),
+        (
+            "over the time limit",
+            over_time,
+            false,
+            msgs::JobStatus::FAILED,
+            vec![
+                format!("over its time limit of {TIME_LIMIT_S} s"),
+                "node.job_time_limit_s".into(),
+            ],
+        ),
+        (
+            "over the job's own time limit",
+            over_own_time,
+            false,
+            msgs::JobStatus::FAILED,
+            vec![
+                "over its time limit of 1 s".into(),
+                "the job's time_limit_s".into(),
+            ],
+        ),
+        (
+            "canceled while planning",
+            message(wing, "wing_shape", "canceled"),
+            true,
+            msgs::JobStatus::CANCELED,
+            vec!["canceled on topic cancel while planning".into()],
+        ),
+    ]
 }

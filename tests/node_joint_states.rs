@@ -141,23 +141,7 @@ fn trajectories_start_from_the_joint_state_or_fail_with_its_reason() {
             .unwrap()
             .unwrap();
         assert_eq!(traj.header.stamp, msgs::Time::ZERO);
-        let m = Machines::default();
-        let (names, limits) = (m.mill5.joint_names(), m.mill5.limits());
-        let start: Vec<f64> = pose
-            .iter()
-            .enumerate()
-            .map(|(j, x)| if limits[j].rotary { *x } else { x * 1e3 })
-            .collect();
-        let points = convert::trajectory_points(&traj, &names, &limits);
-        jtc::check(&points, &names, &limits, Some(&start)).unwrap();
-        let t0 = controller::start_move_time(&start, &points.positions[0], &limits);
-        assert!(
-            (points.times[0] - t0).abs() < 1e-6,
-            "{} vs {t0}",
-            points.times[0]
-        );
-        // X from 1000 to about 2500 mm dominates: well over the home move.
-        assert!(t0 > 4.0, "{t0}");
+        assert_starts_from(&traj, &pose);
         // The publisher stops: after 0.5 s the state is stale.
         tokio::time::sleep(Duration::from_millis(800)).await;
         let st = run("stale", None).await;
@@ -168,4 +152,26 @@ fn trajectories_start_from_the_joint_state_or_fail_with_its_reason() {
             st.message
         );
     });
+}
+
+/// The trajectory passes the controller's rules from `pose` (m, rad), and
+/// its first point comes after the start move from there.
+fn assert_starts_from(traj: &msgs::JointTrajectory, pose: &[f64]) {
+    let m = Machines::default();
+    let (names, limits) = (m.mill5.joint_names(), m.mill5.limits());
+    let start: Vec<f64> = pose
+        .iter()
+        .enumerate()
+        .map(|(j, x)| if limits[j].rotary { *x } else { x * 1e3 })
+        .collect();
+    let points = convert::trajectory_points(&traj, &names, &limits);
+    jtc::check(&points, &names, &limits, Some(&start)).unwrap();
+    let t0 = controller::start_move_time(&start, &points.positions[0], &limits);
+    assert!(
+        (points.times[0] - t0).abs() < 1e-6,
+        "{} vs {t0}",
+        points.times[0]
+    );
+    // X from 1000 to about 2500 mm dominates: well over the home move.
+    assert!(t0 > 4.0, "{t0}");
 }

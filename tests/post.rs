@@ -235,50 +235,68 @@ struct Blk {
     g93: bool,
 }
 
+/// The GOTO blocks of an APT program, with the feed and RAPID before them.
+fn read_apt(text: &str) -> Vec<Blk> {
+    let mut out = Vec::new();
+    let mut f: Option<f64> = None;
+    let mut rapid_next = false;
+    for (i, raw) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let l = raw.trim();
+        if l == "RAPID" {
+            rapid_next = true;
+        } else if let Some(v) = l.strip_prefix("FEDRAT/") {
+            f = Some(v.split(',').next().unwrap().parse().unwrap());
+        } else if let Some(v) = l.strip_prefix("GOTO/") {
+            let n: Vec<f64> = v.split(',').map(|s| s.parse().unwrap()).collect();
+            assert_eq!(n.len(), 6, "line {line_no}: {l}");
+            out.push(Blk {
+                line: line_no,
+                mo: if rapid_next { Mo::Rapid } else { Mo::Feed },
+                pos: [Some(n[0]), Some(n[1]), Some(n[2]), None, None],
+                ijk: Some([n[3], n[4], n[5]]),
+                f,
+                f_here: false,
+                g93: false,
+            });
+            rapid_next = false;
+        }
+    }
+    out
+}
+
+/// A block without its comments: ( ... ) and ; to the end of the line.
+fn code_of(raw: &str) -> String {
+    let mut code = String::new();
+    let mut depth = 0;
+    for ch in raw.chars() {
+        match ch {
+            ';' if depth == 0 => break,
+            '(' => depth += 1,
+            ')' => depth -= 1,
+            c if depth == 0 => code.push(c),
+            _ => {}
+        }
+    }
+    code
+}
+
+/// The blocks of a G-code program (or of an APT one, by `read_apt`), with
+/// the modal state carried from block to block; one loop, as a control
+/// reads it, because the modal state spans every block.
 fn read_program(text: &str, format: &str, tilt: char) -> Vec<Blk> {
+    if format == "apt" {
+        return read_apt(text);
+    }
     let tilt = tilt.to_ascii_uppercase();
     let mut out = Vec::new();
     let mut pos: [Option<f64>; 5] = [None; 5];
     let mut mo = Mo::Rapid;
     let mut f: Option<f64> = None;
     let mut g93 = false;
-    let mut rapid_next = false;
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
-        if format == "apt" {
-            let l = raw.trim();
-            if l == "RAPID" {
-                rapid_next = true;
-            } else if let Some(v) = l.strip_prefix("FEDRAT/") {
-                f = Some(v.split(',').next().unwrap().parse().unwrap());
-            } else if let Some(v) = l.strip_prefix("GOTO/") {
-                let n: Vec<f64> = v.split(',').map(|s| s.parse().unwrap()).collect();
-                assert_eq!(n.len(), 6, "line {line_no}: {l}");
-                out.push(Blk {
-                    line: line_no,
-                    mo: if rapid_next { Mo::Rapid } else { Mo::Feed },
-                    pos: [Some(n[0]), Some(n[1]), Some(n[2]), None, None],
-                    ijk: Some([n[3], n[4], n[5]]),
-                    f,
-                    f_here: false,
-                    g93: false,
-                });
-                rapid_next = false;
-            }
-            continue;
-        }
-        // Comments: ( ... ) and ; to the end of the line.
-        let mut code = String::new();
-        let mut depth = 0;
-        for ch in raw.chars() {
-            match ch {
-                ';' if depth == 0 => break,
-                '(' => depth += 1,
-                ')' => depth -= 1,
-                c if depth == 0 => code.push(c),
-                _ => {}
-            }
-        }
+        let code = code_of(raw);
         let mut tokens: Vec<&str> = code.split_whitespace().collect();
         if format == "heidenhain-tcpm" {
             assert!(
@@ -476,7 +494,9 @@ fn result_passes(result: &PlanResult) -> Vec<Vec<([f64; 3], [f64; 3])>> {
         .collect()
 }
 
-/// Replays `text` and returns what is wrong with it (empty: nothing).
+/// Replays `text` and returns what is wrong with it (empty: nothing): the
+/// axis limits and rotary steps of every block, rapids against the
+/// clearance, feeds (G93 by the tip's length), then the result's points.
 fn replay(text: &str, format: &str, m: &Mach, job: &Job, result: &PlanResult) -> Vec<String> {
     let mut bad = Vec::new();
     let l = job.tool_length();
@@ -488,44 +508,7 @@ fn replay(text: &str, format: &str, m: &Mach, job: &Job, result: &PlanResult) ->
     let blocks = read_program(text, format, m.tilt);
     let poses: Vec<Option<Pose>> = blocks
         .iter()
-        .map(|b| {
-            if apt {
-                let (Some(x), Some(y), Some(z)) = (b.pos[0], b.pos[1], b.pos[2]) else {
-                    return None;
-                };
-                return Some(Pose {
-                    line: b.line,
-                    mo: b.mo,
-                    tip: [x, y, z],
-                    // As printed: compared with the result's unit axis component by component.
-                    axis: b.ijk.unwrap(),
-                    q: [x, y, z, 0.0, 0.0],
-                    has_angles: false,
-                    f: b.f,
-                    f_here: b.f_here,
-                    g93: b.g93,
-                });
-            }
-            let q: Vec<f64> = b.pos.iter().copied().collect::<Option<Vec<f64>>>()?;
-            let q = [q[0], q[1], q[2], q[3], q[4]];
-            let (tip, axis) = if joint {
-                let (tip, axis, _) = m.fk(l, q);
-                (tip, axis)
-            } else {
-                ([q[0], q[1], q[2]], m.axis_of(q[3], q[4]))
-            };
-            Some(Pose {
-                line: b.line,
-                mo: b.mo,
-                tip,
-                axis,
-                q,
-                has_angles: true,
-                f: b.f,
-                f_here: b.f_here,
-                g93: b.g93,
-            })
-        })
+        .map(|b| pose_of(b, m, l, joint, apt))
         .collect();
     let corners = corners(job);
     // The machine tip and rotaries at parameter t of the move a -> b.
@@ -633,8 +616,61 @@ fn replay(text: &str, format: &str, m: &Mach, job: &Job, result: &PlanResult) ->
         }
     };
     let known: Vec<&Pose> = poses.iter().flatten().collect();
+    follow_passes(&known, &result_passes(result), matches, &mut bad);
+    bad
+}
+
+/// The tool pose a block commands: tip and unit axis in the workpiece (by
+/// the machine's forward kinematics for joint formats); None while the
+/// program position is unknown.
+fn pose_of(b: &Blk, m: &Mach, l: f64, joint: bool, apt: bool) -> Option<Pose> {
+    if apt {
+        let (Some(x), Some(y), Some(z)) = (b.pos[0], b.pos[1], b.pos[2]) else {
+            return None;
+        };
+        return Some(Pose {
+            line: b.line,
+            mo: b.mo,
+            tip: [x, y, z],
+            // As printed: compared with the result's unit axis component by component.
+            axis: b.ijk.unwrap(),
+            q: [x, y, z, 0.0, 0.0],
+            has_angles: false,
+            f: b.f,
+            f_here: b.f_here,
+            g93: b.g93,
+        });
+    }
+    let q: Vec<f64> = b.pos.iter().copied().collect::<Option<Vec<f64>>>()?;
+    let q = [q[0], q[1], q[2], q[3], q[4]];
+    let (tip, axis) = if joint {
+        let (tip, axis, _) = m.fk(l, q);
+        (tip, axis)
+    } else {
+        ([q[0], q[1], q[2]], m.axis_of(q[3], q[4]))
+    };
+    Some(Pose {
+        line: b.line,
+        mo: b.mo,
+        tip,
+        axis,
+        q,
+        has_angles: true,
+        f: b.f,
+        f_here: b.f_here,
+        g93: b.g93,
+    })
+}
+
+/// Every result point, in order, matches a block: the same or the next one.
+fn follow_passes(
+    known: &[&Pose],
+    passes: &[Vec<([f64; 3], [f64; 3])>],
+    matches: impl Fn(&Pose, &([f64; 3], [f64; 3])) -> bool,
+    bad: &mut Vec<String>,
+) {
     let mut k = 0;
-    'passes: for (p, pass) in result_passes(result).iter().enumerate() {
+    'passes: for (p, pass) in passes.iter().enumerate() {
         while k < known.len() && !matches(known[k], &pass[0]) {
             k += 1;
         }
@@ -661,7 +697,6 @@ fn replay(text: &str, format: &str, m: &Mach, job: &Job, result: &PlanResult) ->
         }
         k += 1;
     }
-    bad
 }
 
 // ---------------------------------------------------------------------------

@@ -128,6 +128,13 @@ fn every_bad_input_is_named() {
         let e = err(&q, &s, Tips::None, &param, &limits);
         assert!(e.contains(want), "{e:?} lacks {want:?}");
     }
+}
+
+#[test]
+fn tips_and_stops_that_do_not_fit_the_path_are_named() {
+    let ok = Limits::new(vec![1.0, 1.0], vec![1.0, 1.0]);
+    let chord = Parameter::ScaledJointChord;
+    let q2 = vec![vec![0.0, 0.0], vec![1.0, 1.0]];
     // A tip that stands still while the joints move: TipChord cannot run.
     let tips = [[0.0; 3], [0.0; 3]];
     let e = err(
